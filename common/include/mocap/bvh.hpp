@@ -1,0 +1,52 @@
+#pragma once
+// BVH reading and writing.
+//
+// Reader: hand-written tokenizer over the whole text (std::from_chars, no
+// regex, no per-line allocation). Accepts every real-world variation: any of
+// the 6 Euler orders per joint, 0/3/6 channels per joint (subsets too),
+// position channels on any joint, End Sites, zero-length joints, tabs, CRLF,
+// repeated blanks, trailing whitespace, scientific notation, numbers like
+// ".0083" or "+1", several ROOTs. "Frame Time" is read, never assumed.
+// Malformed input throws InputError naming the file, the 1-based line and what
+// was expected; memory is bounded by the text size, never by a lying
+// "Frames:" count.
+//
+// Writer: root with OFFSET 0 0 0 and 6 channels (Xposition Yposition Zposition
+// + rotations), 3 rotation channels on every other joint, in the order given.
+// Blender and three.js load it identically.
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "mocap/raw_clip.hpp"
+
+namespace mocap {
+
+/// Parses BVH text. `source` names the text in error messages.
+RawClip parse_bvh(std::string_view text, const std::string& source);
+
+/// Reads and parses a file; unreadable files throw InputError(path, 0, reason).
+RawClip read_bvh_file(const std::filesystem::path& path);
+
+/// BVH text for a clip. Every joint's channels are written as they are in
+/// `clip` (so a parsed clip round-trips exactly to print precision).
+/// `precision`: significant digits for numbers (default keeps 1e-6 relative).
+std::string write_bvh(const RawClip& clip, int precision = 9);
+
+/// Writes to a file (through a temporary file + rename); throws InputError on failure.
+void write_bvh_file(const RawClip& clip, const std::filesystem::path& path, int precision = 9);
+
+}  // namespace mocap
+
+namespace mocap {
+
+/// The export layout that Blender and three.js load identically: the root gets
+/// OFFSET 0 0 0 and 6 channels (positions then its rotations, its OFFSET folded
+/// into the position values); every other joint keeps only its 3 rotation
+/// channels (missing rotation axes are added with value 0, in ZXY order when
+/// the joint had none), its position channels folded into OFFSET. Non-root
+/// position channels that vary over the clip by more than `tolerance` (file
+/// units) cannot be folded and throw InputError.
+RawClip to_export_layout(const RawClip& clip, double tolerance = 1e-4);
+
+}  // namespace mocap
