@@ -25,6 +25,7 @@ inline void local_transform(const Skeleton& skel, std::size_t j, const double* r
   t = skel.offsets_m[j];
   for (int a = 0; a < 3; ++a)
     if (m.position_column[a] >= 0) t[a] = row[m.position_column[a]] * skel.unit_scale_m;
+  if (!skel.translation_scales.empty()) t *= skel.translation_scales[j];
   q.setIdentity();
   for (int k = 0; k < m.rotation_count; ++k)
     q = q * Eigen::Quaterniond(Eigen::AngleAxisd(row[m.rotation_column[k]] * kDegToRad,

@@ -43,6 +43,10 @@ struct Skeleton {
   std::vector<Eigen::Vector3d> end_sites_m;
   std::vector<std::uint8_t> has_end_site;
   std::vector<JointChannelMap> channels;
+  /// Multiplier on each joint's local translation (OFFSET or position channels),
+  /// set by a character's length scales (body.hpp: apply_length_scales). Empty
+  /// means 1 for every joint. Roots are never scaled.
+  std::vector<double> translation_scales;
   /// Values per frame row.
   std::size_t channel_count = 0;
   /// Metres per file unit used to build it.
