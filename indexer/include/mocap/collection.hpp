@@ -1,0 +1,34 @@
+#pragma once
+// Capture collections: the inputs of the indexer.
+//
+// An input is a folder (searched recursively for *.bvh, case-insensitive,
+// symlinks followed, hidden folders skipped), a .bvh file, or a list file
+// (any other extension, e.g. .txt/.lst: one path per line, '#' comments,
+// blank lines ignored, relative paths resolved against the list's folder).
+// The result is sorted by path and de-duplicated so that a build is
+// deterministic whatever the file system's order.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mocap {
+
+struct CollectionEntry {
+  std::filesystem::path path;
+};
+
+struct CollectionProblem {
+  std::string input;   // the input as given
+  std::string reason;  // e.g. "no such file or directory"
+};
+
+struct Collection {
+  std::vector<CollectionEntry> files;
+  std::vector<CollectionProblem> problems;
+};
+
+/// Expands inputs into BVH files. Missing inputs and unreadable list files are
+/// reported in `problems`, never thrown.
+Collection list_collection(const std::vector<std::string>& inputs);
+
+}  // namespace mocap

@@ -1,0 +1,51 @@
+#pragma once
+// `mocap-index inspect` and `mocap-index summary`: look at capture files
+// without building an index.
+#include <cstddef>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mocap/units.hpp"
+
+namespace mocap {
+
+struct InspectOptions {
+  std::filesystem::path file;
+  std::size_t frame = 0;                            // 0-based
+  std::optional<LengthUnit> unit;                   // nullopt: detect_unit()
+  std::optional<std::filesystem::path> character;   // nullopt: default 70 kg male
+};
+
+/// One frame in world space (metres, Y up), the contract of docs/cli.md:
+/// {"file", "frames", "frame_time_s", "unit", "unit_scale_m", "total_mass_kg",
+///  "joints": [{"name", "parent", "position_m"}],
+///  "segments": [{"joint", "joint_index", "class", "side", "mass_kg", "com_m"}]}.
+/// Segments are the joints with mass (class none is not a segment). The
+/// character's length scales are applied before forward kinematics.
+/// Throws InputError for a bad file, frame or character.
+nlohmann::json inspect_frame(const InspectOptions& opt);
+
+/// Per-clip facts for the summary (one line each).
+struct ClipSummary {
+  std::string file;
+  bool ok = false;
+  std::string error;  // when !ok: "file:line: what was expected"
+  std::size_t frames = 0;
+  std::size_t joints = 0;
+  double frame_time_s = 0.0;
+  std::string unit;  // declared or detected
+  double unit_scale_m = 0.0;
+  double height_m = 0.0;  // standing height (units.hpp)
+  std::size_t bytes = 0;
+};
+
+/// Parses every file (TBB-parallel, results in input order).
+std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path>& files,
+                                         std::optional<LengthUnit> unit);
+
+nlohmann::json to_json(const ClipSummary& s);
+
+}  // namespace mocap

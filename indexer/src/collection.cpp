@@ -1,0 +1,93 @@
+#include "mocap/collection.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <system_error>
+
+namespace mocap {
+
+namespace fs = std::filesystem;
+
+namespace {
+bool has_bvh_extension(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".bvh";
+}
+
+void add_folder(const fs::path& dir, Collection& out) {
+  std::error_code ec;
+  fs::recursive_directory_iterator it(dir, fs::directory_options::follow_directory_symlink |
+                                               fs::directory_options::skip_permission_denied,
+                                      ec);
+  if (ec) {
+    out.problems.push_back({dir.string(), ec.message()});
+    return;
+  }
+  for (const fs::recursive_directory_iterator end; it != end; it.increment(ec)) {
+    if (ec) {
+      out.problems.push_back({dir.string(), ec.message()});
+      break;
+    }
+    const fs::path& p = it->path();
+    const std::string name = p.filename().string();
+    if (!name.empty() && name[0] == '.') {
+      if (it->is_directory(ec)) it.disable_recursion_pending();
+      continue;
+    }
+    if (it->is_regular_file(ec) && has_bvh_extension(p)) out.files.push_back({p});
+  }
+}
+
+void add_list_file(const fs::path& list, Collection& out) {
+  std::ifstream in(list);
+  if (!in) {
+    out.problems.push_back({list.string(), "cannot open list file"});
+    return;
+  }
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const auto last = line.find_last_not_of(" \t\r");
+    fs::path p = line.substr(first, last - first + 1);
+    if (p.is_relative()) p = list.parent_path() / p;
+    std::error_code ec;
+    if (fs::is_directory(p, ec))
+      add_folder(p, out);
+    else if (fs::is_regular_file(p, ec))
+      out.files.push_back({p});
+    else
+      out.problems.push_back({p.string(), "no such file or directory (listed in " + list.string() + ")"});
+  }
+}
+}  // namespace
+
+Collection list_collection(const std::vector<std::string>& inputs) {
+  Collection out;
+  for (const std::string& input : inputs) {
+    const fs::path p(input);
+    std::error_code ec;
+    if (fs::is_directory(p, ec))
+      add_folder(p, out);
+    else if (fs::is_regular_file(p, ec)) {
+      if (has_bvh_extension(p))
+        out.files.push_back({p});
+      else
+        add_list_file(p, out);
+    } else
+      out.problems.push_back({input, "no such file or directory"});
+  }
+  std::sort(out.files.begin(), out.files.end(),
+            [](const CollectionEntry& a, const CollectionEntry& b) { return a.path < b.path; });
+  out.files.erase(std::unique(out.files.begin(), out.files.end(),
+                              [](const CollectionEntry& a, const CollectionEntry& b) {
+                                return a.path == b.path;
+                              }),
+                  out.files.end());
+  return out;
+}
+
+}  // namespace mocap

@@ -1,0 +1,65 @@
+// Tests for indexer/src/collection.cpp: inputs -> sorted, de-duplicated BVH files.
+#include "mocap/collection.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "test_support.hpp"
+
+namespace mocap {
+namespace {
+
+namespace fs = std::filesystem;
+
+void touch(const fs::path& p) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p) << "x";
+}
+
+TEST(CollectionValidityTest, MissingInputsAreReportedNotThrown) {
+  const Collection c = list_collection({"/nonexistent/folder", "/nonexistent/file.bvh"});
+  EXPECT_TRUE(c.files.empty());
+  ASSERT_EQ(c.problems.size(), 2u);
+  EXPECT_EQ(c.problems[0].input, "/nonexistent/folder");
+}
+
+TEST(CollectionValidityTest, ListFileWithMissingEntries) {
+  const fs::path dir = test::temp_dir("collection");
+  touch(dir / "a.bvh");
+  std::ofstream(dir / "list.txt") << "# comment\n\na.bvh\n  missing.bvh  \r\n";
+  const Collection c = list_collection({(dir / "list.txt").string()});
+  ASSERT_EQ(c.files.size(), 1u);
+  EXPECT_EQ(c.files[0].path, dir / "a.bvh");
+  ASSERT_EQ(c.problems.size(), 1u);
+  EXPECT_NE(c.problems[0].input.find("missing.bvh"), std::string::npos);
+  EXPECT_NE(c.problems[0].reason.find("list.txt"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(CollectionTest, FoldersRecursiveSortedDeduplicatedHiddenSkipped) {
+  const fs::path dir = test::temp_dir("collection");
+  touch(dir / "b" / "z.BVH");
+  touch(dir / "a" / "deep" / "y.bvh");
+  touch(dir / "a" / "notes.txt");
+  touch(dir / ".hidden" / "x.bvh");
+  touch(dir / "c.bvh");
+  const Collection c =
+      list_collection({dir.string(), (dir / "c.bvh").string(), (dir / "b").string()});
+  EXPECT_TRUE(c.problems.empty());
+  std::vector<fs::path> got;
+  for (const auto& e : c.files) got.push_back(e.path);
+  EXPECT_EQ(got, (std::vector<fs::path>{dir / "a" / "deep" / "y.bvh", dir / "b" / "z.BVH",
+                                        dir / "c.bvh"}));
+  fs::remove_all(dir);
+}
+
+TEST(CollectionTest, RealDataSet1HasAllClips) {
+  MOCAP_REQUIRE_DATA();
+  const Collection c = list_collection({(test::data_dir() / "bandai-namco-1").string()});
+  EXPECT_TRUE(c.problems.empty());
+  EXPECT_EQ(c.files.size(), 174u);
+}
+
+}  // namespace
+}  // namespace mocap
