@@ -62,14 +62,82 @@ std::optional<Channel> channel_from_name(std::string_view s) {
   return std::nullopt;
 }
 
+// std::from_chars for what the fast path below does not take ('+' skipped here).
+[[gnu::noinline]] const char* parse_double_slow(const char* p, const char* end, double& out) {
+  // from_chars takes '-' but not '+'.
+  const char* start = (p < end && *p == '+') ? p + 1 : p;
+  if (start < end && *start == '-' && p != start) return nullptr;  // "+-1"
+  const auto [ptr, ec] = std::from_chars(start, end, out);
+  if (ec != std::errc() || ptr == start) return nullptr;
+  return ptr;
+}
+
 // Parses one number at p (a leading '+' is allowed; from_chars does not take it).
 // Returns the end of the number, or nullptr when there is none.
-inline const char* parse_double(const char* p, const char* end, double& out) {
+//
+// Fast path (Clinger): a decimal "[+-]digits[.digits][e[+-]digits]" whose
+// digits form an integer m <= 2^53 and whose value is m * 10^s with |s| <= 22
+// is one IEEE multiplication or division of two exact doubles, which is
+// correctly rounded, so the result equals from_chars'. Everything else (long
+// mantissas, big exponents, inf/nan, garbage) goes to std::from_chars. The fast
+// path took set 2 from ~230 to ~300 MB/s: libstdc++'s from_chars was 40% of
+// the parse time.
+[[gnu::always_inline]] inline const char* parse_double(const char* p, const char* end, double& out) {
+  static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                      1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
   const char* q = p;
-  if (q < end && *q == '+') ++q;
-  const auto [ptr, ec] = std::from_chars(q, end, out);
-  if (ec != std::errc() || ptr == q) return nullptr;
-  return ptr;
+  bool negative = false;
+  if (q < end && (*q == '+' || *q == '-')) {
+    negative = *q == '-';
+    ++q;
+  }
+  std::uint64_t m = 0;
+  int digits = 0;
+  while (q < end && static_cast<unsigned char>(*q - '0') < 10 && digits < 18) {
+    m = m * 10 + static_cast<std::uint64_t>(*q - '0');
+    ++digits;
+    ++q;
+  }
+  int fraction = 0;
+  if (q < end && *q == '.') {
+    ++q;
+    while (q < end && static_cast<unsigned char>(*q - '0') < 10 && digits < 18) {
+      m = m * 10 + static_cast<std::uint64_t>(*q - '0');
+      ++digits;
+      ++fraction;
+      ++q;
+    }
+  }
+  int exponent = 0;
+  if (q < end && (*q == 'e' || *q == 'E') && digits > 0) {
+    const char* e = q + 1;
+    bool exp_negative = false;
+    if (e < end && (*e == '+' || *e == '-')) {
+      exp_negative = *e == '-';
+      ++e;
+    }
+    int exp_digits = 0;
+    while (e < end && static_cast<unsigned char>(*e - '0') < 10 && exp_digits < 4) {
+      exponent = exponent * 10 + (*e - '0');
+      ++exp_digits;
+      ++e;
+    }
+    if (exp_digits == 0 || exp_digits == 4) {
+      digits = 0;  // malformed or huge exponent: slow path decides
+    } else {
+      if (exp_negative) exponent = -exponent;
+      q = e;
+    }
+  }
+  const bool more = q < end && (static_cast<unsigned char>(*q - '0') < 10 || *q == '.' || *q == 'e' ||
+                                *q == 'E' || *q == 'n' || *q == 'N' || *q == 'i' || *q == 'I');
+  const int scale = exponent - fraction;  // value = m * 10^scale
+  if (digits > 0 && !more && m <= (std::uint64_t{1} << 53) && scale >= -22 && scale <= 22) {
+    const double v = scale < 0 ? static_cast<double>(m) / kPow10[-scale] : static_cast<double>(m) * kPow10[scale];
+    out = negative ? -v : v;
+    return q;
+  }
+  return parse_double_slow(p, end, out);
 }
 
 class BvhParser {
@@ -174,6 +242,8 @@ class BvhParser {
       opened = true;
     }
     if (name.empty()) fail(line, std::string("expected a joint name after ") + keyword);
+    if (name.find_first_of("{}\r") != std::string_view::npos)
+      fail(line, "expected a joint name without braces or carriage returns, found " + show(name));
     return std::string(name);
   }
 
@@ -466,9 +536,8 @@ void check_clip(const RawClip& clip) {
     const RawJoint& rj = clip.joints[j];
     if (rj.parent >= static_cast<int>(j) || rj.parent < -1)
       throw InputError(clip.source, 0, "joint '" + rj.name + "' must come after its parent");
-    if (rj.name.empty() || rj.name.find_first_of("\r\n{}") != std::string::npos ||
-        std::isspace(static_cast<unsigned char>(rj.name.front())) ||
-        std::isspace(static_cast<unsigned char>(rj.name.back())))
+    if (rj.name.empty() || rj.name.find_first_of("\r\n{}") != std::string::npos || is_blank(rj.name.front()) ||
+        is_blank(rj.name.back()) || std::any_of(rj.name.begin(), rj.name.end(), is_binary))
       throw InputError(clip.source, 0, "joint name " + show(rj.name) + " cannot be written to BVH");
     if (rj.first_column + rj.channels.size() > clip.channel_count)
       throw InputError(clip.source, 0, "joint '" + rj.name + "' has channels past the frame row");
@@ -487,19 +556,11 @@ class Writer {
   void text(std::string_view s) { out_.append(s); }
   void ch(char c) { out_.push_back(c); }
   void tabs(std::size_t n) { out_.append(n, '\t'); }
+  // printf("%.*g") form: at most `precision` significant digits, trailing zeros
+  // dropped, so numbers that need fewer digits come out in their short form.
   void number(double v) {
     char buf[64];
-    // Shortest form that reads back exactly, unless it needs more digits than asked.
-    auto r = std::to_chars(buf, buf + sizeof buf, v);
-    std::size_t digits = 0;
-    bool leading = true;
-    for (const char* c = buf; c < r.ptr && *c != 'e'; ++c) {
-      if (*c < '0' || *c > '9') continue;
-      leading = leading && *c == '0';
-      if (!leading) ++digits;
-    }
-    if (digits > static_cast<std::size_t>(precision_))
-      r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision_);
+    const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision_);
     out_.append(buf, static_cast<std::size_t>(r.ptr - buf));
   }
   void exact(double v) {

@@ -46,7 +46,14 @@ namespace mocap {
 /// channels (missing rotation axes are added with value 0, in ZXY order when
 /// the joint had none), its position channels folded into OFFSET. Non-root
 /// position channels that vary over the clip by more than `tolerance` (file
-/// units) cannot be folded and throw InputError.
+/// units) cannot be folded and throw InputError, except for one joint per tree
+/// whose ancestors form a bare chain up to the root (each has only this one
+/// child and no End Site; Bandai Namco's static joint_Root above a moving
+/// Hips): its motion moves to the root's position values and it keeps its
+/// frame-0 translation as OFFSET. World positions of every joint and End Site
+/// are kept exactly, except those of that chain's ancestors (which move with
+/// the root). Channels keep their values; a root without position channels
+/// gets its OFFSET as position values.
 RawClip to_export_layout(const RawClip& clip, double tolerance = 1e-4);
 
 }  // namespace mocap

@@ -27,7 +27,14 @@ std::optional<LengthUnit> parse_unit(std::string_view s);
 /// spaced frames of (max Y - min Y) over joints and End Sites. 0 if no frames.
 double standing_height_file_units(const RawClip& clip, int samples = 16);
 
-/// The unit whose converted standing height is closest to 1.7 m (log scale).
+/// Height of the skeleton stretched out, in file units: in each of up to
+/// `samples` evenly spaced frames, the lowest and the highest point (joints and
+/// End Sites) are found and the bone lengths along the tree path between them
+/// are summed (a stooping or crouching pose does not shorten it); the median
+/// over those frames. 0 if no frames.
+double skeleton_height_file_units(const RawClip& clip, int samples = 16);
+
+/// The unit whose converted skeleton height is closest to 1.7 m (log scale).
 /// Clips with no frames or zero height get metres.
 LengthUnit detect_unit(const RawClip& clip);
 
