@@ -85,17 +85,51 @@ struct Segment {
   double length_m = 0.0;
 };
 
-/// Body of a character on a skeleton: one Segment per joint (mass 0 for none).
+/// Body of a character on a skeleton: one Segment per joint (mass 0 for none,
+/// except on a skeleton with no recognised joint at all, where every bone gets a
+/// length-proportional share as a uniform rod: docs/body-model.md).
 struct Body {
   double total_mass_kg = 0.0;     // sum of segment masses
   std::vector<Segment> segments;  // indexed by joint
+  /// Names in the character's per-joint settings (joint_mass_kg,
+  /// joint_length_scale) that find_joint_by_alias() cannot resolve on this
+  /// skeleton; they are ignored. Sorted, unique.
+  std::vector<std::string> unmatched_joints;
 };
 
 /// Segment class and side of every joint of `skel` (by aliases + chain rules).
+/// Names and topology only: a classified joint whose bone has zero length keeps
+/// its class (build_body makes it a point mass at the joint origin).
 std::vector<std::pair<SegmentClass, Side>> classify_joints(const Skeleton& skel);
 
-/// Applies the character's length scales to a copy of the skeleton (offsets and
-/// End Sites of the scaled segments).
+/// Canonical joint name of a body part: "Hips" (lower_trunk), "Spine"
+/// (middle_trunk), "Chest" (upper_trunk), "Neck", "Head", "LeftShoulder"
+/// (clavicle), "LeftUpperArm", "LeftForeArm", "LeftHand", "LeftUpLeg" (thigh),
+/// "LeftLeg" (shank), "LeftFoot", "LeftToe", and "Right..." likewise. Empty for
+/// none, for a sided class with Side::center; the side is ignored for the
+/// centre classes.
+std::string canonical_joint_name(SegmentClass c, Side s);
+
+/// Joint of `skel` that `name` means, -1 if none. The name is read as a body
+/// part through the alias table (docs/body-model.md: "LeftArm", "LeftUpperArm",
+/// "UpperArm_L", "mixamorig:LeftArm" all mean the left upper arm), so it means
+/// the same part on every skeleton:
+///  1. a joint named exactly `name` whose class matches that part (any trunk
+///     class for a trunk name such as "Spine" or "Chest") is returned;
+///  2. else the first joint (lowest index) classified as that part and side;
+///  3. else the joint named exactly `name` (names that are no body part, e.g.
+///     "LThumb", "joint_Root", and parts this skeleton lacks), or -1.
+/// "LeftShoulder" means the clavicle (CMU original, Mixamo, Bandai Namco); on
+/// CMU's 3ds-max files, where the joint named LeftShoulder is the upper arm,
+/// it resolves to LeftCollar; ask for "LeftUpperArm" to get the upper arm.
+int find_joint_by_alias(const Skeleton& skel, const std::string& name);
+
+/// Applies the character's length scales to a copy of the skeleton: a joint
+/// with scale s multiplies its children's translation_scales (so OFFSETs and
+/// position channels alike) and its End Site by s. The scale of a joint is its
+/// joint setting, else its class setting, else (a class-none joint at its
+/// parent's origin, such as CMU's LHipJoint) its parent's, else 1. Names that
+/// do not resolve are ignored here and reported by build_body.
 Skeleton apply_length_scales(const Skeleton& skel, const Character& ch);
 
 /// Builds the body on `skel` (already length-scaled if wanted).
