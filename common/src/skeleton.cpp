@@ -47,6 +47,7 @@ std::uint64_t Skeleton::id() const {
     for (int a = 0; a < 3; ++a) f.i64(c.position_column[a]);
     for (int a = 0; a < 3; ++a) f.i64(c.rotation_column[a] * 4 + c.rotation_axis[a]);
     f.i64(c.rotation_count);
+    if (!translation_scales.empty()) f.i64(std::llround(translation_scales[j] * 1e6));
   }
   return f.h;
 }

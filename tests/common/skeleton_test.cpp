@@ -84,6 +84,11 @@ TEST(SkeletonTest, IdIsStableAndSeesOffsetsAndChannels) {
   EXPECT_EQ(make(-1, C::Xrotation).id(), make(-1, C::Xrotation).id());
   EXPECT_NE(make(-1, C::Xrotation).id(), make(-1.01, C::Xrotation).id());
   EXPECT_NE(make(-1, C::Xrotation).id(), make(-1, C::Yrotation).id());
+  Skeleton scaled = make(-1, C::Xrotation);
+  scaled.translation_scales = {1.0, 1.0};
+  const std::uint64_t unit_scales = scaled.id();
+  scaled.translation_scales = {1.0, 1.2};
+  EXPECT_NE(scaled.id(), unit_scales);
 }
 
 }  // namespace

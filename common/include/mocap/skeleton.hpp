@@ -57,8 +57,9 @@ struct Skeleton {
   int find(const std::string& name) const;
   /// Children of joint j, in index order.
   std::vector<int> children(int j) const;
-  /// 64-bit FNV-1a over names, parents, offsets (rounded to 1e-6 m) and channel
-  /// layouts: equal ids mean interchangeable skeletons.
+  /// 64-bit FNV-1a over names, parents, offsets (rounded to 1e-6 m), channel
+  /// layouts and translation scales (when set): equal ids mean interchangeable
+  /// skeletons.
   std::uint64_t id() const;
 };
 
