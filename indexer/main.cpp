@@ -3,17 +3,27 @@
 // Subcommands (docs/cli.md):
 //   inspect FILE --frame N [--unit U] [--character C.json] [--json]
 //   summary INPUT... [--unit U] [--json]
+//   build --out INDEX.h5 INPUT... [--jobs N] [--strict] [--unit U] [--character C.json] [--json]
+//   verify INDEX.h5
+//   info INDEX.h5 [--json]
 // Exit status: 0 success; 1 some inputs were bad (reported, the rest done);
 // 2 usage error or nothing could be done.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <unistd.h>
+
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include "mocap/collection.hpp"
 #include "mocap/error.hpp"
+#include "mocap/hdf5.hpp"
+#include "mocap/index.hpp"
+#include "mocap/index_builder.hpp"
 #include "mocap/inspect.hpp"
 #include "mocap/units.hpp"
 
@@ -118,6 +128,187 @@ int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
   return failed ? kExitSomeFailed : kExitOk;
 }
 
+// ---------------------------------------------------------------------------
+// build / verify / info
+
+std::string human_bytes(double b) {
+  const char* units[] = {"B", "KB", "MB", "GB", "TB"};
+  int u = 0;
+  while (b >= 1000.0 && u < 4) {
+    b /= 1000.0;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{:.0f} {}", b, units[u]) : fmt::format("{:.1f} {}", b, units[u]);
+}
+
+/// Progress on stderr: a redrawn bar on a terminal, a plain line every 10% otherwise.
+class ProgressPrinter {
+ public:
+  ProgressPrinter() : tty_(::isatty(2) != 0) {}
+  void operator()(const mocap::IndexBuildProgress& p) {
+    if (p.files_total == 0) return;
+    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.frames_done) / p.elapsed_s : 0.0;
+    const double frac = static_cast<double>(p.files_done) / static_cast<double>(p.files_total);
+    const double eta = frac > 0 ? p.elapsed_s * (1.0 - frac) / frac : 0.0;
+    if (tty_) {
+      const auto now = std::chrono::steady_clock::now();
+      if (p.files_done != p.files_total && p.files_done != 0 && now - last_ < std::chrono::milliseconds(100)) return;
+      last_ = now;
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(frac * kWidth);
+      fmt::print(stderr, "\r[{}{}] {}/{} files  {} frames  {:.0f} frames/s  ETA {:.0f} s   ",
+                 std::string(static_cast<std::size_t>(filled), '#'), std::string(static_cast<std::size_t>(kWidth - filled), '.'),
+                 p.files_done, p.files_total, p.frames_done, rate, eta);
+      if (p.files_done == p.files_total) fmt::print(stderr, "\n");
+    } else {
+      const int decile = static_cast<int>(frac * 10.0);
+      if (p.files_done != 0 && decile <= last_decile_) return;
+      last_decile_ = decile;
+      fmt::print(stderr, "mocap-index: {}/{} files, {} frames, {:.0f} frames/s, {:.1f} s elapsed, ETA {:.0f} s\n",
+                 p.files_done, p.files_total, p.frames_done, rate, p.elapsed_s, eta);
+    }
+  }
+
+ private:
+  bool tty_;
+  int last_decile_ = -1;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& character, bool json,
+              bool quiet) {
+  opt.unit = unit_option(unit);
+  if (!character.empty()) opt.character = character;
+  opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
+  ProgressPrinter printer;
+  if (!quiet) opt.progress = [&printer](const mocap::IndexBuildProgress& p) { printer(p); };
+  const mocap::IndexBuildSummary s = mocap::build_index(opt);
+  const double fps = s.seconds > 0 ? static_cast<double>(s.frames) / s.seconds : 0.0;
+  if (json) {
+    nlohmann::json skipped = nlohmann::json::array();
+    for (const auto& k : s.skipped) skipped.push_back({{"path", k.path}, {"reason", k.reason}});
+    std::cout << nlohmann::json{{"out", s.out.string()},
+                                {"up_to_date", s.up_to_date},
+                                {"clips", s.clips},
+                                {"frames", s.frames},
+                                {"skeletons", s.skeletons},
+                                {"new", s.parsed_new},
+                                {"changed", s.parsed_changed},
+                                {"reused", s.reused},
+                                {"removed", s.removed},
+                                {"skipped", skipped},
+                                {"previous_index_note", s.previous_index_note},
+                                {"seconds", s.seconds},
+                                {"frames_per_s", fps},
+                                {"index_bytes", s.index_bytes},
+                                {"source_bytes", s.source_bytes}}
+                     .dump()
+              << '\n';
+  } else {
+    if (!s.previous_index_note.empty()) fmt::print("note: {}\n", s.previous_index_note);
+    fmt::print("{}: {}{} clips, {} frames, {} skeleton(s)\n", s.out.string(), s.up_to_date ? "up to date, " : "",
+               s.clips, s.frames, s.skeletons);
+    fmt::print("  new {}, changed {}, reused {}, removed {}, skipped {}\n", s.parsed_new, s.parsed_changed,
+               s.reused, s.removed, s.skipped.size());
+    for (const auto& k : s.skipped) fmt::print("  skipped {}: {}\n", k.path, k.reason);
+    fmt::print("  {:.2f} s, {:.0f} frames/s, source {}, index {}\n", s.seconds, fps,
+               human_bytes(static_cast<double>(s.source_bytes)), human_bytes(static_cast<double>(s.index_bytes)));
+  }
+  return s.skipped.empty() ? kExitOk : kExitSomeFailed;
+}
+
+int run_verify(const std::string& file, bool json) {
+  const mocap::IndexVerifyReport r = mocap::verify_index(file);
+  if (json) {
+    std::cout << nlohmann::json{{"file", file},
+                                {"ok", r.ok},
+                                {"problems", r.problems},
+                                {"datasets_checked", r.datasets_checked},
+                                {"bytes", r.bytes}}
+                     .dump()
+              << '\n';
+  } else if (r.ok) {
+    fmt::print("{}: ok ({} datasets, {}, schema version {})\n", file, r.datasets_checked,
+               human_bytes(static_cast<double>(r.bytes)), mocap::kIndexSchemaVersion);
+  } else {
+    for (const auto& p : r.problems) fmt::print(stderr, "mocap-index: {}: {}\n", file, p);
+    fmt::print(stderr, "mocap-index: {}: verification FAILED ({} problem(s))\n", file, r.problems.size());
+  }
+  return r.ok ? kExitOk : kExitSomeFailed;
+}
+
+int run_info(const std::string& file, bool json) {
+  const mocap::Index index = mocap::Index::open(file);
+  const mocap::IndexInfo& in = index.info();
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(file, ec);
+  double seconds = 0.0;
+  std::map<std::string, std::map<std::string, std::size_t>> hist;
+  std::map<std::string, std::size_t> status_counts;
+  for (std::size_t c = 0; c < index.clips().size(); ++c) {
+    const auto& clip = index.clips()[c];
+    seconds += static_cast<double>(clip.frame_count) * clip.frame_time_s;
+    for (std::size_t k = 0; k < index.label_keys().size(); ++k)
+      ++hist[index.label_keys()[k]][clip.labels[k].empty() ? "(none)" : clip.labels[k]];
+    ++status_counts[mocap::clip_status_name(clip.status)];
+  }
+  nlohmann::json skel = nlohmann::json::array();
+  for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
+    const auto& s = index.skeletons()[k];
+    skel.push_back({{"index", k},
+                    {"id", mocap::hex64(s.id)},
+                    {"joints", s.skeleton.joint_count()},
+                    {"segments", s.segments.size()},
+                    {"root_joint", s.skeleton.names[static_cast<std::size_t>(s.root_joint)]},
+                    {"clips", s.clips.size()},
+                    {"frames", s.frame_count},
+                    {"total_mass_kg", s.body.total_mass_kg}});
+  }
+  nlohmann::json skipped = nlohmann::json::array();
+  for (const auto& k : index.skipped()) skipped.push_back({{"path", k.path}, {"reason", k.reason}});
+  const nlohmann::json out{
+      {"file", file},
+      {"bytes", bytes},
+      {"format", in.format},
+      {"schema_version", in.schema_version},
+      {"build_tool", in.build_tool},
+      {"build_time_utc", in.build_time_utc},
+      {"clips", index.clips().size()},
+      {"frames", index.frame_count()},
+      {"duration_s", seconds},
+      {"skeletons", skel},
+      {"labels", hist},
+      {"status", status_counts},
+      {"skipped", skipped},
+      {"parameters",
+       {{"character", nlohmann::json::parse(in.character_json, nullptr, false)},
+        {"transition_time_s", in.transition_time_s},
+        {"unit", in.unit_option},
+        {"deflate_level", in.deflate_level},
+        {"gravity_mps2", in.energy_params.gravity_mps2}}}};
+  if (json) {
+    std::cout << out.dump() << '\n';
+    return kExitOk;
+  }
+  fmt::print("{}  ({}, {} schema version {}, built {} by {})\n", file, human_bytes(static_cast<double>(bytes)),
+             in.format, in.schema_version, in.build_time_utc, in.build_tool);
+  fmt::print("{} clips, {} frames, {:.1f} s of motion, {} skeleton(s), {} skipped file(s)\n", index.clips().size(),
+             index.frame_count(), seconds, index.skeletons().size(), index.skipped().size());
+  fmt::print("character {} ({:.1f} kg), transition time {} s, unit {}, compression {}\n", in.character_name,
+             in.character_total_mass_kg, in.transition_time_s, in.unit_option, in.deflate_level);
+  for (const auto& s : skel)
+    fmt::print("  skeleton {}: {} joints, {} segments, root {}, {} clips, {} frames\n", s["index"].get<std::size_t>(),
+               s["joints"].get<std::size_t>(), s["segments"].get<std::size_t>(), s["root_joint"].get<std::string>(),
+               s["clips"].get<std::size_t>(), s["frames"].get<std::uint64_t>());
+  for (const auto& [key, counts] : hist) {
+    fmt::print("label {}:", key);
+    for (const auto& [label, n] : counts) fmt::print(" {}={}", label, n);
+    fmt::print("\n");
+  }
+  for (const auto& k : index.skipped()) fmt::print("  skipped {}: {}\n", k.path, k.reason);
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -148,10 +339,52 @@ int main(int argc, char** argv) {
   summary->add_option("--unit", sum_unit, "Length unit of the files (default: detected per file)");
   summary->add_flag("--json", sum_json, "Print one JSON object");
 
+  mocap::IndexBuildOptions build_opt;
+  std::string build_unit, build_character;
+  bool build_json = false, build_quiet = false;
+  auto* build = app.add_subcommand(
+      "build",
+      "Index capture collections into one HDF5 file (docs/index-format.md). When --out exists, clips whose "
+      "size, mtime and content hash are unchanged are reused without parsing; the new index replaces the old "
+      "one atomically once complete and verified. Bad files are reported and skipped (see --strict).");
+  build->add_option("INPUT", build_opt.inputs, "Folders (searched recursively), .bvh files or list files")->required();
+  build->add_option("--out,-o", build_opt.out, "Index file to write (HDF5)")->required();
+  build->add_option("--jobs,-j", build_opt.jobs, "Worker threads (default: all cores); output is identical for any value");
+  build->add_flag("--strict", build_opt.strict, "Fail (keeping the previous index) on the first bad file");
+  build->add_option("--unit", build_unit, "Length unit of the files: m, cm, mm, inch, cmu or auto (default: detected per file)");
+  build->add_option("--character", build_character,
+                    "Character JSON the dynamics are computed for (docs/character.md); default 70 kg male");
+  build->add_option("--transition-time", build_opt.transition_time_s,
+                    "T of the kd features in seconds (default 0.5)");
+  build->add_option("--compress", build_opt.deflate_level,
+                    "Deflate level 0-9 for the per-frame arrays (default 0: fastest; bounds are always compressed)")
+      ->check(CLI::Range(0, 9));
+  build->add_flag("--full", build_opt.full, "Ignore an existing index: parse every file");
+  build->add_flag("--json", build_json, "Print the summary as one JSON object");
+  build->add_flag("--quiet,-q", build_quiet, "No progress output");
+
+  std::string verify_file;
+  bool verify_json = false;
+  auto* verify = app.add_subcommand(
+      "verify",
+      "Check an index: user block and whole-file checksum (truncation, bit flips), format tag and schema "
+      "version, every dataset's checksum, internal consistency. Exit 0 when sound, 1 when damaged.");
+  verify->add_option("INDEX", verify_file, "Index file")->required();
+  verify->add_flag("--json", verify_json, "Print one JSON object");
+
+  std::string info_file;
+  bool info_json = false;
+  auto* info = app.add_subcommand("info", "Clips, frames, skeletons, label histogram and build parameters of an index");
+  info->add_option("INDEX", info_file, "Index file")->required();
+  info->add_flag("--json", info_json, "Print one JSON object");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*inspect) return run_inspect(file, frame, unit, character, json);
     if (*summary) return run_summary(inputs, sum_unit, sum_json);
+    if (*build) return run_build(build_opt, build_unit, build_character, build_json, build_quiet);
+    if (*verify) return run_verify(verify_file, verify_json);
+    if (*info) return run_info(info_file, info_json);
   } catch (const CLI::ValidationError& e) {
     fmt::print(stderr, "mocap-index: error: {}\n", e.what());
     return kExitFatal;
