@@ -1,0 +1,89 @@
+#pragma once
+// Search queries: the JSON query language (docs/queries.md), parsed and
+// validated, independent of any skeleton or index.
+//
+// A query is a sequence of query frames Q^1..Q^H (H >= 2), each possibly
+// partial: root position (per axis, null = not given), root heading, some
+// joints' rotations (Euler degrees in a stated order, or a quaternion), or
+// "frame k of this BVH file" (all DOFs, or only some with "only"). Joint
+// names are resolved later against the index's skeleton through the aliases
+// of body.hpp (find_joint_by_alias).
+//
+// Errors: InputError(source, line, "<field path>: what was expected"), where
+// `source` is the query file and `line` its line in a batch (0 for a single
+// query file), e.g. "queries.jsonl:3: frames[1].joints.RightArm.order:
+// expected 3 distinct letters of X, Y, Z, got \"ZZY\"".
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstddef>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mocap {
+
+/// One joint's given local rotation (relative to its parent, as in BVH).
+struct JointRotationSpec {
+  std::string name;               // as written; resolved by alias later
+  Eigen::Quaterniond rotation;    // unit
+};
+
+/// One query frame, as written.
+struct QueryFrameSpec {
+  /// Root (pelvis) position per axis, metres, world (or relative, see Query::relative).
+  std::array<std::optional<double>, 3> root_position_m;
+  /// Root heading: rotation about +Y, degrees.
+  std::optional<double> root_heading_deg;
+  std::vector<JointRotationSpec> joints;
+  /// "frame k of this BVH file": path (resolved against the query file's
+  /// folder when relative) and 0-based frame.
+  std::optional<std::filesystem::path> bvh;
+  std::size_t bvh_frame = 0;
+  /// With `bvh`: the DOFs taken from the file ("root_position",
+  /// "root_position_xz", "root_heading", or joint names); empty = all.
+  std::vector<std::string> only;
+
+  /// True when nothing at all is given (an error for a query frame).
+  bool empty() const;
+};
+
+/// Clip filters; every given list must match (AND between lists, OR inside one).
+struct QueryFilter {
+  std::vector<std::string> content;  // label names, exact
+  std::vector<std::string> style;    // label names, exact
+  std::vector<std::string> clips;    // shell globs on the clip's file name (not its folder)
+  std::vector<std::string> exclude;  // shell globs on the clip's file name
+  bool empty() const { return content.empty() && style.empty() && clips.empty() && exclude.empty(); }
+  /// True when a clip with this file name and labels passes.
+  bool accepts(const std::string& file_name, const std::string& content_label,
+               const std::string& style_label) const;
+};
+
+struct Query {
+  std::string id;  // default "<line N>" / file stem
+  std::vector<QueryFrameSpec> frames;
+  /// true: root positions are relative to where each partial motion starts.
+  bool relative = false;
+  std::optional<std::filesystem::path> character;
+  double transition_time_s = 0.5;  // > 0
+  std::size_t top = 10;            // the paper's r, >= 1
+  double path_weight = 0.0;        // lambda >= 0
+  QueryFilter filter;
+};
+
+/// Parses one query object. `base_dir` resolves relative "bvh" and
+/// "character" paths; `default_id` is used when "id" is absent.
+Query parse_query(const nlohmann::json& j, const std::string& source, std::size_t line,
+                  const std::filesystem::path& base_dir, const std::string& default_id);
+
+/// Parses text holding one JSON query; JSON syntax errors become InputError too.
+Query parse_query_text(const std::string& text, const std::string& source, std::size_t line,
+                       const std::filesystem::path& base_dir, const std::string& default_id);
+
+/// Euler order "ZXY" -> axes {2, 0, 1}; nullopt unless 3 distinct letters of XYZ (any case).
+std::optional<std::array<std::uint8_t, 3>> parse_euler_order(const std::string& order);
+
+}  // namespace mocap

@@ -1,0 +1,248 @@
+#include "mocap/query.hpp"
+
+#include <fnmatch.h>
+
+#include <cctype>
+#include <cmath>
+#include <numbers>
+
+#include "mocap/error.hpp"
+#include "mocap/kinematics.hpp"
+
+namespace mocap {
+
+namespace {
+
+using json = nlohmann::json;
+
+// Error context: the query's source and line plus the field path being read.
+struct Ctx {
+  const std::string& source;
+  std::size_t line;
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    throw InputError(source, line, path + ": " + what);
+  }
+};
+
+std::string type_name(const json& v) { return v.type_name(); }
+
+double number(const Ctx& c, const json& v, const std::string& path) {
+  if (!v.is_number()) c.fail(path, "expected a number, got " + type_name(v));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) c.fail(path, "expected a finite number");
+  return d;
+}
+
+std::vector<std::string> string_list(const Ctx& c, const json& v, const std::string& path) {
+  std::vector<std::string> out;
+  if (v.is_string()) {
+    out.push_back(v.get<std::string>());
+    return out;
+  }
+  if (!v.is_array()) c.fail(path, "expected a string or a list of strings, got " + type_name(v));
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!v[i].is_string()) c.fail(path + "[" + std::to_string(i) + "]", "expected a string");
+    out.push_back(v[i].get<std::string>());
+  }
+  return out;
+}
+
+void check_keys(const Ctx& c, const json& obj, const std::string& path,
+                std::initializer_list<const char*> allowed) {
+  for (auto it = obj.begin(); it != obj.end(); ++it) {
+    bool ok = false;
+    for (const char* a : allowed) ok = ok || it.key() == a;
+    if (!ok) {
+      std::string list;
+      for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+      c.fail(path.empty() ? it.key() : path + "." + it.key(), "unknown field (expected one of: " + list + ")");
+    }
+  }
+}
+
+Eigen::Quaterniond joint_rotation(const Ctx& c, const json& v, const std::string& path) {
+  if (!v.is_object()) c.fail(path, "expected {\"euler_deg\": [a, b, c], \"order\": \"ZXY\"} or {\"quat\": [w, x, y, z]}");
+  check_keys(c, v, path, {"euler_deg", "order", "quat"});
+  const bool has_euler = v.contains("euler_deg"), has_quat = v.contains("quat");
+  if (has_euler == has_quat) c.fail(path, "give exactly one of euler_deg (with order) or quat");
+  if (has_quat) {
+    if (v.contains("order")) c.fail(path + ".order", "only with euler_deg");
+    const json& q = v["quat"];
+    if (!q.is_array() || q.size() != 4) c.fail(path + ".quat", "expected 4 numbers [w, x, y, z]");
+    Eigen::Quaterniond out(number(c, q[0], path + ".quat[0]"), number(c, q[1], path + ".quat[1]"),
+                           number(c, q[2], path + ".quat[2]"), number(c, q[3], path + ".quat[3]"));
+    if (out.norm() < 1e-9) c.fail(path + ".quat", "must not be zero");
+    return out.normalized();
+  }
+  const json& e = v["euler_deg"];
+  if (!e.is_array() || e.size() != 3) c.fail(path + ".euler_deg", "expected 3 numbers (degrees)");
+  if (!v.contains("order") || !v["order"].is_string())
+    c.fail(path + ".order", "expected a string such as \"ZXY\" (the order the angles apply in)");
+  const std::string order = v["order"].get<std::string>();
+  const auto axes = parse_euler_order(order);
+  if (!axes) c.fail(path + ".order", "expected 3 distinct letters of X, Y, Z, got \"" + order + "\"");
+  const std::array<double, 3> deg{number(c, e[0], path + ".euler_deg[0]"),
+                                  number(c, e[1], path + ".euler_deg[1]"),
+                                  number(c, e[2], path + ".euler_deg[2]")};
+  return euler_to_quaternion(*axes, deg);
+}
+
+std::filesystem::path resolve(const std::filesystem::path& base, const std::string& p) {
+  std::filesystem::path out(p);
+  return out.is_relative() ? base / out : out;
+}
+
+QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
+                           const std::filesystem::path& base_dir) {
+  if (!v.is_object()) c.fail(path, "expected an object, got " + type_name(v));
+  check_keys(c, v, path, {"root_position", "root_heading_deg", "joints", "bvh", "frame", "only"});
+  QueryFrameSpec f;
+  if (v.contains("root_position")) {
+    const json& p = v["root_position"];
+    if (!p.is_array() || p.size() != 3)
+      c.fail(path + ".root_position", "expected [x, y, z] in metres (null = not given)");
+    for (std::size_t a = 0; a < 3; ++a)
+      if (!p[a].is_null()) f.root_position_m[a] = number(c, p[a], path + ".root_position[" + std::to_string(a) + "]");
+  }
+  if (v.contains("root_heading_deg")) f.root_heading_deg = number(c, v["root_heading_deg"], path + ".root_heading_deg");
+  if (v.contains("joints")) {
+    const json& js = v["joints"];
+    if (!js.is_object()) c.fail(path + ".joints", "expected an object {\"JointName\": {...}}");
+    for (auto it = js.begin(); it != js.end(); ++it) {
+      if (it.key().empty()) c.fail(path + ".joints", "empty joint name");
+      f.joints.push_back({it.key(), joint_rotation(c, it.value(), path + ".joints." + it.key())});
+    }
+  }
+  const bool has_bvh = v.contains("bvh");
+  if (has_bvh) {
+    if (!v["bvh"].is_string() || v["bvh"].get<std::string>().empty())
+      c.fail(path + ".bvh", "expected a BVH file path");
+    if (!v.contains("frame")) c.fail(path + ".frame", "required with bvh (0-based frame number)");
+    const json& fr = v["frame"];
+    if (!fr.is_number_integer() || fr.get<long long>() < 0)
+      c.fail(path + ".frame", "expected a non-negative integer");
+    f.bvh = resolve(base_dir, v["bvh"].get<std::string>());
+    f.bvh_frame = static_cast<std::size_t>(fr.get<long long>());
+    if (v.contains("only")) {
+      f.only = string_list(c, v["only"], path + ".only");
+      if (f.only.empty()) c.fail(path + ".only", "must not be empty (leave it out to take every DOF)");
+    }
+    if (v.contains("root_position") || v.contains("root_heading_deg") || v.contains("joints"))
+      c.fail(path, "bvh frames take their values from the file: use \"only\" to keep some DOFs");
+  } else {
+    if (v.contains("frame")) c.fail(path + ".frame", "only with bvh");
+    if (v.contains("only")) c.fail(path + ".only", "only with bvh");
+  }
+  if (f.empty()) c.fail(path, "gives nothing: expected root_position, root_heading_deg, joints or bvh");
+  return f;
+}
+
+bool glob_match(const std::string& pattern, const std::string& name) {
+  return fnmatch(pattern.c_str(), name.c_str(), 0) == 0;
+}
+
+}  // namespace
+
+bool QueryFrameSpec::empty() const {
+  return !bvh && joints.empty() && !root_heading_deg && !root_position_m[0] && !root_position_m[1] &&
+         !root_position_m[2];
+}
+
+bool QueryFilter::accepts(const std::string& file_name, const std::string& content_label,
+                          const std::string& style_label) const {
+  auto in = [](const std::vector<std::string>& list, const std::string& v) {
+    for (const auto& x : list)
+      if (x == v) return true;
+    return false;
+  };
+  if (!content.empty() && !in(content, content_label)) return false;
+  if (!style.empty() && !in(style, style_label)) return false;
+  if (!clips.empty()) {
+    bool any = false;
+    for (const auto& g : clips) any = any || glob_match(g, file_name);
+    if (!any) return false;
+  }
+  for (const auto& g : exclude)
+    if (glob_match(g, file_name)) return false;
+  return true;
+}
+
+std::optional<std::array<std::uint8_t, 3>> parse_euler_order(const std::string& order) {
+  if (order.size() != 3) return std::nullopt;
+  std::array<std::uint8_t, 3> axes{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const char ch = static_cast<char>(std::toupper(static_cast<unsigned char>(order[i])));
+    if (ch < 'X' || ch > 'Z') return std::nullopt;
+    axes[i] = static_cast<std::uint8_t>(ch - 'X');
+  }
+  if (axes[0] == axes[1] || axes[1] == axes[2] || axes[0] == axes[2]) return std::nullopt;
+  return axes;
+}
+
+Query parse_query(const json& j, const std::string& source, std::size_t line,
+                  const std::filesystem::path& base_dir, const std::string& default_id) {
+  const Ctx c{source, line};
+  if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
+  check_keys(c, j, "", {"id", "frames", "relative", "character", "transition_time", "top", "path_weight", "filter"});
+  Query q;
+  q.id = default_id;
+  if (j.contains("id")) {
+    if (j["id"].is_string())
+      q.id = j["id"].get<std::string>();
+    else if (j["id"].is_number_integer())
+      q.id = std::to_string(j["id"].get<long long>());
+    else
+      c.fail("id", "expected a string");
+  }
+  if (!j.contains("frames")) c.fail("frames", "required: a list of at least 2 query frames");
+  const json& frames = j["frames"];
+  if (!frames.is_array()) c.fail("frames", "expected a list of query frames");
+  if (frames.size() < 2) c.fail("frames", "at least 2 query frames are needed, got " + std::to_string(frames.size()));
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    q.frames.push_back(query_frame(c, frames[i], "frames[" + std::to_string(i) + "]", base_dir));
+  if (j.contains("relative")) {
+    if (!j["relative"].is_boolean()) c.fail("relative", "expected true or false");
+    q.relative = j["relative"].get<bool>();
+  }
+  if (j.contains("character")) {
+    if (!j["character"].is_string() || j["character"].get<std::string>().empty())
+      c.fail("character", "expected a character JSON file path");
+    q.character = resolve(base_dir, j["character"].get<std::string>());
+  }
+  if (j.contains("transition_time")) {
+    q.transition_time_s = number(c, j["transition_time"], "transition_time");
+    if (q.transition_time_s <= 0.0) c.fail("transition_time", "must be > 0 seconds");
+  }
+  if (j.contains("top")) {
+    const json& t = j["top"];
+    if (!t.is_number_integer() || t.get<long long>() < 1) c.fail("top", "expected an integer >= 1");
+    q.top = static_cast<std::size_t>(t.get<long long>());
+  }
+  if (j.contains("path_weight")) {
+    q.path_weight = number(c, j["path_weight"], "path_weight");
+    if (q.path_weight < 0.0) c.fail("path_weight", "must be >= 0");
+  }
+  if (j.contains("filter")) {
+    const json& f = j["filter"];
+    if (!f.is_object()) c.fail("filter", "expected an object");
+    check_keys(c, f, "filter", {"content", "style", "clips", "exclude"});
+    if (f.contains("content")) q.filter.content = string_list(c, f["content"], "filter.content");
+    if (f.contains("style")) q.filter.style = string_list(c, f["style"], "filter.style");
+    if (f.contains("clips")) q.filter.clips = string_list(c, f["clips"], "filter.clips");
+    if (f.contains("exclude")) q.filter.exclude = string_list(c, f["exclude"], "filter.exclude");
+  }
+  return q;
+}
+
+Query parse_query_text(const std::string& text, const std::string& source, std::size_t line,
+                       const std::filesystem::path& base_dir, const std::string& default_id) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    throw InputError(source, line, std::string("invalid JSON: ") + e.what());
+  }
+  return parse_query(j, source, line, base_dir, default_id);
+}
+
+}  // namespace mocap

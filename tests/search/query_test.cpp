@@ -1,0 +1,152 @@
+// Tests for search/src/query.cpp: the query language. Invalid queries first
+// (each error names the field path), then what valid ones mean.
+#include "mocap/query.hpp"
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+
+#include "mocap/error.hpp"
+#include "mocap/kinematics.hpp"
+
+namespace mocap {
+namespace {
+
+Query parse(const std::string& text) { return parse_query_text(text, "q.jsonl", 7, "/data/queries", "<line 7>"); }
+
+// Expects an InputError whose message holds "q.jsonl:7: " and `field`.
+void expect_error(const std::string& text, const std::string& field) {
+  try {
+    parse(text);
+    FAIL() << "accepted: " << text;
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("q.jsonl:7: "), std::string::npos) << msg;
+    EXPECT_NE(msg.find(field), std::string::npos) << "expected '" << field << "' in: " << msg;
+  }
+}
+
+const char* kTwo = R"("frames": [{"root_position": [0, null, 0]}, {"root_position": [0, null, 3]}])";
+
+TEST(QueryValidityTest, SyntaxAndShape) {
+  expect_error("", "invalid JSON");
+  expect_error("{\"frames\": [", "invalid JSON");
+  expect_error("[1, 2]", "query: expected a JSON object");
+  expect_error("{}", "frames: required");
+  expect_error(R"({"frames": 3})", "frames: expected a list");
+  expect_error(R"({"frames": [{"root_position": [0, 0, 0]}]})", "at least 2 query frames");
+  expect_error(std::string("{") + kTwo + R"(, "colour": 1})", "colour: unknown field");
+}
+
+TEST(QueryValidityTest, FrameFields) {
+  expect_error(R"({"frames": [{}, {"root_position": [0,0,0]}]})", "frames[0]: gives nothing");
+  expect_error(R"({"frames": [{"root_position": [0,0]}, {"root_position": [0,0,0]}]})",
+               "frames[0].root_position: expected [x, y, z]");
+  expect_error(R"({"frames": [{"root_position": [0,"a",0]}, {"root_position": [0,0,0]}]})",
+               "frames[0].root_position[1]: expected a number");
+  // Out-of-range numbers are refused by the JSON reader itself.
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"root_position": [0,0,1e999]}]})",
+               "invalid JSON: [json.exception.out_of_range.406] number overflow");
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"pose": 1}]})", "frames[1].pose: unknown field");
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"root_heading_deg": "north"}]})",
+               "frames[1].root_heading_deg: expected a number");
+}
+
+TEST(QueryValidityTest, JointRotations) {
+  const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, {"joints": {"RightArm": )";
+  expect_error(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})", "frames[1].joints.RightArm.order: expected 3 distinct");
+  expect_error(pre + R"({"euler_deg": [1, 2, 3]}}}]})", "frames[1].joints.RightArm.order");
+  expect_error(pre + R"({"euler_deg": [1, 2], "order": "ZXY"}}}]})", "frames[1].joints.RightArm.euler_deg: expected 3");
+  expect_error(pre + R"({"quat": [0, 0, 0, 0]}}}]})", "frames[1].joints.RightArm.quat: must not be zero");
+  expect_error(pre + R"({"quat": [1, 0, 0, 0], "euler_deg": [1, 2, 3]}}}]})", "exactly one of");
+  expect_error(pre + R"({"quat": [1, 0, 0, 0], "order": "XYZ"}}}]})", "RightArm.order: only with euler_deg");
+  expect_error(pre + R"(42}}]})", "frames[1].joints.RightArm: expected");
+}
+
+TEST(QueryValidityTest, BvhFrames) {
+  const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, )";
+  expect_error(pre + R"({"bvh": "a.bvh"}]})", "frames[1].frame: required");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": -1}]})", "frames[1].frame: expected a non-negative integer");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": 1.5}]})", "frames[1].frame");
+  expect_error(pre + R"({"bvh": "", "frame": 1}]})", "frames[1].bvh: expected a BVH file path");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "only": []}]})", "frames[1].only: must not be empty");
+  expect_error(pre + R"({"frame": 1}]})", "frames[1].frame: only with bvh");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "root_position": [0,0,0]}]})", "use \"only\"");
+}
+
+TEST(QueryValidityTest, Options) {
+  const std::string pre = std::string("{") + kTwo;
+  expect_error(pre + R"(, "transition_time": 0})", "transition_time: must be > 0");
+  expect_error(pre + R"(, "top": 0})", "top: expected an integer >= 1");
+  expect_error(pre + R"(, "top": 2.5})", "top: expected an integer");
+  expect_error(pre + R"(, "path_weight": -1})", "path_weight: must be >= 0");
+  expect_error(pre + R"(, "relative": "yes"})", "relative: expected true or false");
+  expect_error(pre + R"(, "filter": {"genre": ["x"]}})", "filter.genre: unknown field");
+  expect_error(pre + R"(, "filter": {"content": [1]}})", "filter.content[0]: expected a string");
+  expect_error(pre + R"(, "id": [1]})", "id: expected a string");
+  expect_error(pre + R"(, "character": ""})", "character: expected");
+}
+
+TEST(QueryTest, DefaultsAndPartialRootPositions) {
+  const Query q = parse(std::string("{") + kTwo + "}");
+  EXPECT_EQ(q.id, "<line 7>");
+  EXPECT_EQ(q.frames.size(), 2u);
+  EXPECT_FALSE(q.relative);
+  EXPECT_DOUBLE_EQ(q.transition_time_s, 0.5);
+  EXPECT_EQ(q.top, 10u);
+  EXPECT_DOUBLE_EQ(q.path_weight, 0.0);
+  EXPECT_TRUE(q.filter.empty());
+  EXPECT_FALSE(q.character);
+  EXPECT_EQ(q.frames[1].root_position_m[0], 0.0);
+  EXPECT_FALSE(q.frames[1].root_position_m[1]);
+  EXPECT_EQ(q.frames[1].root_position_m[2], 3.0);
+}
+
+TEST(QueryTest, TheIssueExample) {
+  const Query q = parse(R"({"id": "walk-then-reach",
+    "frames": [
+      {"root_position": [0, null, 0]},
+      {"root_position": [0, null, 3.0]},
+      {"joints": {"RightArm": {"euler_deg": [-50, 60, -45], "order": "ZXY"}}},
+      {"bvh": "path/to/file.bvh", "frame": 42},
+      {"bvh": "/abs/file.bvh", "frame": 42, "only": ["root_position", "LeftArm"]}],
+    "relative": false, "character": "char.json", "transition_time": 0.5, "top": 10,
+    "path_weight": 0.0,
+    "filter": {"content": ["walk"], "style": ["tired"], "clips": ["*walk*"],
+               "exclude": ["dataset-2_walk_normal_001*"]}})");
+  EXPECT_EQ(q.id, "walk-then-reach");
+  ASSERT_EQ(q.frames.size(), 5u);
+  ASSERT_EQ(q.frames[2].joints.size(), 1u);
+  EXPECT_EQ(q.frames[2].joints[0].name, "RightArm");
+  const std::array<std::uint8_t, 3> zxy{2, 0, 1};
+  const Eigen::Quaterniond expect = euler_to_quaternion(zxy, std::array<double, 3>{-50, 60, -45});
+  EXPECT_NEAR(std::abs(q.frames[2].joints[0].rotation.dot(expect)), 1.0, 1e-12);
+  EXPECT_EQ(*q.frames[3].bvh, std::filesystem::path("/data/queries/path/to/file.bvh"));
+  EXPECT_EQ(q.frames[3].bvh_frame, 42u);
+  EXPECT_TRUE(q.frames[3].only.empty());
+  EXPECT_EQ(*q.frames[4].bvh, std::filesystem::path("/abs/file.bvh"));
+  EXPECT_EQ(q.frames[4].only, (std::vector<std::string>{"root_position", "LeftArm"}));
+  EXPECT_EQ(*q.character, std::filesystem::path("/data/queries/char.json"));
+  EXPECT_TRUE(q.filter.accepts("dataset-2_walk_tired_003.bvh", "walk", "tired"));
+  EXPECT_FALSE(q.filter.accepts("dataset-2_walk_tired_003.bvh", "walk", "happy"));
+  EXPECT_FALSE(q.filter.accepts("dataset-2_walk_tired_003.bvh", "run", "tired"));
+  EXPECT_FALSE(q.filter.accepts("dataset-2_walk_normal_001.bvh", "walk", "tired"));
+  EXPECT_FALSE(q.filter.accepts("dataset-2_run_tired_001.bvh", "walk", "tired"));
+}
+
+TEST(QueryTest, QuaternionsAreNormalised) {
+  const Query q = parse(R"({"frames": [{"root_position": [0,0,0]},
+    {"joints": {"Head": {"quat": [2, 0, 0, 0]}}, "root_heading_deg": 90}]})");
+  EXPECT_NEAR(q.frames[1].joints[0].rotation.w(), 1.0, 1e-15);
+  EXPECT_EQ(q.frames[1].root_heading_deg, 90.0);
+}
+
+TEST(QueryTest, EulerOrders) {
+  EXPECT_EQ(parse_euler_order("zxy"), (std::array<std::uint8_t, 3>{2, 0, 1}));
+  EXPECT_FALSE(parse_euler_order("XY"));
+  EXPECT_FALSE(parse_euler_order("XYW"));
+  EXPECT_FALSE(parse_euler_order("XXY"));
+}
+
+}  // namespace
+}  // namespace mocap
