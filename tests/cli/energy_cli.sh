@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# mocap-search energy: the JSON contract on real files, and errors for bad arguments.
+# Usage: energy_cli.sh BUILD_DIR DATA_DIR   (exit 77 = skipped: no data or no binary)
+set -euo pipefail
+bin="$1/search/mocap-search"
+data="$2"
+[ -x "$bin" ] || { echo "no $bin"; exit 77; }
+[ -d "$data/bandai-namco-1/data" ] || { echo "no data at $data"; exit 77; }
+walk="$data/bandai-namco-1/data/dataset-1_walk_normal_001.bvh"
+cmu="$data/cmu/131_01.bvh"
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+
+"$bin" energy --from "$walk:10" --to "$walk:25" --json > "$tmp/a.json"
+"$bin" energy --from "$walk:10" --to "$walk:10" --json > "$tmp/same.json"
+"$bin" energy --from "$walk:10" --to "$walk:25" --transition-time 1.0 --unit cm --json > "$tmp/slow.json"
+"$bin" energy --from "$cmu:100" --to "$cmu:400" --unit cmu --json > "$tmp/cmu.json"
+"$bin" energy --from "$walk:10" --to "$walk:25" > "$tmp/a.txt"
+grep -q "Hips" "$tmp/a.txt"
+python3 - "$tmp" <<'PY'
+import json, os, sys
+tmp = sys.argv[1]
+def load(n): return json.load(open(os.path.join(tmp, n + ".json")))
+for name in ("a", "same", "slow", "cmu"):
+    d = load(name)
+    assert set(("h_J", "g_J", "terms")) <= set(d), (name, d.keys())
+    assert d["g_J"] >= d["h_J"] >= 0, (name, d["h_J"], d["g_J"])
+    for t in d["terms"]:
+        assert set(("name", "kind", "h_J", "g_J")) <= set(t), t
+        assert t["kind"] in ("segment", "joint"), t
+        assert t["g_J"] >= t["h_J"] >= 0, t
+    assert abs(sum(t["h_J"] for t in d["terms"]) - d["h_J"]) <= 1e-9 * max(1, d["h_J"])
+    assert abs(sum(t["g_J"] for t in d["terms"]) - d["g_J"]) <= 1e-9 * max(1, d["g_J"])
+assert load("same")["h_J"] == 0
+assert 0 < load("slow")["h_J"] < load("a")["h_J"]
+print("energy JSON contract ok")
+PY
+
+# Bad arguments: clear message on stderr, non-zero exit.
+expect_fail() {
+  if "$bin" "$@" > "$tmp/out" 2> "$tmp/err"; then echo "expected failure: $*"; exit 1; fi
+  [ -s "$tmp/err" ] || { echo "no message on stderr for: $*"; exit 1; }
+}
+expect_fail energy --from "$walk:10" --to "$walk:100000" --json
+expect_fail energy --from "$walk" --to "$walk:1" --json
+expect_fail energy --from "$walk:1" --to "$cmu:1" --json
+expect_fail energy --from /nonexistent.bvh:0 --to "$walk:1" --json
+expect_fail energy --from "$walk:1" --to "$walk:2" --transition-time 0 --json
+expect_fail energy --from "$walk:1" --to "$walk:2" --unit furlong --json
+expect_fail energy --from "$walk:1"
+expect_fail
+echo "energy CLI ok"
