@@ -1,20 +1,31 @@
 // mocap-search: queries against an index, and energy tools.
 //
-// Subcommands (docs/cli.md):
-//   energy --from FILE:FRAME --to FILE:FRAME [--transition-time S] [--character C.json]
-//          [--unit U] [--json]
-// Exit status: 0 success; 2 usage error or nothing could be done (the message
-// names the file or the argument). CLI11 parse errors use CLI11's own codes.
+//   mocap-search --index INDEX.h5 (--queries Q.jsonl | --query Q.json) [--out R.jsonl]
+//                [--mode exact|approx|brute] [--threads N] [--quiet] ...
+//       answers a batch of queries (docs/queries.md, docs/search.md), one JSON
+//       object per query per line, in input order (stdout without --out).
+//   mocap-search energy --from FILE:FRAME --to FILE:FRAME [--transition-time S]
+//                [--character C.json] [--unit U] [--json]
+// Exit status (docs/cli.md): 0 success; 1 some queries failed (their lines
+// carry "error"); 2 usage error or nothing could be done (the message names
+// the file or the argument). CLI11 parse errors use CLI11's own codes.
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <unistd.h>
 
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
 #include <exception>
+#include <fstream>
 #include <iostream>
 #include <optional>
 #include <string>
 
 #include "mocap/energy_command.hpp"
 #include "mocap/error.hpp"
+#include "mocap/index.hpp"
+#include "mocap/search.hpp"
 #include "mocap/units.hpp"
 
 #ifndef MOCAP_VERSION
@@ -24,6 +35,7 @@
 namespace {
 
 constexpr int kExitOk = 0;
+constexpr int kExitSomeFailed = 1;
 constexpr int kExitFatal = 2;
 
 struct EnergyArgs {
@@ -34,6 +46,40 @@ struct EnergyArgs {
   std::string unit = "auto";
   bool json = false;
 };
+
+struct SearchArgs {
+  std::string index;
+  std::string queries;
+  std::string query;
+  std::string out;
+  std::string mode = "exact";
+  unsigned threads = 0;
+  bool quiet = false;
+  double max_length_s = 2.0;
+  int checks = 256;
+  int trees = 4;
+  bool no_recall = false;
+};
+
+void add_search_options(CLI::App& app, SearchArgs& a) {
+  app.add_option("--index", a.index, "Index file (HDF5, mocap-index build); opened once per batch");
+  auto* qs = app.add_option("--queries", a.queries, "Query batch: one JSON query per line (docs/queries.md)");
+  auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");
+  qs->excludes(q1);
+  app.add_option("--out", a.out, "Write the results here (JSON lines) instead of stdout");
+  app.add_option("--mode", a.mode, "exact (default: identical to brute, pruned), approx (FLANN, with recall), brute")
+      ->check(CLI::IsMember({"exact", "approx", "brute"}));
+  app.add_option("--threads", a.threads, "Worker threads (default: all cores); results do not depend on it");
+  app.add_flag("-q,--quiet", a.quiet, "No progress output on stderr");
+  app.add_option("--max-length", a.max_length_s,
+                 "Relative mode: longest partial motion in seconds (default 2)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--checks", a.checks, "approx: kd-tree leaves visited per search (default 256)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--trees", a.trees, "approx: randomised kd-trees per skeleton (default 4)")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--no-recall", a.no_recall, "approx: do not run exact to measure recall");
+}
 
 void add_energy_command(CLI::App& app, EnergyArgs& args) {
   CLI::App* cmd = app.add_subcommand("energy",
@@ -75,13 +121,72 @@ int run_energy(const EnergyArgs& args) {
   return kExitOk;
 }
 
+int run_search(const SearchArgs& a) {
+  if (a.index.empty()) throw mocap::InputError("--index", 0, "required (an index built by mocap-index build)");
+  if (a.queries.empty() == a.query.empty())
+    throw mocap::InputError("--queries", 0, "give exactly one of --queries Q.jsonl or --query Q.json");
+  std::optional<tbb::global_control> threads;
+  if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
+  mocap::SearchOptions opt;
+  opt.mode = *mocap::parse_search_mode(a.mode);
+  opt.max_length_s = a.max_length_s;
+  opt.approx_checks = a.checks;
+  opt.approx_trees = a.trees;
+  opt.compute_recall = !a.no_recall;
+  const auto batch = a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+  const auto t0 = std::chrono::steady_clock::now();
+  const mocap::Index index = mocap::Index::open(a.index);
+  const mocap::SearchEngine engine(index);
+  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::ofstream file;
+  if (!a.out.empty()) {
+    file.open(a.out);
+    if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+  }
+  const bool tty = isatty(fileno(stderr)) != 0;
+  std::size_t last_line = 0;
+  auto progress = [&](std::size_t done, std::size_t total) {
+    if (a.quiet || total < 2) return;
+    if (tty) {
+      const int width = 40;
+      const int filled = static_cast<int>(width * done / total);
+      fmt::print(stderr, "\r[{}{}] {}/{} queries", std::string(static_cast<std::size_t>(filled), '#'),
+                 std::string(static_cast<std::size_t>(width - filled), '.'), done, total);
+      if (done == total) fmt::print(stderr, "\n");
+    } else if (done * 10 / total != last_line || done == total) {
+      last_line = done * 10 / total;
+      fmt::print(stderr, "mocap-search: {}/{} queries\n", done, total);
+    }
+  };
+  const auto t1 = std::chrono::steady_clock::now();
+  const auto outcomes = mocap::run_query_batch(engine, batch, opt, progress);
+  const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  std::ostream& os = a.out.empty() ? std::cout : file;
+  std::size_t failed = 0;
+  for (const auto& o : outcomes) {
+    os << mocap::query_outcome_json(o) << '\n';
+    if (o.error) {
+      ++failed;
+      if (!a.quiet) fmt::print(stderr, "mocap-search: {}\n", *o.error);
+    }
+  }
+  os.flush();
+  if (!os) throw mocap::InputError(a.out.empty() ? "<stdout>" : a.out, 0, "write failed");
+  if (!a.quiet)
+    fmt::print(stderr, "mocap-search: {} queries ({} failed), mode {}, index loaded in {:.2f} s, answered in {:.3f} s\n",
+               outcomes.size(), failed, a.mode, load_s, run_s);
+  return failed > 0 ? kExitSomeFailed : kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"mocap-search: retrieval of partial motions by energy change, and energy tools"};
   app.set_version_flag("--version", MOCAP_VERSION);
-  app.require_subcommand(1);
+  app.require_subcommand(0, 1);
   EnergyArgs energy;
+  SearchArgs search;
+  add_search_options(app, search);
   add_energy_command(app, energy);
   try {
     app.parse(argc, argv);
@@ -90,6 +195,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (app.got_subcommand("energy")) return run_energy(energy);
+    return run_search(search);
   } catch (const mocap::InputError& e) {
     fmt::print(stderr, "mocap-search: {}\n", e.what());
     return kExitFatal;
@@ -97,5 +203,4 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "mocap-search: error: {}\n", e.what());
     return kExitFatal;
   }
-  return kExitFatal;
 }

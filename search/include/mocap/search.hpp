@@ -1,0 +1,187 @@
+#pragma once
+// Retrieval of partial motions (paper section 2.3; docs/search.md).
+//
+// A SearchEngine is built once from an opened Index and answers queries
+// (query.hpp) concurrently: `run` is const and thread-safe; every call uses
+// its own scratch. For each consecutive pair of query frames {Q^h, Q^h+1}
+// and each clip F^1..F^K it finds the partial motion F^s..F^e (s < e) that
+// minimises
+//
+//   score = h(Q^h -> F^s) + h(F^e -> Q^h+1) + lambda * (P[e] - P[s])      (joules)
+//
+// (h: energy.hpp approximate energy for the index's character with the
+// query's transition time; P: the clip's own energy prefix sums; lambda:
+// Query::path_weight), ranks clips by that score and keeps the `top` best.
+// Ties are broken by clip index, then end frame, then start frame, so the
+// answer is a function of the query and the index only: it is the same in
+// every mode that is exact (brute, exact) and for any number of threads.
+//
+// Modes:
+//  - brute: every frame of every clip (the reference);
+//  - exact (default): the same answer, skipping clips and 16-frame blocks
+//    whose lower bounds (docs/search.md proves them) cannot beat the current
+//    r-th best score;
+//  - approx: FLANN randomised kd-trees over the per-frame kd features pick
+//    candidate clips (bounded checks); only those are scored. Queries without
+//    a full query frame on both sides of a pair fall back to exact. The
+//    recall of the top r against exact is computed per query (exact is run
+//    too, which doubles the cost; SearchOptions::compute_recall).
+//
+// Relative mode (Query::relative): the x and z of every given root position
+// are offsets from the root of the partial motion's first frame F^s (y stays
+// absolute: the ground is where it is); for frames taken from a BVH file the
+// offsets are measured from the pair's first query frame. h(F^e -> Q^h+1)
+// then depends on s, so a clip costs O(K L) with L = max_length_s / frame
+// time (SearchOptions::max_length_s bounds e - s in relative mode only).
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mocap/index.hpp"
+#include "mocap/query.hpp"
+
+namespace mocap {
+
+enum class SearchMode : std::uint8_t { exact, approx, brute };
+const char* search_mode_name(SearchMode m);
+/// "exact", "approx", "brute"; nullopt otherwise.
+std::optional<SearchMode> parse_search_mode(const std::string& s);
+
+struct SearchOptions {
+  SearchMode mode = SearchMode::exact;
+  /// approx: randomised kd-trees per skeleton (FLANN KDTreeIndexParams).
+  int approx_trees = 4;
+  /// approx: leaves visited per kd-tree search (FLANN SearchParams checks).
+  int approx_checks = 256;
+  /// approx: nearest frames asked for per query frame, per kept result
+  /// (k = approx_neighbours_per_result * top); their clips are the candidates.
+  int approx_neighbours_per_result = 32;
+  /// approx: also run exact and report recall (top-r overlap) per query.
+  bool compute_recall = true;
+  /// Relative mode only: longest partial motion, seconds (e - s <= L frames,
+  /// L = round(max_length_s / frame time)); > 0.
+  double max_length_s = 2.0;
+  /// Parallelise over clips inside one query (TBB); results do not depend on it.
+  bool parallel_clips = true;
+};
+
+/// One ranked partial motion. Frames are 0-based within the clip.
+struct SearchResult {
+  std::size_t rank = 0;  // 1-based
+  std::size_t clip_index = 0;  // into Index::clips()
+  std::string clip;            // the clip's path as indexed
+  /// (key, label) for every index label key with a non-empty label.
+  std::vector<std::pair<std::string, std::string>> labels;
+  std::size_t start_frame = 0;  // s
+  std::size_t end_frame = 0;    // e > s
+  double score_J = 0.0;         // h_in + h_out + lambda * path_cost (as computed)
+  double h_in_J = 0.0;          // h(Q^h -> F^s)
+  double h_out_J = 0.0;         // h(F^e -> Q^h+1)
+  double path_cost_J = 0.0;     // P[e] - P[s], the clip's own energy (lambda not applied)
+};
+
+struct PairResults {
+  std::size_t from = 0;  // query frame index h (0-based)
+  std::size_t to = 0;    // h + 1
+  std::vector<SearchResult> results;  // best first, at most Query::top
+};
+
+struct SearchStats {
+  /// Clips that passed the filter (summed over pairs).
+  std::uint64_t clips = 0;
+  /// Of those, clips skipped by a bound (never scored in full).
+  std::uint64_t clips_pruned = 0;
+  /// h evaluations (query frame x database frame).
+  std::uint64_t frames_evaluated = 0;
+  /// Frame evaluations skipped by bounds (2 per frame per pair in world mode).
+  std::uint64_t frames_pruned = 0;
+  double time_ms = 0.0;
+  /// approx with compute_recall: |top-r approx  intersect  top-r exact| / r,
+  /// averaged over pairs, clips compared by index.
+  std::optional<double> recall;
+};
+
+/// One answered (or failed) query.
+struct QueryOutcome {
+  std::string id;
+  std::vector<PairResults> pairs;
+  SearchStats stats;
+  /// Set when the query could not be answered; pairs is then empty.
+  std::optional<std::string> error;
+};
+
+/// The engine: per-skeleton tables (h scan table transposed from the index,
+/// kd features, bounds in metres) built once; FLANN trees built on the first
+/// approx query of a skeleton. Holds a reference to `index`, which must
+/// outlive it.
+class SearchEngine {
+ public:
+  explicit SearchEngine(const Index& index);
+  SearchEngine(SearchEngine&&) noexcept;
+  ~SearchEngine();
+
+  const Index& index() const;
+
+  /// Answers one query. Throws InputError for a query that does not fit the
+  /// index (unknown joint: the message lists the valid names; unreadable BVH;
+  /// frame out of range; a character other than the index's).
+  QueryOutcome run(const Query& query, const SearchOptions& options) const;
+
+  /// Internal tables (search.cpp).
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// One line of a batch: a parsed query, or why the line could not be parsed.
+struct BatchEntry {
+  std::string id;
+  std::optional<Query> query;
+  std::string error;
+};
+
+/// Reads a JSONL batch: one query per non-blank line (default id "line N",
+/// N 1-based); lines that fail to parse become entries with `error`.
+/// Throws InputError when the file cannot be read at all.
+std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path);
+/// Reads one query from a JSON file (default id: the file stem).
+std::vector<BatchEntry> read_single_query(const std::filesystem::path& path);
+
+/// Runs a batch in parallel (TBB over queries, and over clips inside each);
+/// outcomes are in input order. `progress(done, total)` (optional) is called
+/// from worker threads after each query, serialised.
+std::vector<QueryOutcome> run_query_batch(const SearchEngine& engine,
+                                          const std::vector<BatchEntry>& batch,
+                                          const SearchOptions& options,
+                                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+/// The contract line: {"id", "pairs": [...], "stats": {...}} or {"id", "error"}.
+std::string query_outcome_json(const QueryOutcome& outcome);
+
+// ---------------------------------------------------------------------------
+// Building blocks (exposed for tests and the benchmark)
+
+/// Best pair of one clip by the running minimum (world mode):
+///   score(e) = (b(e) + lambda P[e]) + min_{s<e} (a(s) - lambda P[s]),
+/// over frames whose a / b are finite (+inf = excluded). Ties: smallest
+/// score, then smallest e, then smallest s. Returns false when no pair (s < e)
+/// has both values finite. O(K).
+struct ClipBest {
+  double score = 0.0;
+  std::size_t s = 0, e = 0;
+};
+bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
+                         double lambda, ClipBest& out);
+/// The O(K^2) reference of best_partial_motion (same arithmetic, same ties).
+bool best_partial_motion_quadratic(const double* a, const double* b, const double* prefix,
+                                   std::size_t k, double lambda, ClipBest& out);
+
+}  // namespace mocap

@@ -1,0 +1,235 @@
+#include "resolve.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "mocap/body.hpp"
+#include "mocap/bvh.hpp"
+#include "mocap/error.hpp"
+#include "mocap/units.hpp"
+
+namespace mocap::search_detail {
+
+namespace {
+
+constexpr std::size_t kBvhCacheEntries = 256;
+
+std::string field(std::size_t i) { return fmt::format("frames[{}]", i); }
+
+[[noreturn]] void fail(const Query& q, const std::string& path, const std::string& what) {
+  throw InputError("query " + q.id, 0, path + ": " + what);
+}
+
+std::string valid_joint_names(const Skeleton& skel) {
+  std::string out;
+  for (const auto& n : skel.names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+int resolve_joint(const Query& q, const std::string& path, const Skeleton& skel,
+                  const std::string& name) {
+  const int j = find_joint_by_alias(skel, name);
+  if (j < 0)
+    fail(q, path,
+         fmt::format("unknown joint \"{}\" (valid: {}; canonical names such as RightUpperArm, "
+                     "LeftForeArm, Hips also work)",
+                     name, valid_joint_names(skel)));
+  return j;
+}
+
+// Index-skeleton joint -> file joint: same name, else the same body part by alias.
+std::vector<int> map_joints(const Query& q, const std::string& path, const IndexSkeleton& sk,
+                            const DynamicsModel& model, const Skeleton& file_skel,
+                            const std::filesystem::path& file) {
+  const Skeleton& s = sk.skeleton;
+  std::vector<int> map(s.joint_count(), -1);
+  for (std::size_t j = 0; j < s.joint_count(); ++j) {
+    int f = file_skel.find(s.names[j]);
+    if (f < 0) f = find_joint_by_alias(file_skel, s.names[j]);
+    map[j] = f;
+  }
+  std::string missing;
+  for (int j : model.segments)
+    if (map[static_cast<std::size_t>(j)] < 0) missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(j)];
+  if (map[static_cast<std::size_t>(sk.root_joint)] < 0 && missing.find(s.names[static_cast<std::size_t>(sk.root_joint)]) == std::string::npos)
+    missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(sk.root_joint)];
+  if (!missing.empty())
+    fail(q, path + ".bvh",
+         fmt::format("{} does not map onto the index skeleton: no joint for {} (by name or "
+                     "canonical body part)",
+                     file.string(), missing));
+  return map;
+}
+
+}  // namespace
+
+std::shared_ptr<const LoadedBvh> BvhCache::get(const std::filesystem::path& path,
+                                               const std::string& unit_option) {
+  std::error_code ec;
+  const auto mtime = std::filesystem::last_write_time(path, ec);
+  const auto size = ec ? 0 : std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path.string(), 0, "cannot read the BVH file: " + ec.message());
+  const std::string key = unit_option + "|" + path.string();
+  {
+    std::lock_guard lock(mutex_);
+    auto it = entries_.find(key);
+    if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size) return it->second;
+  }
+  const RawClip raw = read_bvh_file(path);
+  std::optional<LengthUnit> unit;
+  if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
+  const LengthUnit u = unit ? *unit : detect_unit(raw);
+  auto loaded = std::make_shared<LoadedBvh>();
+  loaded->motion = clip_motion_from_raw(raw, unit_scale_m(u));
+  loaded->mtime = mtime;
+  loaded->size = size;
+  std::lock_guard lock(mutex_);
+  if (entries_.size() >= kBvhCacheEntries) entries_.clear();
+  entries_[key] = loaded;
+  return loaded;
+}
+
+ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                            const DynamicsModel& model, double transition_time_s,
+                            double index_transition_time_s, BvhCache& cache,
+                            const std::string& unit_option) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string path = field(i);
+  const Skeleton& skel = sk.skeleton;
+  const std::size_t nj = skel.joint_count();
+  const int root = model.root();
+  ResolvedFrame out;
+  PartialPoseSpec partial;
+  if (spec.bvh) {
+    out.from_bvh = true;
+    std::shared_ptr<const LoadedBvh> bvh;
+    try {
+      bvh = cache.get(*spec.bvh, unit_option);
+    } catch (const InputError& e) {
+      fail(q, path + ".bvh", e.what());
+    }
+    const ClipMotion& m = bvh->motion;
+    if (spec.bvh_frame >= m.frame_count)
+      fail(q, path + ".frame",
+           fmt::format("frame {} out of range: {} has {} frames (0-based)", spec.bvh_frame,
+                       spec.bvh->string(), m.frame_count));
+    const std::vector<int> map = map_joints(q, path, sk, model, m.skeleton, *spec.bvh);
+    // Pose of the file's frames around bvh_frame on the index skeleton: the
+    // file's local rotations (identity for unmapped joints), the index
+    // skeleton's offsets, the file's translations where both joints have
+    // position channels. The +-2 frame window gives exactly the clip's
+    // finite-difference rates at the frame (dynamics.hpp).
+    const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
+    const std::size_t f1 = std::min(m.frame_count - 1, spec.bvh_frame + 2);
+    const std::size_t n = f1 - f0 + 1;
+    const std::size_t fj = m.joint_count();
+    std::vector<Eigen::Vector3d> positions(n * nj);
+    std::vector<Eigen::Quaterniond> rotations(n * nj);
+    std::vector<Eigen::Quaterniond> locals_at_frame(nj);
+    LocalPose local;
+    WorldPose world;
+    local.translations_m.resize(nj);
+    local.rotations.resize(nj);
+    for (std::size_t f = f0; f <= f1; ++f) {
+      for (std::size_t j = 0; j < nj; ++j) {
+        const int fjnt = map[j];
+        const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
+        local.rotations[j] = fjnt >= 0 ? m.local_rotations[f * fj + static_cast<std::size_t>(fjnt)]
+                                       : Eigen::Quaterniond::Identity();
+        const bool file_pos = fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
+        local.translations_m[j] =
+            (file_pos && skel.channels[j].has_position())
+                ? Eigen::Vector3d(m.local_translations_m[f * fj + static_cast<std::size_t>(fjnt)] * scale)
+                : Eigen::Vector3d(skel.offsets_m[j] * scale);
+      }
+      if (f == spec.bvh_frame) locals_at_frame = local.rotations;
+      forward_kinematics(skel, local, world);
+      std::copy(world.positions_m.begin(), world.positions_m.end(), positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+      std::copy(world.rotations.begin(), world.rotations.end(), rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+    }
+    ClipDynamics dyn;
+    compute_clip_dynamics(model, n, m.frame_time_s, positions.data(), rotations.data(), dyn);
+    const StateView v = dyn.state(spec.bvh_frame - f0);
+    const std::size_t r = static_cast<std::size_t>(root);
+    if (spec.only.empty()) {
+      out.kind = FrameKind::full;
+      out.state.resize(nj);
+      for (std::size_t j = 0; j < nj; ++j) {
+        out.state.joint_positions_m[j] = v.joint_positions_m[j];
+        out.state.rotations[j] = v.rotations[j];
+        out.state.coms_m[j] = v.coms_m[j];
+        out.state.com_velocities_mps[j] = v.com_velocities_mps[j];
+        out.state.com_accelerations_mps2[j] = v.com_accelerations_mps2[j];
+        out.state.angular_velocities_radps[j] = v.angular_velocities_radps[j];
+        out.state.angular_accelerations_radps2[j] = v.angular_accelerations_radps2[j];
+      }
+      out.scan = make_h_scan_query(model, out.state.view(), transition_time_s);
+      for (int b : model.segments) {
+        const std::size_t bb = static_cast<std::size_t>(b);
+        out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] * out.state.com_velocities_mps[bb].squaredNorm());
+      }
+      out.kd.resize(kd_feature_dimension(model));
+      kd_feature(model, out.state.view(), index_transition_time_s, out.kd.data());
+      out.root_m = out.state.joint_positions_m[r];
+      out.given = {true, true, true};
+      return out;
+    }
+    for (std::size_t k = 0; k < spec.only.size(); ++k) {
+      const std::string& dof = spec.only[k];
+      const std::string p = fmt::format("{}.only[{}]", path, k);
+      if (dof == "root_position") {
+        for (int a = 0; a < 3; ++a) partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+      } else if (dof == "root_position_xz") {
+        partial.root_position_m[0] = v.joint_positions_m[r][0];
+        partial.root_position_m[2] = v.joint_positions_m[r][2];
+      } else if (dof == "root_heading") {
+        partial.root_heading_rad = heading_rad(v.rotations[r]);
+      } else {
+        const int j = resolve_joint(q, p, skel, dof);
+        partial.joint_rotations.emplace_back(j, locals_at_frame[static_cast<std::size_t>(j)]);
+      }
+    }
+  } else {
+    partial.root_position_m = spec.root_position_m;
+    if (spec.root_heading_deg) partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
+    for (const auto& jr : spec.joints) {
+      const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
+      partial.joint_rotations.emplace_back(j, jr.rotation);
+    }
+  }
+  // Deduplicate joints named twice through different aliases: the last wins.
+  {
+    std::vector<std::pair<int, Eigen::Quaterniond>> unique;
+    for (const auto& jr : partial.joint_rotations) {
+      bool replaced = false;
+      for (auto& u : unique)
+        if (u.first == jr.first) {
+          u.second = jr.second;
+          replaced = true;
+        }
+      if (!replaced) unique.push_back(jr);
+    }
+    partial.joint_rotations = std::move(unique);
+  }
+  for (std::size_t a = 0; a < 3; ++a) {
+    out.given[a] = partial.root_position_m[a].has_value();
+    if (out.given[a]) out.root_m[static_cast<Eigen::Index>(a)] = *partial.root_position_m[a];
+  }
+  const bool root_only = !partial.root_heading_rad && partial.joint_rotations.empty();
+  if (root_only) {
+    out.kind = FrameKind::root_only;
+    out.root_scan = make_h_scan_root_query(model, partial.root_position_m, transition_time_s);
+  } else {
+    out.kind = FrameKind::partial;
+  }
+  try {
+    out.partial = prepare_partial_query(model, std::move(partial));
+  } catch (const InputError& e) {
+    fail(q, path, e.detail());
+  }
+  return out;
+}
+
+}  // namespace mocap::search_detail

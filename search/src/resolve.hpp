@@ -1,0 +1,71 @@
+#pragma once
+// Internal to mocap_search: query frames resolved against one index skeleton.
+#include <Eigen/Core>
+#include <array>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mocap/dynamics.hpp"
+#include "mocap/energy.hpp"
+#include "mocap/index.hpp"
+#include "mocap/kinematics.hpp"
+#include "mocap/query.hpp"
+
+namespace mocap::search_detail {
+
+/// A BVH file read for queries (file skeleton, local and world pose per frame).
+struct LoadedBvh {
+  ClipMotion motion;
+  std::filesystem::file_time_type mtime;
+  std::uintmax_t size = 0;
+};
+
+/// Parsed BVH files shared by the queries of a batch (bounded, thread-safe).
+class BvhCache {
+ public:
+  std::shared_ptr<const LoadedBvh> get(const std::filesystem::path& path,
+                                       const std::string& unit_option);
+
+ private:
+  std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const LoadedBvh>> entries_;
+};
+
+/// How a query frame is evaluated against database frames.
+enum class FrameKind { full, root_only, partial };
+
+/// One query frame on one skeleton.
+struct ResolvedFrame {
+  FrameKind kind = FrameKind::partial;
+  /// full: the state (with the file's velocities), its scan query, the
+  /// translational kinetic energy of each segment (model.segments order).
+  BodyState state;
+  HScanQuery scan;
+  std::vector<double> segment_ke_J;
+  /// full: kd feature with the index's T (approx mode candidates).
+  std::vector<float> kd;
+  /// root_only: scan query; partial: prepared partial query.
+  HScanRootQuery root_scan;
+  PartialQuery partial;
+  /// World root (pelvis) position where known (full: the state's; otherwise
+  /// the given components), metres; `given` says which axes constrain.
+  Eigen::Vector3d root_m = Eigen::Vector3d::Zero();
+  std::array<bool, 3> given{false, false, false};
+  /// From a BVH file (relative mode measures offsets from the pair's first such frame).
+  bool from_bvh = false;
+};
+
+/// Resolves query frame `i` of `q` on skeleton `sk` with model `model`.
+/// Throws InputError ("frames[i]...: ...") for unknown joints (listing the
+/// valid names), unreadable files, frames out of range, unmappable skeletons.
+ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                            const DynamicsModel& model, double transition_time_s,
+                            double index_transition_time_s, BvhCache& cache,
+                            const std::string& unit_option);
+
+}  // namespace mocap::search_detail

@@ -1,0 +1,274 @@
+// Search: running minimum, query resolution errors, exact == brute on random
+// queries over a set-1 index, threads 1 == 2, approx recall.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <set>
+#include <string>
+
+#include "mocap/error.hpp"
+#include "mocap/index.hpp"
+#include "mocap/query.hpp"
+#include "mocap/search.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace mocap;
+
+namespace {
+
+fs::path golden_index() { return fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v1.h5"; }
+
+Query parse(const std::string& text) { return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q"); }
+
+// A set-1 index built once per test run with the mocap-index binary.
+const fs::path& set1_index() {
+  static const fs::path path = [] {
+    const char* bin = std::getenv("MOCAP_BIN_DIR");
+    const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
+    const fs::path out = test::temp_dir("search-set1") / "set1.h5";
+    const std::string cmd = "'" + exe.string() + "' build -q --out '" + out.string() + "' '" +
+                            (test::data_dir() / "bandai-namco-1/data").string() + "' > /dev/null";
+    if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
+    return out;
+  }();
+  return path;
+}
+
+void expect_same_results(const QueryOutcome& x, const QueryOutcome& y, const std::string& what) {
+  ASSERT_FALSE(x.error) << what << ": " << *x.error;
+  ASSERT_FALSE(y.error) << what << ": " << *y.error;
+  ASSERT_EQ(x.pairs.size(), y.pairs.size()) << what;
+  for (std::size_t p = 0; p < x.pairs.size(); ++p) {
+    const auto& a = x.pairs[p].results;
+    const auto& b = y.pairs[p].results;
+    ASSERT_EQ(a.size(), b.size()) << what << " pair " << p;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].clip_index, b[i].clip_index) << what << " pair " << p << " rank " << i + 1;
+      EXPECT_EQ(a[i].start_frame, b[i].start_frame) << what << " rank " << i + 1;
+      EXPECT_EQ(a[i].end_frame, b[i].end_frame) << what << " rank " << i + 1;
+      EXPECT_NEAR(a[i].score_J, b[i].score_J, 1e-6 * std::max(1.0, std::abs(a[i].score_J))) << what;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(RunningMinimum, EqualsQuadraticReference) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 10.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int trial = 0; trial < 2000; ++trial) {
+    const std::size_t k = 1 + rng() % 40;
+    std::vector<double> a(k), b(k), p(k);
+    double acc = 0.0;
+    for (std::size_t i = 0; i < k; ++i) {
+      a[i] = rng() % 7 == 0 ? inf : std::floor(u(rng));  // integers make ties common
+      b[i] = rng() % 7 == 0 ? inf : std::floor(u(rng));
+      p[i] = acc;
+      acc += std::floor(u(rng));
+    }
+    const double lambda = trial % 3 == 0 ? 0.0 : 0.25 * (trial % 5);
+    ClipBest x, y;
+    const bool hx = best_partial_motion(a.data(), b.data(), p.data(), k, lambda, x);
+    const bool hy = best_partial_motion_quadratic(a.data(), b.data(), p.data(), k, lambda, y);
+    ASSERT_EQ(hx, hy) << trial;
+    if (!hx) continue;
+    EXPECT_EQ(x.score, y.score) << trial;
+    EXPECT_EQ(x.s, y.s) << trial;
+    EXPECT_EQ(x.e, y.e) << trial;
+    EXPECT_LT(x.s, x.e);
+  }
+}
+
+TEST(QueryResolution, Errors) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  SearchOptions opt;
+  // Unknown joint: the message lists the valid names.
+  try {
+    engine.run(parse(R"({"frames": [{"joints": {"Tail": {"quat": [1,0,0,0]}}}, {"root_position": [0, null, 0]}]})"), opt);
+    FAIL() << "expected an error";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("frames[0].joints.Tail"), std::string::npos) << m;
+    EXPECT_NE(m.find("unknown joint"), std::string::npos) << m;
+    EXPECT_NE(m.find("Hips"), std::string::npos) << m;
+  }
+  // Bad BVH path.
+  try {
+    engine.run(parse(R"({"frames": [{"bvh": "no-such-file.bvh", "frame": 0}, {"root_position": [0, null, 0]}]})"), opt);
+    FAIL() << "expected an error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-file.bvh"), std::string::npos) << e.what();
+  }
+  // Frame out of range.
+  try {
+    engine.run(parse(R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 100000}, {"root_position": [0, null, 0]}]})"), opt);
+    FAIL() << "expected an error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
+  }
+  // Aliases resolve: the CMU name RightUpLeg and the Bandai Namco name
+  // UpperLeg_R mean the same joint (the golden skeleton has legs, no arms).
+  const auto x = engine.run(parse(R"({"frames": [{"joints": {"RightUpLeg": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"), opt);
+  const auto y = engine.run(parse(R"({"frames": [{"joints": {"UpperLeg_R": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"), opt);
+  expect_same_results(x, y, "aliases");
+  ASSERT_FALSE(x.pairs[0].results.empty());
+}
+
+TEST(Search, TinyIndexRankingIsSane) {
+  // A query made of two frames of an indexed clip ranks that clip first with
+  // those frames and score 0 (h(A, A) = 0).
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  for (SearchMode mode : {SearchMode::brute, SearchMode::exact}) {
+    SearchOptions opt;
+    opt.mode = mode;
+    const auto r = engine.run(parse(R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}], "top": 2})"), opt);
+    ASSERT_FALSE(r.error);
+    ASSERT_FALSE(r.pairs[0].results.empty());
+    const auto& best = r.pairs[0].results[0];
+    EXPECT_NE(best.clip.find("golden_walk_normal_001.bvh"), std::string::npos);
+    EXPECT_EQ(best.start_frame, 0u);
+    EXPECT_EQ(best.end_frame, 3u);
+    EXPECT_NEAR(best.score_J, 0.0, 1e-6);
+    for (std::size_t i = 1; i < r.pairs[0].results.size(); ++i)
+      EXPECT_GE(r.pairs[0].results[i].score_J, r.pairs[0].results[i - 1].score_J);
+  }
+}
+
+namespace {
+
+// Random queries over set 1: full frames, partial (root, ground plane +
+// heading, joints, bvh "only"), world and relative, with and without filters.
+std::vector<Query> random_queries(const Index& index, std::size_t count) {
+  std::mt19937 rng(2024);
+  const auto& clips = index.clips();
+  auto frame_of = [&](std::size_t& c) {
+    c = rng() % clips.size();
+    return rng() % clips[c].frame_count;
+  };
+  std::vector<Query> out;
+  const char* contents[] = {"walk", "run", "bow", "dash", "guide"};
+  for (std::size_t i = 0; i < count; ++i) {
+    const int kind = static_cast<int>(i % 10);
+    std::string frames;
+    const std::size_t nframes = 2 + (rng() % 4 == 0 ? 1 : 0);
+    for (std::size_t f = 0; f < nframes; ++f) {
+      std::size_t c = 0;
+      const std::size_t fr = frame_of(c);
+      std::string one;
+      const double x = (rng() % 800) / 100.0 - 4.0, z = (rng() % 800) / 100.0 - 4.0;
+      if (kind <= 3) {
+        one = "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(fr) + "}";
+      } else if (kind <= 5) {
+        one = "{\"root_position\": [" + std::to_string(x) + ", " + (rng() % 2 ? "null" : "0.9") + ", " + std::to_string(z) + "]}";
+      } else if (kind == 6) {
+        one = "{\"root_position\": [" + std::to_string(x) + ", null, " + std::to_string(z) + "], \"root_heading_deg\": " + std::to_string(rng() % 360) + "}";
+      } else if (kind == 7) {
+        one = "{\"joints\": {\"RightForeArm\": {\"euler_deg\": [" + std::to_string(rng() % 90) + ", 0, 10], \"order\": \"ZXY\"}}}";
+      } else {
+        one = "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(fr) + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+      }
+      frames += (f ? ", " : "") + one;
+    }
+    std::string extra;
+    if (i % 3 == 0) extra += ", \"filter\": {\"content\": [\"" + std::string(contents[rng() % 5]) + "\", \"walk\"]}";
+    if (i % 7 == 0) extra += ", \"path_weight\": 0.01";
+    if (i % 11 == 5 && kind != 6 && kind != 9) extra += ", \"relative\": true";
+    extra += ", \"top\": " + std::to_string(1 + rng() % 8);
+    out.push_back(parse("{\"id\": \"r" + std::to_string(i) + "\", \"frames\": [" + frames + "]" + extra + "}"));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Search, ExactEqualsBruteOnRandomQueriesSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty()) << "could not build the set-1 index";
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  const auto queries = random_queries(index, 220);
+  std::size_t relative = 0, pruned_somewhere = 0;
+  SearchOptions exact, brute;
+  exact.max_length_s = brute.max_length_s = 0.5;
+  brute.mode = SearchMode::brute;
+  for (const Query& q : queries) {
+    const auto e = engine.run(q, exact);
+    const auto b = engine.run(q, brute);
+    expect_same_results(e, b, q.id);
+    relative += q.relative;
+    pruned_somewhere += e.stats.frames_pruned > 0;
+    EXPECT_EQ(b.stats.frames_pruned, 0u);
+    EXPECT_LE(e.stats.frames_evaluated, b.stats.frames_evaluated);
+  }
+  EXPECT_GE(relative, 10u);
+  EXPECT_GE(pruned_somewhere, queries.size() / 2) << "exact mode should prune";
+}
+
+TEST(Search, ThreadsOneEqualsTwo) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  const auto queries = random_queries(index, 40);
+  std::vector<BatchEntry> batch;
+  for (const auto& q : queries) batch.push_back({q.id, q, ""});
+  SearchOptions opt;
+  opt.max_length_s = 0.5;
+  std::vector<QueryOutcome> one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    one = run_query_batch(engine, batch, opt);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    two = run_query_batch(engine, batch, opt);
+  }
+  ASSERT_EQ(one.size(), two.size());
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    expect_same_results(one[i], two[i], one[i].id);
+    for (std::size_t p = 0; p < one[i].pairs.size(); ++p)
+      for (std::size_t r = 0; r < one[i].pairs[p].results.size(); ++r)
+        EXPECT_EQ(one[i].pairs[p].results[r].score_J, two[i].pairs[p].results[r].score_J);
+  }
+}
+
+TEST(Search, ApproxRecallIsTheTopROverlapWithExact) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  const auto queries = random_queries(index, 40);
+  SearchOptions approx, exact;
+  approx.mode = SearchMode::approx;
+  approx.approx_checks = 4;  // few checks: recall below 1 happens
+  approx.approx_neighbours_per_result = 1;
+  approx.max_length_s = exact.max_length_s = 0.5;
+  for (const Query& q : queries) {
+    const auto a = engine.run(q, approx);
+    const auto e = engine.run(q, exact);
+    ASSERT_TRUE(a.stats.recall.has_value());
+    double sum = 0.0;
+    for (std::size_t p = 0; p < a.pairs.size(); ++p) {
+      std::set<std::size_t> ex;
+      for (const auto& r : e.pairs[p].results) ex.insert(r.clip_index);
+      std::size_t hit = 0;
+      for (const auto& r : a.pairs[p].results) hit += ex.count(r.clip_index);
+      sum += ex.empty() ? 1.0 : static_cast<double>(hit) / static_cast<double>(ex.size());
+      // Scores in approx are true scores of the clips it returns: never better than exact's.
+      if (!a.pairs[p].results.empty() && !e.pairs[p].results.empty()) {
+        EXPECT_GE(a.pairs[p].results[0].score_J, e.pairs[p].results[0].score_J - 1e-9);
+      }
+    }
+    EXPECT_NEAR(*a.stats.recall, sum / static_cast<double>(a.pairs.size()), 1e-12) << q.id;
+    EXPECT_FALSE(e.stats.recall.has_value());
+  }
+}
