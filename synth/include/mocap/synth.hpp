@@ -1,0 +1,213 @@
+#pragma once
+// Supplementation (paper section 2.4, figure 4) and its baselines.
+//
+// A gap joins a start state S_0 (with its predecessor S_-1, which gives its
+// velocity) to a goal S_G (with its successor S_G+1) at the frame time dt.
+// The transition is the list of inserted frames S_1..S_m; the energy of a
+// transition is the sum of the full energy change g over its steps
+// S_0 -> S_1 -> ... -> S_m -> S_G, every state's rates by central differences
+// over the whole sequence S_-1 .. S_G+1 (dynamics.hpp sequence_state).
+//
+// Three methods (docs/synthesis.md):
+//  - astar: best-first search over states, one state accepted per iteration
+//    (the paper's OPEN/CLOSED loop): from the current state a base proposal
+//    (one step of a cubic Hermite path in every DOF toward the goal, matching
+//    the velocities at both ends) is refined joint by joint: the joints with
+//    the largest terms of g(current -> proposal), in decreasing order, each
+//    mapped to its adjacent joint that stands highest; that joint's local
+//    rotation is varied along the geodesic toward / away from the goal's,
+//    clamped to the range of motion, and the variant minimising
+//    g(S -> S') + h(S' -> S_G) is kept. Stops when g(S -> S_G) < T_c or more
+//    than T_n states were inserted.
+//  - slerp: linear root, slerp per joint, the same number of frames;
+//  - inertialize: the goal pose (extrapolated backwards with its own
+//    velocity) plus the start offset decayed by Bollo's quintic.
+// All deterministic; time bounded by T_n x candidates per iteration.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mocap/body.hpp"
+#include "mocap/dynamics.hpp"
+#include "mocap/index.hpp"
+#include "mocap/skeleton.hpp"
+
+namespace mocap {
+
+/// One frame of a motion on a SynthSkeleton: the world position of the root
+/// joint (the pelvis, metres) and every joint's local rotation (unit, from its
+/// parent). Translations of the other joints are the skeleton's (fixed).
+struct SynthFrame {
+  Eigen::Vector3d root_position_m = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Quaterniond> local_rotations;
+};
+
+/// Range of motion: per joint, per rotation channel (the joint's channel
+/// order), degrees. has_range[j] = 0: not limited (the root joint and its
+/// ancestors; joints without rotation channels).
+struct RangeOfMotion {
+  std::vector<std::array<double, 3>> min_deg;
+  std::vector<std::array<double, 3>> max_deg;
+  std::vector<std::uint8_t> has_range;
+};
+
+/// The target skeleton with everything synthesis needs (immutable).
+struct SynthSkeleton {
+  std::uint32_t index_skeleton = 0;
+  Skeleton skeleton;
+  /// Per joint "Xposition ... Yrotation" as in the source files.
+  std::vector<std::string> channels;
+  DynamicsModel model;
+  /// The joint whose world position SynthFrame::root_position_m is (pelvis).
+  int root_joint = 0;
+  /// Fixed local translation of every joint, metres (the root joint's is
+  /// replaced per frame by its world position).
+  std::vector<Eigen::Vector3d> local_translations_m;
+  /// 1 for the root joint and its ancestors (orientation free, not limited).
+  std::vector<std::uint8_t> is_root_chain;
+  /// Foot and toe joints (segments whose contact counts as foot contact).
+  std::vector<int> foot_joints;
+  /// Segment class / side per joint (body.hpp classify_joints).
+  std::vector<std::pair<SegmentClass, Side>> classes;
+
+  std::size_t joint_count() const { return skeleton.joint_count(); }
+};
+
+/// Builds the synthesis view of index skeleton k. Translations of joints with
+/// position channels come from frame 0 of clip `reference_clip` (a clip of
+/// that skeleton); the others are the skeleton's OFFSETs.
+SynthSkeleton make_synth_skeleton(const Index& index, std::uint32_t skeleton,
+                                  std::size_t reference_clip);
+
+/// Union of the clips' rotation_channel_min/max_deg (clips of the skeleton).
+RangeOfMotion range_of_motion(const Index& index, const SynthSkeleton& sk,
+                              const std::vector<std::size_t>& clips);
+
+/// Frame f (0-based, within the clip) of an index clip.
+SynthFrame clip_frame(const Index& index, std::size_t clip, std::size_t f);
+
+/// World pose of a frame (joint origins, world rotations), reusing `out`.
+void synth_world_pose(const SynthSkeleton& sk, const SynthFrame& frame, WorldPose& out);
+
+/// True when every channel of joint j's rotation is inside the range (either
+/// Euler solution, angles modulo 360, `slack_deg` tolerance).
+bool within_range(const SynthSkeleton& sk, const RangeOfMotion& rom, int j,
+                  const Eigen::Quaterniond& local, double slack_deg = 0.5);
+/// The rotation with its Euler angles clamped channel-wise to the range (the
+/// rotation itself when within range).
+Eigen::Quaterniond clamp_to_range(const SynthSkeleton& sk, const RangeOfMotion& rom, int j,
+                                  const Eigen::Quaterniond& local);
+
+/// Rigid placement about the vertical: p' = R_y(yaw) p + t (t horizontal).
+struct Placement {
+  double yaw_rad = 0.0;
+  Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();
+};
+/// The frame moved rigidly (root position and the root chain's top rotation).
+SynthFrame place_frame(const SynthSkeleton& sk, const SynthFrame& frame, const Placement& p);
+/// Heading of the root joint's world rotation (dynamics.hpp heading_rad), radians.
+double root_heading(const SynthSkeleton& sk, const SynthFrame& frame);
+
+enum class TransitionMethod { astar, slerp, inertialize };
+const char* transition_method_name(TransitionMethod m);
+
+struct SupplementParams {
+  /// T_n: at most this many inserted states (frames) per gap.
+  std::size_t max_states = 60;
+  /// T_c: stop when the step cost g(S -> S_G) is below this, joules.
+  double cost_threshold_J = 5.0;
+  /// Costliest joints refined per iteration.
+  std::size_t joints_per_iteration = 3;
+  /// Reference speeds for the initial length estimate: the largest joint
+  /// rotation over ref_angular_speed, root displacement over ref_speed.
+  double ref_angular_speed_radps = 4.0;
+  double ref_speed_mps = 1.5;
+  /// Root translation of the base proposal: the velocity-matching Hermite
+  /// step (true) or the straight line (false).
+  bool smooth_root = false;
+  /// Shortest transition considered by the estimate, seconds.
+  double min_duration_s = 0.1;
+};
+
+struct GapProblem {
+  const SynthSkeleton* skeleton = nullptr;
+  const RangeOfMotion* range = nullptr;
+  SynthFrame before;  // S_-1
+  SynthFrame start;   // S_0
+  SynthFrame goal;    // S_G
+  SynthFrame after;   // S_G+1
+  double frame_time_s = 0.0;
+};
+
+struct SupplementStats {
+  std::size_t iterations = 0;
+  std::size_t energy_evaluations = 0;
+  /// Length estimate the Hermite proposals started from.
+  std::size_t estimated_frames = 0;
+  /// Why the search stopped: "threshold" (g(S -> S_G) < T_c), "horizon"
+  /// (the Hermite path's planned length was used up), "max_states" (T_n).
+  std::string stop_reason;
+};
+
+/// Initial length estimate (frames to insert), in [1, max_states].
+std::size_t estimate_transition_frames(const GapProblem& gap, const SupplementParams& params);
+
+/// A*-based supplementation (header). Throws std::invalid_argument on a bad gap.
+std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
+                                         SupplementStats* stats = nullptr);
+/// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
+std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
+/// `frames` inserted frames of inertialization toward the goal (header).
+std::vector<SynthFrame> inertialize_transition(const GapProblem& gap, std::size_t frames);
+
+/// The measures of a transition (the report's).
+struct TransitionMeasures {
+  std::size_t frames = 0;
+  /// Sum of g over the steps S_0 -> ... -> S_G, joules.
+  double energy_J = 0.0;
+  /// Sum of h over the same steps, joules.
+  double approximate_energy_J = 0.0;
+  /// Horizontal displacement of foot / toe contact points while in contact
+  /// (low and slow, EnergyParams), metres, over the same steps.
+  double foot_sliding_m = 0.0;
+  /// (frame, joint) pairs of the inserted frames outside the range of motion.
+  std::size_t range_violations = 0;
+  /// max over steps and joints of |log(q_f+1 q_f^-1)| / dt, local rotations, rad/s.
+  double peak_angular_speed_radps = 0.0;
+  /// g of each step (frames + 1 values), joules.
+  std::vector<double> step_energies_J;
+};
+TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames);
+
+/// Per-step g along a whole motion (frames.size() - 1 values; rates by
+/// central differences, one-sided at the ends), and the foot sliding of the
+/// motion. Used for the report's energy curve.
+std::vector<double> motion_step_energies(const SynthSkeleton& sk,
+                                         const std::vector<SynthFrame>& frames,
+                                         double frame_time_s);
+
+}  // namespace mocap
+
+namespace mocap {
+
+/// Horizontal root velocity of `b` from its predecessor `a`, m/s.
+Eigen::Vector3d horizontal_root_velocity(const SynthFrame& a, const SynthFrame& b, double dt);
+
+/// The rigid placement (yaw + horizontal translation) that makes a piece
+/// starting with `first` (velocity v_first, horizontal, m/s, in the piece's
+/// own frame) continue from a state `end` (velocity v_end): the piece is
+/// turned so that its first heading is `heading_rad` (default: end's heading)
+/// and moved so that its first root lands, horizontally, at
+///   end.root + (v_end + v_first') / 2 * travel_time_s
+/// (v_first' = v_first turned), i.e. where the mean of the two velocities
+/// carries the root during the gap. Height is kept.
+Placement continuation_placement(const SynthSkeleton& sk, const SynthFrame& end,
+                                 const Eigen::Vector3d& v_end, const SynthFrame& first,
+                                 const Eigen::Vector3d& v_first, double travel_time_s,
+                                 const double* heading_rad = nullptr);
+
+}  // namespace mocap

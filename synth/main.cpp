@@ -1,0 +1,119 @@
+// mocap-synth: query -> target motion (docs/synthesis.md).
+//   mocap-synth --index INDEX.h5 --query Q.json [--results R.jsonl] [--pick PAIR:RANK ...]
+//               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
+//               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "mocap/error.hpp"
+#include "mocap/index.hpp"
+#include "mocap/query.hpp"
+#include "mocap/synth_job.hpp"
+#ifdef MOCAP_SYNTH_HAVE_SEARCH
+#include "mocap/search.hpp"
+#endif
+
+namespace {
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out || !(out << text)) throw mocap::InputError(path.string(), 0, "cannot write");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mocap-synth: synthesise the target motion of a query (A* supplementation, paper 2.4)"};
+  std::string index_path, query_path, results_path, out_path, report_path, html_path, method = "astar";
+  std::vector<std::string> picks;
+  mocap::SynthOptions options;
+  app.add_option("--index", index_path, "index file (mocap-index build)")->required();
+  app.add_option("--query", query_path, "query file (one JSON query)")->required();
+  app.add_option("--results", results_path,
+                 "search results (mocap-search JSONL); without it the search runs here");
+  app.add_option("--pick", picks, "PAIR:RANK: take rank RANK for pair PAIR (1-based; default rank 1)");
+  app.add_option("--out", out_path, "output BVH")->required();
+  app.add_option("--report", report_path, "REPORT.json");
+  app.add_option("--html", html_path, "REPORT.html (self-contained)");
+  app.add_option("--transition", method, "astar | slerp | inertialize")->capture_default_str();
+  app.add_option("--max-states", options.params.max_states, "T_n: most frames inserted per gap")
+      ->capture_default_str();
+  app.add_option("--cost-threshold", options.params.cost_threshold_J,
+                 "T_c: stop when the step cost to the goal is below this (J)")
+      ->capture_default_str();
+  app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
+  CLI11_PARSE(app, argc, argv);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    static const std::map<std::string, mocap::TransitionMethod> methods = {
+        {"astar", mocap::TransitionMethod::astar},
+        {"slerp", mocap::TransitionMethod::slerp},
+        {"inertialize", mocap::TransitionMethod::inertialize}};
+    if (!methods.count(method))
+      throw mocap::InputError("--transition", 0, "expected astar, slerp or inertialize, got \"" + method + "\"");
+    options.method = methods.at(method);
+    if (options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
+    if (!(options.params.cost_threshold_J >= 0.0))
+      throw mocap::InputError("--cost-threshold", 0, "must be >= 0");
+    for (const auto& p : picks) options.picks.push_back(mocap::parse_pick(p));
+
+    std::ifstream qin(query_path);
+    if (!qin) throw mocap::InputError(query_path, 0, "cannot read the query");
+    std::stringstream qs;
+    qs << qin.rdbuf();
+    const std::filesystem::path qp(query_path);
+    const mocap::Query query =
+        mocap::parse_query_text(qs.str(), query_path, 0, qp.parent_path(), qp.stem().string());
+    const mocap::Index index = mocap::Index::open(index_path);
+
+    std::vector<mocap::RankedPair> ranked;
+    double search_ms = 0.0;
+    if (!results_path.empty()) {
+      ranked = mocap::read_search_results(results_path, query.id, index);
+    } else {
+#ifdef MOCAP_SYNTH_HAVE_SEARCH
+      const auto ts = std::chrono::steady_clock::now();
+      const mocap::SearchEngine engine(index);
+      const mocap::QueryOutcome outcome = engine.run(query, mocap::SearchOptions{});
+      if (outcome.error) throw mocap::InputError(query_path, 0, "search failed: " + *outcome.error);
+      for (const auto& p : outcome.pairs) {
+        mocap::RankedPair rp;
+        rp.from = p.from;
+        rp.to = p.to;
+        for (const auto& r : p.results)
+          rp.results.push_back({r.rank, r.clip_index, r.clip, r.start_frame, r.end_frame, r.score_J, r.h_in_J,
+                                r.h_out_J, r.path_cost_J});
+        ranked.push_back(std::move(rp));
+      }
+      search_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count();
+#else
+      throw mocap::InputError("--results", 0, "required: this build has no search engine (MOCAP_SYNTH_STANDALONE)");
+#endif
+    }
+    std::optional<mocap::SynthSkeleton> skeleton;
+    const mocap::SynthResult result = mocap::synthesize(index, query, ranked, options, skeleton);
+    mocap::write_motion_bvh(result, out_path);
+    const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (!report_path.empty())
+      write_text(report_path, mocap::synth_report_json(index, query, query_path, ranked, result, options, search_ms,
+                                                       total_ms, out_path));
+    if (!html_path.empty())
+      write_text(html_path, mocap::synth_report_html(index, query, ranked, result, options));
+    std::size_t inserted = 0;
+    for (const auto& t : result.transitions) inserted += t.measures.frames;
+    std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " (" << result.frames.size()
+              << " frames, " << inserted << " supplementary, " << result.transitions.size() << " transitions by "
+              << mocap::transition_method_name(options.method) << ")\n";
+    if (!report_path.empty()) std::cout << "report: " << std::filesystem::absolute(report_path).string() << "\n";
+    if (!html_path.empty()) std::cout << "html:   " << std::filesystem::absolute(html_path).string() << "\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "mocap-synth: " << e.what() << "\n";
+    return 1;
+  }
+}

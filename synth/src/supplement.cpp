@@ -1,0 +1,455 @@
+// Supplementation of a gap: the A*-based search of the paper's figure 4 and
+// the slerp / inertialization baselines, plus the measures of a transition.
+// The method and every choice are documented in docs/synthesis.md.
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "mocap/energy.hpp"
+#include "mocap/newton_euler.hpp"
+#include "mocap/synth.hpp"
+
+namespace mocap {
+namespace {
+
+Eigen::Quaterniond quat_exp(const Eigen::Vector3d& v) {
+  const double a = v.norm();
+  if (a < 1e-12) return Eigen::Quaterniond::Identity();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(a, v / a));
+}
+// log(a^-1 b) in a's local frame (rotation vector).
+Eigen::Vector3d local_log(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return rotation_vector((a.conjugate() * b).normalized());
+}
+
+void check_gap(const GapProblem& gap) {
+  if (gap.skeleton == nullptr) throw std::invalid_argument("gap: no skeleton");
+  if (!(gap.frame_time_s > 0.0) || !std::isfinite(gap.frame_time_s))
+    throw std::invalid_argument("gap: frame time must be > 0");
+  const std::size_t n = gap.skeleton->joint_count();
+  for (const SynthFrame* f : {&gap.before, &gap.start, &gap.goal, &gap.after})
+    if (f->local_rotations.size() != n)
+      throw std::invalid_argument("gap: frame has " + std::to_string(f->local_rotations.size()) +
+                                  " joint rotations, the skeleton " + std::to_string(n));
+  if (gap.range != nullptr && gap.range->has_range.size() != n)
+    throw std::invalid_argument("gap: range of motion does not fit the skeleton");
+}
+
+PoseView view_of(const WorldPose& w) { return pose_view(w); }
+
+// Energies of steps between world poses with rates from their neighbours.
+struct StepEvaluator {
+  const SynthSkeleton& sk;
+  double dt;
+  BodyState sa, sb;
+  NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  std::size_t evaluations = 0;
+
+  StepEvaluator(const SynthSkeleton& s, double frame_time) : sk(s), dt(frame_time) {}
+
+  // g(A -> B): A's rates from (a_prev, A, B), B's from (A, B, b_next).
+  double g(const WorldPose* a_prev, const WorldPose& a, const WorldPose& b, const WorldPose* b_next,
+           bool want_terms) {
+    const PoseView pa = view_of(a), pb = view_of(b);
+    PoseView pap{}, pbn{};
+    if (a_prev) pap = view_of(*a_prev);
+    if (b_next) pbn = view_of(*b_next);
+    sequence_state(sk.model, a_prev ? &pap : nullptr, pa, &pb, dt, sa);
+    sequence_state(sk.model, &pa, pb, b_next ? &pbn : nullptr, dt, sb);
+    ++evaluations;
+    return full_energy(sk.model, sa.view(), sb.view(), dt, ws, want_terms ? &terms : nullptr);
+  }
+};
+
+// One step of the cubic Hermite path from (x0, v0) to (x1, v1) over duration T, at time t.
+template <class V>
+V hermite(const V& x0, const V& v0, const V& x1, const V& v1, double T, double t) {
+  const double s = t / T, s2 = s * s, s3 = s2 * s;
+  return (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * T * v0 + (-2 * s3 + 3 * s2) * x1 +
+         (s3 - s2) * T * v1;
+}
+
+// Base proposal: one Hermite step toward the goal over `remaining` steps.
+SynthFrame hermite_step(const GapProblem& gap, const SynthFrame& prev, const SynthFrame& cur,
+                        std::size_t remaining) {
+  const double dt = gap.frame_time_s, T = static_cast<double>(remaining) * dt;
+  SynthFrame out;
+  const Eigen::Vector3d v0 = (cur.root_position_m - prev.root_position_m) / dt;
+  const Eigen::Vector3d v1 = (gap.after.root_position_m - gap.goal.root_position_m) / dt;
+  out.root_position_m = hermite(cur.root_position_m, v0, gap.goal.root_position_m, v1, T, dt);
+  const std::size_t n = cur.local_rotations.size();
+  out.local_rotations.resize(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const Eigen::Quaterniond& qg = gap.goal.local_rotations[j];
+    const Eigen::Vector3d x0 = local_log(qg, cur.local_rotations[j]);
+    const Eigen::Vector3d xp = local_log(qg, prev.local_rotations[j]);
+    const Eigen::Vector3d w0 = (x0 - xp) / dt;
+    const Eigen::Vector3d w1 = local_log(qg, gap.after.local_rotations[j]) / dt;
+    const Eigen::Vector3d x = hermite(x0, w0, Eigen::Vector3d::Zero().eval(), w1, T, dt);
+    out.local_rotations[j] = (qg * quat_exp(x)).normalized();
+  }
+  return out;
+}
+
+// The geodesic step: root linear, joints slerp, 1 / remaining of the way.
+SynthFrame geodesic_step(const GapProblem& gap, const SynthFrame& cur, std::size_t remaining) {
+  const double s = 1.0 / static_cast<double>(remaining);
+  SynthFrame out;
+  out.root_position_m = (1.0 - s) * cur.root_position_m + s * gap.goal.root_position_m;
+  const std::size_t n = cur.local_rotations.size();
+  out.local_rotations.resize(n);
+  for (std::size_t j = 0; j < n; ++j)
+    out.local_rotations[j] = cur.local_rotations[j].slerp(s, gap.goal.local_rotations[j]).normalized();
+  return out;
+}
+
+// Bollo's inertialization decay of a scalar offset x0 with rate v0 over t1, at t.
+double inertialize_decay(double x0, double v0, double t1, double t) {
+  if (x0 == 0.0 && v0 == 0.0) return 0.0;
+  if (x0 > 0.0 ? v0 > 0.0 : v0 < 0.0) v0 = 0.0;  // never push the offset further out
+  if (v0 != 0.0) t1 = std::min(t1, -5.0 * x0 / v0);
+  if (t >= t1 || t1 <= 0.0) return 0.0;
+  const double t12 = t1 * t1;
+  const double a0 = (-8.0 * v0 * t1 - 20.0 * x0) / t12;
+  const double A = -(a0 * t12 + 6.0 * v0 * t1 + 12.0 * x0) / (2.0 * t12 * t12 * t1);
+  const double B = (3.0 * a0 * t12 + 16.0 * v0 * t1 + 30.0 * x0) / (2.0 * t12 * t12);
+  const double C = -(3.0 * a0 * t12 + 12.0 * v0 * t1 + 20.0 * x0) / (2.0 * t12 * t1);
+  const double t2 = t * t, t3 = t2 * t;
+  return A * t3 * t2 + B * t2 * t2 + C * t3 + 0.5 * a0 * t2 + v0 * t + x0;
+}
+Eigen::Vector3d inertialize_decay(const Eigen::Vector3d& x0, const Eigen::Vector3d& v0, double t1,
+                                  double t) {
+  const double m = x0.norm();
+  if (m < 1e-12) return Eigen::Vector3d::Zero();
+  const Eigen::Vector3d dir = x0 / m;
+  return dir * inertialize_decay(m, v0.dot(dir), t1, t);
+}
+
+// Lowest contact point of a foot joint (origin, or bone tip when it is one).
+Eigen::Vector3d contact_point(const SynthSkeleton& sk, const WorldPose& w, int j) {
+  const auto ju = static_cast<std::size_t>(j);
+  Eigen::Vector3d p = w.positions_m[ju];
+  if (sk.model.tip_contacts[ju]) {
+    const Eigen::Vector3d tip = p + w.rotations[ju] * sk.model.tips_local_m[ju];
+    if (tip.y() < p.y()) p = tip;
+  }
+  return p;
+}
+
+double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b, double dt) {
+  const EnergyParams& ep = sk.model.params;
+  double sum = 0.0;
+  for (int j : sk.foot_joints) {
+    const Eigen::Vector3d pa = contact_point(sk, a, j), pb = contact_point(sk, b, j);
+    const bool low = pa.y() - ep.ground_height_m <= ep.contact_height_m &&
+                     pb.y() - ep.ground_height_m <= ep.contact_height_m;
+    const Eigen::Vector3d d = pb - pa;
+    if (low && d.norm() / dt <= ep.contact_speed_mps) sum += std::hypot(d.x(), d.z());
+  }
+  return sum;
+}
+
+}  // namespace
+
+const char* transition_method_name(TransitionMethod m) {
+  switch (m) {
+    case TransitionMethod::astar: return "astar";
+    case TransitionMethod::slerp: return "slerp";
+    case TransitionMethod::inertialize: return "inertialize";
+  }
+  return "?";
+}
+
+std::size_t estimate_transition_frames(const GapProblem& gap, const SupplementParams& params) {
+  check_gap(gap);
+  double angle = 0.0;
+  const std::size_t n = gap.skeleton->joint_count();
+  for (std::size_t j = 0; j < n; ++j)
+    angle = std::max(angle, local_log(gap.start.local_rotations[j], gap.goal.local_rotations[j]).norm());
+  const double dist = (gap.goal.root_position_m - gap.start.root_position_m).norm();
+  const double t = std::max({angle / params.ref_angular_speed_radps, dist / params.ref_speed_mps,
+                             params.min_duration_s});
+  const auto frames = static_cast<std::size_t>(std::ceil(t / gap.frame_time_s));
+  return std::clamp<std::size_t>(frames, 1, std::max<std::size_t>(1, params.max_states));
+}
+
+std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
+                                         SupplementStats* stats) {
+  check_gap(gap);
+  if (!(params.cost_threshold_J >= 0.0)) throw std::invalid_argument("cost threshold must be >= 0");
+  const SynthSkeleton& sk = *gap.skeleton;
+  const double dt = gap.frame_time_s;
+  const std::size_t n = sk.joint_count();
+  StepEvaluator ev(sk, dt);
+  WorldPose w_goal, w_after, w_prev, w_cur, w_cand;
+  synth_world_pose(sk, gap.goal, w_goal);
+  synth_world_pose(sk, gap.after, w_after);
+  // Goal rates for h: one-sided from the goal's successor.
+  BodyState goal_state;
+  {
+    const PoseView pg = view_of(w_goal), pa = view_of(w_after);
+    sequence_state(sk.model, nullptr, pg, &pa, dt, goal_state);
+  }
+  const std::size_t estimate = estimate_transition_frames(gap, params);
+  // Neighbours of each joint (parent and children that carry rotations).
+  std::vector<std::vector<int>> adjacent(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const int p = sk.skeleton.parents[j];
+    if (p >= 0 && (!sk.is_root_chain[static_cast<std::size_t>(p)] || p == sk.root_joint))
+      adjacent[j].push_back(p);
+    for (int c : sk.skeleton.children(static_cast<int>(j))) adjacent[j].push_back(c);
+  }
+
+  // CLOSED: accepted states (the path); OPEN: this iteration's candidates.
+  std::vector<SynthFrame> closed;
+  SynthFrame pprev, prev = gap.before, cur = gap.start;
+  bool have_pprev = false;
+  WorldPose w_pprev, w_next;
+  std::string reason = "max_states";
+  std::size_t iterations = 0;
+  std::vector<std::pair<double, int>> costs;
+  std::vector<int> varied;
+  for (;;) {
+    if (have_pprev) synth_world_pose(sk, pprev, w_pprev);
+    synth_world_pose(sk, prev, w_prev);
+    synth_world_pose(sk, cur, w_cur);
+    // Stop: the step cost to the goal is below T_c.
+    const double to_goal = ev.g(&w_prev, w_cur, w_goal, &w_after, false);
+    if (to_goal < params.cost_threshold_J) {
+      reason = "threshold";
+      break;
+    }
+    if (closed.size() >= params.max_states) break;
+    if (closed.size() >= estimate) {
+      reason = "horizon";
+      break;
+    }
+    ++iterations;
+    const std::size_t remaining = std::max<std::size_t>(2, estimate + 1 - std::min(estimate, closed.size()));
+    const double t_rest = static_cast<double>(remaining - 1) * dt;
+    // f(C) = g over the steps C changes (prev -> cur -> C -> D, rates by
+    // central differences, D = the next geodesic step from C) + h(D -> S_G)
+    // over the time left after D.
+    auto score = [&](const SynthFrame& c) {
+      synth_world_pose(sk, c, w_cand);
+      const bool d_is_goal = remaining <= 2;
+      const SynthFrame d = d_is_goal ? gap.goal : geodesic_step(gap, c, remaining - 1);
+      if (!d_is_goal) synth_world_pose(sk, d, w_next);
+      const WorldPose& wd = d_is_goal ? w_goal : w_next;
+      double f = ev.g(have_pprev ? &w_pprev : nullptr, w_prev, w_cur, &w_cand, false);
+      f += ev.g(&w_prev, w_cur, w_cand, &wd, false);
+      f += ev.g(&w_cur, w_cand, wd, d_is_goal ? &w_after : nullptr, false);
+      if (!d_is_goal)
+        f += approximate_energy(sk.model, ev.sb.view(), goal_state.view(), t_rest - dt);
+      return f;
+    };
+    // Base proposal: the geodesic step toward the goal over the remaining steps;
+    // the velocity-continuous Hermite step is offered per joint as a variant.
+    const SynthFrame smooth = hermite_step(gap, prev, cur, remaining);
+    SynthFrame best = geodesic_step(gap, cur, remaining);
+    if (params.smooth_root) best.root_position_m = smooth.root_position_m;
+    // The costliest joints of the proposal step, in decreasing order.
+    synth_world_pose(sk, best, w_cand);
+    ev.g(&w_prev, w_cur, w_cand, nullptr, true);
+    double best_f = score(best);
+    costs.clear();
+    for (std::size_t j = 0; j < n; ++j) {
+      const double c = ev.terms.g.joint_J[j] + ev.terms.g.segment_J[j];
+      if (c > 0.0) costs.emplace_back(c, static_cast<int>(j));
+    }
+    std::sort(costs.begin(), costs.end(), [](const auto& x, const auto& y) {
+      return x.first != y.first ? x.first > y.first : x.second < y.second;
+    });
+    varied.clear();
+    auto try_candidate = [&](SynthFrame&& cand) {
+      const double f = score(cand);
+      if (f < best_f) {
+        best_f = f;
+        best = std::move(cand);
+      }
+    };
+    for (const auto& [c, j] : costs) {
+      if (varied.size() >= params.joints_per_iteration) break;
+      // Its adjacent joint that stands highest (itself when it has none).
+      int a = j;
+      double top = -1e300;
+      for (int k : adjacent[static_cast<std::size_t>(j)]) {
+        const double y = w_cur.positions_m[static_cast<std::size_t>(k)].y();
+        if (y > top) {
+          top = y;
+          a = k;
+        }
+      }
+      if (sk.is_root_chain[static_cast<std::size_t>(a)] && a != sk.root_joint) continue;
+      if (std::find(varied.begin(), varied.end(), a) != varied.end()) continue;
+      varied.push_back(a);
+      const auto au = static_cast<std::size_t>(a);
+      const Eigen::Quaterniond base = best.local_rotations[au];
+      const Eigen::Quaterniond here = cur.local_rotations[au];
+      // Variants: the smooth (Hermite) rotation, half-way to it, and the
+      // step scaled by 1 +- 0.25, 0.5 (within the range of motion).
+      std::vector<Eigen::Quaterniond> variants;
+      variants.push_back(smooth.local_rotations[au]);
+      variants.push_back(base.slerp(0.5, smooth.local_rotations[au]));
+      const Eigen::Vector3d step = local_log(here, base);
+      if (step.norm() > 1e-6)
+        for (double t : {0.5, 0.75, 1.25, 1.5}) variants.push_back(here * quat_exp(t * step));
+      for (Eigen::Quaterniond q : variants) {
+        q.normalize();
+        if (gap.range) q = clamp_to_range(sk, *gap.range, a, q);
+        SynthFrame cand = best;
+        cand.local_rotations[au] = q;
+        if (a == sk.root_joint) {
+          SynthFrame cand2 = cand;
+          cand2.root_position_m = smooth.root_position_m;
+          try_candidate(std::move(cand2));
+          cand2 = cand;
+          cand2.root_position_m = 0.5 * (best.root_position_m + smooth.root_position_m);
+          try_candidate(std::move(cand2));
+        }
+        try_candidate(std::move(cand));
+      }
+    }
+    closed.push_back(best);
+    pprev = std::move(prev);
+    have_pprev = true;
+    prev = std::move(cur);
+    cur = best;
+  }
+  if (stats) {
+    stats->iterations = iterations;
+    stats->energy_evaluations = ev.evaluations;
+    stats->estimated_frames = estimate;
+    stats->stop_reason = reason;
+  }
+  return closed;
+}
+
+std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames) {
+  check_gap(gap);
+  std::vector<SynthFrame> out(frames);
+  const std::size_t n = gap.skeleton->joint_count();
+  for (std::size_t i = 0; i < frames; ++i) {
+    const double s = static_cast<double>(i + 1) / static_cast<double>(frames + 1);
+    SynthFrame& f = out[i];
+    f.root_position_m = (1.0 - s) * gap.start.root_position_m + s * gap.goal.root_position_m;
+    f.local_rotations.resize(n);
+    for (std::size_t j = 0; j < n; ++j)
+      f.local_rotations[j] = gap.start.local_rotations[j].slerp(s, gap.goal.local_rotations[j]).normalized();
+  }
+  return out;
+}
+
+std::vector<SynthFrame> inertialize_transition(const GapProblem& gap, std::size_t frames) {
+  check_gap(gap);
+  const double dt = gap.frame_time_s;
+  const double t1 = static_cast<double>(frames + 1) * dt;
+  const std::size_t n = gap.skeleton->joint_count();
+  // Target track: the goal extrapolated backwards with its own rates.
+  const Eigen::Vector3d vg = (gap.after.root_position_m - gap.goal.root_position_m) / dt;
+  auto target_root = [&](double tau) { return Eigen::Vector3d(gap.goal.root_position_m - vg * tau); };
+  std::vector<Eigen::Vector3d> wg(n);
+  for (std::size_t j = 0; j < n; ++j)
+    wg[j] = local_log(gap.goal.local_rotations[j], gap.after.local_rotations[j]) / dt;
+  auto target_rot = [&](std::size_t j, double tau) {
+    return Eigen::Quaterniond((gap.goal.local_rotations[j] * quat_exp(-wg[j] * tau)).normalized());
+  };
+  // Offsets at the start (value and rate).
+  const Eigen::Vector3d px0 = gap.start.root_position_m - target_root(t1);
+  const Eigen::Vector3d pxm = gap.before.root_position_m - target_root(t1 + dt);
+  const Eigen::Vector3d pv0 = (px0 - pxm) / dt;
+  std::vector<Eigen::Vector3d> rx0(n), rv0(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    rx0[j] = local_log(target_rot(j, t1), gap.start.local_rotations[j]);
+    const Eigen::Vector3d xm = local_log(target_rot(j, t1 + dt), gap.before.local_rotations[j]);
+    rv0[j] = (rx0[j] - xm) / dt;
+  }
+  std::vector<SynthFrame> out(frames);
+  for (std::size_t i = 0; i < frames; ++i) {
+    const double t = static_cast<double>(i + 1) * dt, tau = t1 - t;
+    SynthFrame& f = out[i];
+    f.root_position_m = target_root(tau) + inertialize_decay(px0, pv0, t1, t);
+    f.local_rotations.resize(n);
+    for (std::size_t j = 0; j < n; ++j)
+      f.local_rotations[j] =
+          (target_rot(j, tau) * quat_exp(inertialize_decay(rx0[j], rv0[j], t1, t))).normalized();
+  }
+  return out;
+}
+
+TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  check_gap(gap);
+  const SynthSkeleton& sk = *gap.skeleton;
+  const double dt = gap.frame_time_s;
+  const std::size_t n = sk.joint_count();
+  std::vector<const SynthFrame*> seq;
+  seq.push_back(&gap.before);
+  seq.push_back(&gap.start);
+  for (const SynthFrame& f : frames) {
+    if (f.local_rotations.size() != n) throw std::invalid_argument("transition frame does not fit the skeleton");
+    seq.push_back(&f);
+  }
+  seq.push_back(&gap.goal);
+  seq.push_back(&gap.after);
+  const std::size_t L = seq.size();
+  std::vector<WorldPose> world(L);
+  for (std::size_t k = 0; k < L; ++k) synth_world_pose(sk, *seq[k], world[k]);
+  // States 1 .. L-2 with central rates, their inverse dynamics.
+  std::vector<BodyState> states(L);
+  std::vector<NewtonEulerData> ids(L);
+  for (std::size_t k = 1; k + 1 < L; ++k) {
+    const PoseView p = pose_view(world[k - 1]), c = pose_view(world[k]), x = pose_view(world[k + 1]);
+    sequence_state(sk.model, &p, c, &x, dt, states[k]);
+    inverse_dynamics(sk.model, states[k].view(), ids[k]);
+  }
+  TransitionMeasures m;
+  m.frames = frames.size();
+  NewtonEulerWorkspace ws;
+  for (std::size_t k = 1; k + 2 < L; ++k) {
+    const double g = full_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
+                                 ids[k + 1], ws);
+    m.step_energies_J.push_back(g);
+    m.energy_J += g;
+    m.approximate_energy_J += approximate_energy(sk.model, states[k].view(), states[k + 1].view(), dt);
+    m.foot_sliding_m += step_foot_sliding(sk, world[k], world[k + 1], dt);
+    for (std::size_t j = 0; j < n; ++j) {
+      if (sk.is_root_chain[j] && static_cast<int>(j) != sk.root_joint) continue;
+      const double w =
+          rotation_step(seq[k]->local_rotations[j], seq[k + 1]->local_rotations[j]).norm() / dt;
+      m.peak_angular_speed_radps = std::max(m.peak_angular_speed_radps, w);
+    }
+  }
+  if (gap.range)
+    for (const SynthFrame& f : frames)
+      for (std::size_t j = 0; j < n; ++j)
+        if (!within_range(sk, *gap.range, static_cast<int>(j), f.local_rotations[j])) ++m.range_violations;
+  return m;
+}
+
+std::vector<double> motion_step_energies(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                                         double frame_time_s) {
+  const std::size_t L = frames.size();
+  std::vector<double> out;
+  if (L < 2) return out;
+  std::vector<WorldPose> world(L);
+  for (std::size_t k = 0; k < L; ++k) synth_world_pose(sk, frames[k], world[k]);
+  std::vector<BodyState> states(L);
+  std::vector<NewtonEulerData> ids(L);
+  for (std::size_t k = 0; k < L; ++k) {
+    PoseView p{}, x{};
+    if (k > 0) p = pose_view(world[k - 1]);
+    if (k + 1 < L) x = pose_view(world[k + 1]);
+    sequence_state(sk.model, k > 0 ? &p : nullptr, pose_view(world[k]), k + 1 < L ? &x : nullptr,
+                   frame_time_s, states[k]);
+    inverse_dynamics(sk.model, states[k].view(), ids[k]);
+  }
+  NewtonEulerWorkspace ws;
+  for (std::size_t k = 0; k + 1 < L; ++k)
+    out.push_back(full_energy(sk.model, states[k].view(), states[k + 1].view(), frame_time_s, ids[k],
+                              ids[k + 1], ws));
+  return out;
+}
+
+}  // namespace mocap

@@ -1,0 +1,413 @@
+// The synthesis job: results in, assembly, BVH out (synth_job.hpp).
+#include "mocap/synth_job.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+
+#include "mocap/bvh.hpp"
+#include "mocap/error.hpp"
+#include "mocap/kinematics.hpp"
+#include "mocap/skeleton.hpp"
+#include "mocap/units.hpp"
+
+namespace mocap {
+namespace {
+
+std::string base_name(const std::string& path) {
+  const auto s = path.find_last_of('/');
+  return s == std::string::npos ? path : path.substr(s + 1);
+}
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// A query frame resolved on the target skeleton (private to synth; the search
+// library's resolver is internal to it).
+struct ResolvedQueryFrame {
+  std::array<std::optional<double>, 3> root_m;
+  std::optional<double> heading_rad;
+  std::vector<std::pair<int, Eigen::Quaterniond>> joints;
+};
+
+ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const SynthSkeleton& sk,
+                                       const std::string& source) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string where = "frames[" + std::to_string(i) + "]";
+  ResolvedQueryFrame out;
+  auto joint_of = [&](const std::string& name, const std::string& field) {
+    const int j = find_joint_by_alias(sk.skeleton, name);
+    if (j < 0) {
+      std::string names;
+      for (const auto& n : sk.skeleton.names) names += (names.empty() ? "" : ", ") + n;
+      throw InputError(source, 0, field + ": unknown joint \"" + name + "\" (skeleton joints: " + names + ")");
+    }
+    return j;
+  };
+  if (spec.bvh) {
+    const RawClip raw = read_bvh_file(*spec.bvh);
+    if (spec.bvh_frame >= raw.frame_count)
+      throw InputError(source, 0, where + ".frame: " + std::to_string(spec.bvh_frame) + " out of range (" +
+                                      spec.bvh->string() + " has " + std::to_string(raw.frame_count) + " frames)");
+    const double scale = unit_scale_m(detect_unit(raw));
+    const Skeleton fs = build_skeleton(raw, scale);
+    LocalPose local;
+    local_pose_from_row(fs, raw.frame(spec.bvh_frame), local);
+    WorldPose world;
+    forward_kinematics(fs, local, world);
+    auto wanted = [&](const std::string& dof) {
+      return spec.only.empty() || std::find(spec.only.begin(), spec.only.end(), dof) != spec.only.end();
+    };
+    const std::string& root_name = sk.skeleton.names[static_cast<std::size_t>(sk.root_joint)];
+    int froot = fs.find(root_name);
+    if (froot < 0) froot = find_joint_by_alias(fs, "Hips");
+    if (froot < 0) throw InputError(source, 0, where + ".bvh: no pelvis joint in " + spec.bvh->string());
+    const Eigen::Vector3d p = world.positions_m[static_cast<std::size_t>(froot)];
+    if (wanted("root_position")) out.root_m = {p.x(), p.y(), p.z()};
+    else if (wanted("root_position_xz")) out.root_m = {p.x(), std::nullopt, p.z()};
+    for (std::size_t fj = 0; fj < fs.joint_count(); ++fj) {
+      if (fs.parents[fj] < 0 && static_cast<int>(fj) != froot) continue;
+      int tj = sk.skeleton.find(fs.names[fj]);
+      if (tj < 0) tj = find_joint_by_alias(sk.skeleton, fs.names[fj]);
+      if (tj < 0) continue;
+      if (!spec.only.empty() && !wanted(fs.names[fj]) && !(tj == sk.root_joint && wanted("root_heading")))
+        continue;
+      out.joints.emplace_back(tj, local.rotations[fj]);
+    }
+  }
+  for (int k = 0; k < 3; ++k)
+    if (spec.root_position_m[static_cast<std::size_t>(k)])
+      out.root_m[static_cast<std::size_t>(k)] = spec.root_position_m[static_cast<std::size_t>(k)];
+  if (spec.root_heading_deg) out.heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
+  for (const JointRotationSpec& js : spec.joints)
+    out.joints.emplace_back(joint_of(js.name, where + ".joints." + js.name), js.rotation.normalized());
+  return out;
+}
+
+// Q_F: F with the given DOFs replaced. `shift` is added to the horizontal
+// root position when the query does not give it.
+SynthFrame complete_query(const SynthSkeleton& sk, const ResolvedQueryFrame& q, const SynthFrame& f,
+                          bool relative, const Eigen::Vector3d& shift) {
+  SynthFrame out = f;
+  for (const auto& [j, rot] : q.joints) out.local_rotations[static_cast<std::size_t>(j)] = rot;
+  if (q.heading_rad) {
+    Placement p;
+    p.yaw_rad = *q.heading_rad - root_heading(sk, out);
+    const Eigen::Vector3d keep = out.root_position_m;
+    out = place_frame(sk, out, p);
+    out.root_position_m = keep;
+  }
+  const bool xz_given = q.root_m[0] && q.root_m[2];
+  if (!xz_given) out.root_position_m += Eigen::Vector3d(shift.x(), 0.0, shift.z());
+  for (std::size_t k = 0; k < 3; ++k)
+    if (q.root_m[k])
+      out.root_position_m[static_cast<Eigen::Index>(k)] =
+          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) + *q.root_m[k];
+  return out;
+}
+
+std::vector<Channel> parse_channels(const std::string& s) {
+  std::vector<Channel> out;
+  std::istringstream in(s);
+  std::string w;
+  static const char* names[] = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+  while (in >> w)
+    for (int k = 0; k < 6; ++k)
+      if (w == names[k]) out.push_back(static_cast<Channel>(k));
+  return out;
+}
+
+}  // namespace
+
+std::vector<RankedPair> read_search_results(const std::filesystem::path& path, const std::string& query_id,
+                                            const Index& index) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string(), 0, "cannot read the search results");
+  std::string line;
+  std::size_t n = 0;
+  std::vector<std::string> ids;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(line);
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(path.string(), n, std::string("invalid JSON: ") + e.what());
+    }
+    if (!j.is_object() || !j.contains("id") || !j["id"].is_string())
+      throw InputError(path.string(), n, "expected an object with a string \"id\"");
+    const std::string id = j["id"].get<std::string>();
+    ids.push_back(id);
+    if (id != query_id) continue;
+    if (j.contains("error")) throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
+    if (!j.contains("pairs") || !j["pairs"].is_array()) throw InputError(path.string(), n, "pairs: expected an array");
+    std::vector<RankedPair> pairs;
+    try {
+      for (const auto& jp : j["pairs"]) {
+        RankedPair p;
+        p.from = jp.at("from").get<std::size_t>();
+        p.to = jp.at("to").get<std::size_t>();
+        for (const auto& jr : jp.at("results")) {
+          RankedMotion r;
+          r.rank = jr.at("rank").get<std::size_t>();
+          r.clip_index = jr.at("clip_index").get<std::size_t>();
+          r.clip = jr.at("clip").get<std::string>();
+          r.start_frame = jr.at("start_frame").get<std::size_t>();
+          r.end_frame = jr.at("end_frame").get<std::size_t>();
+          r.score_J = jr.value("score_J", 0.0);
+          r.h_in_J = jr.value("h_in_J", 0.0);
+          r.h_out_J = jr.value("h_out_J", 0.0);
+          r.path_cost_J = jr.value("path_cost_J", 0.0);
+          if (r.clip_index >= index.clips().size() ||
+              (index.clips()[r.clip_index].path != r.clip &&
+               base_name(index.clips()[r.clip_index].path) != base_name(r.clip)))
+            throw InputError(path.string(), n,
+                             "unknown clip \"" + r.clip + "\" (clip_index " + std::to_string(r.clip_index) +
+                                 ") in index " + index.path().string());
+          const std::size_t fc = index.clips()[r.clip_index].frame_count;
+          if (!(r.start_frame < r.end_frame && r.end_frame < fc))
+            throw InputError(path.string(), n,
+                             "frames " + std::to_string(r.start_frame) + ".." + std::to_string(r.end_frame) +
+                                 " out of range for \"" + r.clip + "\" (" + std::to_string(fc) + " frames)");
+          p.results.push_back(std::move(r));
+        }
+        pairs.push_back(std::move(p));
+      }
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(path.string(), n, std::string("pairs: ") + e.what());
+    }
+    return pairs;
+  }
+  std::string known;
+  for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
+  throw InputError(path.string(), 0, "no results for query \"" + query_id + "\" (ids in the file: " +
+                                         (known.empty() ? "none" : known) + ")");
+}
+
+Pick parse_pick(const std::string& text) {
+  const auto colon = text.find(':');
+  Pick p;
+  auto num = [&](std::string_view s, std::size_t& v) {
+    const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+    return r.ec == std::errc() && r.ptr == s.data() + s.size() && v >= 1;
+  };
+  if (colon == std::string::npos || !num(std::string_view(text).substr(0, colon), p.pair) ||
+      !num(std::string_view(text).substr(colon + 1), p.rank))
+    throw InputError("--pick", 0, "expected PAIR:RANK with 1-based integers, got \"" + text + "\"");
+  return p;
+}
+
+SynthResult synthesize(const Index& index, const Query& query, const std::vector<RankedPair>& ranked,
+                       const SynthOptions& options, std::optional<SynthSkeleton>& skeleton_out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string src = "<query " + query.id + ">";
+  const std::size_t H = query.frames.size();
+  if (H < 2) throw InputError(src, 0, "frames: a query needs at least 2 frames");
+  if (ranked.size() != H - 1)
+    throw InputError(src, 0, "the search results have " + std::to_string(ranked.size()) + " pairs, the query " +
+                                 std::to_string(H - 1));
+  // Choices: rank 1 unless picked.
+  std::vector<std::size_t> rank(H - 1, 1);
+  for (const Pick& p : options.picks) {
+    if (p.pair > H - 1)
+      throw InputError("--pick", 0, "pair " + std::to_string(p.pair) + " out of range (the query has " +
+                                        std::to_string(H - 1) + " pairs)");
+    rank[p.pair - 1] = p.rank;
+  }
+  SynthResult res;
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    const auto& rs = ranked[h].results;
+    auto it = std::find_if(rs.begin(), rs.end(), [&](const RankedMotion& m) { return m.rank == rank[h]; });
+    if (it == rs.end())
+      throw InputError("--pick", 0, "pair " + std::to_string(h + 1) + " has no result of rank " +
+                                        std::to_string(rank[h]) + " (" + std::to_string(rs.size()) + " results)");
+    res.chosen.push_back(*it);
+  }
+  // Target skeleton: the first chosen clip's.
+  const IndexClip& c0 = index.clips()[res.chosen[0].clip_index];
+  // Clips of another skeleton are mapped joint by joint (same name, else the
+  // same canonical body part); refused when a target joint cannot be mapped.
+  const Skeleton& target = index.skeletons()[c0.skeleton].skeleton;
+  std::map<std::uint32_t, std::vector<int>> joint_maps;
+  for (const RankedMotion& m : res.chosen) {
+    const IndexClip& c = index.clips()[m.clip_index];
+    if (std::abs(c.frame_time_s - c0.frame_time_s) > 1e-9)
+      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" has frame time " + std::to_string(c.frame_time_s) +
+                                   " s, the target (\"" + base_name(c0.path) + "\") " +
+                                   std::to_string(c0.frame_time_s) + " s: pick clips of one frame rate");
+    if (c.skeleton == c0.skeleton || joint_maps.count(c.skeleton)) continue;
+    const Skeleton& other = index.skeletons()[c.skeleton].skeleton;
+    std::vector<int> map(target.joint_count(), -1);
+    std::string missing;
+    for (std::size_t j = 0; j < target.joint_count(); ++j) {
+      int o = other.find(target.names[j]);
+      if (o < 0) o = find_joint_by_alias(other, target.names[j]);
+      map[j] = o;
+      if (o < 0 && target.channels[j].rotation_count > 0) missing += (missing.empty() ? "" : ", ") + target.names[j];
+    }
+    if (!missing.empty())
+      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
+                                   ", which cannot be mapped to the target skeleton " + std::to_string(c0.skeleton) +
+                                   " (from \"" + base_name(c0.path) + "\"): no joint for " + missing);
+    joint_maps[c.skeleton] = std::move(map);
+  }
+  auto piece_frame = [&](std::size_t clip, std::size_t f) {
+    SynthFrame fr = clip_frame(index, clip, f);
+    const auto it = joint_maps.find(index.clips()[clip].skeleton);
+    if (index.clips()[clip].skeleton == c0.skeleton || it == joint_maps.end()) return fr;
+    SynthFrame mapped;
+    mapped.root_position_m = fr.root_position_m;
+    mapped.local_rotations.assign(target.joint_count(), Eigen::Quaterniond::Identity());
+    for (std::size_t j = 0; j < target.joint_count(); ++j)
+      if (it->second[j] >= 0) mapped.local_rotations[j] = fr.local_rotations[static_cast<std::size_t>(it->second[j])];
+    return mapped;
+  };
+  skeleton_out.emplace(make_synth_skeleton(index, c0.skeleton, res.chosen[0].clip_index));
+  const SynthSkeleton& sk = *skeleton_out;
+  res.skeleton = &sk;
+  const double dt = c0.frame_time_s;
+  res.frame_time_s = dt;
+  // Range of motion: union over every clip of the target skeleton in the index.
+  const std::vector<std::size_t>& clips = index.skeletons()[c0.skeleton].clips;
+  const RangeOfMotion rom = range_of_motion(index, sk, clips);
+  std::vector<ResolvedQueryFrame> qf;
+  for (std::size_t i = 0; i < H; ++i) qf.push_back(resolve_query_frame(query, i, sk, src));
+  const double T = query.transition_time_s;
+
+  // Place the partial motions.
+  std::vector<std::vector<SynthFrame>> pieces(H - 1);
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    const RankedMotion& m = res.chosen[h];
+    std::vector<SynthFrame> raw;
+    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f) raw.push_back(piece_frame(m.clip_index, f));
+    Placement p;
+    const bool world_xz = !query.relative && qf[h].root_m[0] && qf[h].root_m[2];
+    if (h > 0 && !world_xz) {
+      const auto& prev = pieces[h - 1];
+      const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
+      const Eigen::Vector3d vs = horizontal_root_velocity(raw[0], raw[1], dt);
+      const double* heading = qf[h].heading_rad ? &*qf[h].heading_rad : nullptr;
+      p = continuation_placement(sk, prev.back(), ve, raw[0], vs, T, heading);
+    }
+    for (SynthFrame& f : raw) f = place_frame(sk, f, p);
+    pieces[h] = std::move(raw);
+  }
+  // Complete the query frames (Q_F).
+  for (std::size_t h = 0; h < H; ++h) {
+    if (h + 1 < H) {
+      const auto& pc = pieces[h];
+      const Eigen::Vector3d vs = horizontal_root_velocity(pc[0], pc[1], dt);
+      res.query_frames.push_back(complete_query(sk, qf[h], pc[0], query.relative, -0.5 * T * vs));
+    } else {
+      const auto& pc = pieces[h - 1];
+      const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
+      res.query_frames.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
+    }
+  }
+  // Assemble with transitions.
+  auto add_segment = [&](const std::string& kind, std::size_t pair, const std::vector<SynthFrame>& fs) {
+    res.segments.push_back({kind, pair, res.frames.size(), fs.size()});
+    res.frames.insert(res.frames.end(), fs.begin(), fs.end());
+  };
+  auto transition = [&](std::size_t pair, const std::string& side, GapProblem gap) {
+    gap.skeleton = &sk;
+    gap.range = &rom;
+    gap.frame_time_s = dt;
+    TransitionReport tr;
+    tr.pair = pair;
+    tr.side = side;
+    tr.method = options.method;
+    const auto ts = std::chrono::steady_clock::now();
+    std::vector<SynthFrame> fs;
+    const std::size_t frames = options.method == TransitionMethod::astar ? 0 : estimate_transition_frames(gap, options.params);
+    switch (options.method) {
+      case TransitionMethod::astar: fs = supplement_astar(gap, options.params, &tr.stats); break;
+      case TransitionMethod::slerp: fs = slerp_transition(gap, frames); break;
+      case TransitionMethod::inertialize: fs = inertialize_transition(gap, frames); break;
+    }
+    tr.time_ms = ms_since(ts);
+    tr.measures = measure_transition(gap, fs);
+    for (TransitionMethod other : {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
+      if (other == options.method || other == TransitionMethod::astar) continue;
+      const auto bf = other == TransitionMethod::slerp ? slerp_transition(gap, fs.size())
+                                                       : inertialize_transition(gap, fs.size());
+      tr.baselines.emplace_back(other, measure_transition(gap, bf));
+    }
+    res.transitions.push_back(std::move(tr));
+    add_segment("transition", pair, fs);
+  };
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    const SynthFrame& q = res.query_frames[h];
+    add_segment("query", h + 1, {q});
+    const auto& pc = pieces[h];
+    transition(h + 1, "in", GapProblem{nullptr, nullptr, q, q, pc[0], pc[1], 0.0});
+    add_segment("partial", h + 1, pc);
+    const SynthFrame& qn = res.query_frames[h + 1];
+    transition(h + 1, "out", GapProblem{nullptr, nullptr, pc[pc.size() - 2], pc.back(), qn, qn, 0.0});
+  }
+  add_segment("query", H, {res.query_frames.back()});
+  res.step_energies_J = motion_step_energies(sk, res.frames, dt);
+  res.synth_ms = ms_since(t0);
+  return res;
+}
+
+void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
+  const SynthSkeleton& sk = *result.skeleton;
+  const Skeleton& s = sk.skeleton;
+  const double unit = s.unit_scale_m;
+  RawClip raw;
+  raw.source = path.string();
+  raw.frame_time_s = result.frame_time_s;
+  raw.frame_count = result.frames.size();
+  const std::size_t n = s.joint_count();
+  std::vector<std::vector<Channel>> chans(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    RawJoint rj;
+    rj.name = s.names[j];
+    rj.parent = s.parents[j];
+    rj.offset = sk.local_translations_m[j] / unit;
+    chans[j] = parse_channels(j < sk.channels.size() ? sk.channels[j] : "");
+    rj.channels = chans[j];
+    rj.first_column = raw.channel_count;
+    raw.channel_count += rj.channels.size();
+    rj.has_end_site = s.has_end_site[j] != 0;
+    rj.end_site = s.end_sites_m[j] / unit;
+    raw.joints.push_back(std::move(rj));
+  }
+  raw.values.resize(raw.frame_count * raw.channel_count);
+  WorldPose w;
+  for (std::size_t f = 0; f < raw.frame_count; ++f) {
+    const SynthFrame& fr = result.frames[f];
+    synth_world_pose(sk, fr, w);
+    double* row = raw.values.data() + f * raw.channel_count;
+    for (std::size_t j = 0; j < n; ++j) {
+      Eigen::Vector3d t = sk.local_translations_m[j];
+      if (static_cast<int>(j) == sk.root_joint) {
+        const int p = s.parents[j];
+        t = p < 0 ? fr.root_position_m
+                  : Eigen::Vector3d(w.rotations[static_cast<std::size_t>(p)].conjugate() *
+                                    (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
+      }
+      t /= unit;
+      const auto& cm = s.channels[j];
+      Eigen::Vector3d e = Eigen::Vector3d::Zero();
+      if (cm.rotation_count == 3) e = quaternion_to_euler(fr.local_rotations[j], cm.rotation_axis);
+      std::size_t col = raw.joints[j].first_column, rot_k = 0;
+      for (Channel c : chans[j]) {
+        if (channel_is_rotation(c)) row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
+        else row[col++] = t[channel_axis(c)];
+      }
+    }
+  }
+  write_bvh_file(to_export_layout(raw), path);
+}
+
+}  // namespace mocap

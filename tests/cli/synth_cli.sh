@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# mocap-synth end to end on set 1: invalid inputs first (bad pick, missing
+# results, unknown clip, query id absent, skeleton/frame-rate mismatch), then a
+# 3-frame query with explicit results -> BVH + REPORT.json, checked for the
+# assembly (query, transition, partial, ... segments), the measures, and
+# determinism (two runs give the same BVH).
+#   bash tests/cli/synth_cli.sh BUILD_DIR DATA_DIR
+set -euo pipefail
+build="${1:?usage: synth_cli.sh BUILD_DIR DATA_DIR}"
+data="${2:?usage: synth_cli.sh BUILD_DIR DATA_DIR}"
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+synth="$build/synth/mocap-synth"
+indexer="$build/indexer/mocap-index"
+[ -x "$synth" ] || { echo "FAIL: $synth not built" >&2; exit 1; }
+[ -x "$indexer" ] || { echo "FAIL: $indexer not built" >&2; exit 1; }
+[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+"$indexer" build --out "$tmp/index.h5" "$data/bandai-namco-1" "$data/cmu" >/dev/null 2>&1
+python3 "$here/../synth/synth_fixture.py" --index-data "$data" --out "$tmp" >/dev/null
+
+fail() { echo "FAIL: $*" >&2; exit 1; }
+expect_error() {  # expect_error PATTERN ARGS...
+  local pattern="$1"; shift
+  if "$synth" "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"; then fail "expected an error for: $*"; fi
+  grep -q -- "$pattern" "$tmp/err.txt" || { cat "$tmp/err.txt" >&2; fail "message '$pattern' missing for: $*"; }
+}
+base=(--index "$tmp/index.h5" --query "$tmp/query.json" --out "$tmp/m.bvh")
+expect_error "expected PAIR:RANK" "${base[@]}" --results "$tmp/results.jsonl" --pick 1-2
+expect_error "pair 5 out of range" "${base[@]}" --results "$tmp/results.jsonl" --pick 5:1
+expect_error "has no result of rank 9" "${base[@]}" --results "$tmp/results.jsonl" --pick 1:9
+expect_error "cannot read the search results" "${base[@]}" --results "$tmp/missing.jsonl"
+expect_error "unknown clip" "${base[@]}" --results "$tmp/unknown-clip.jsonl"
+expect_error "no results for query" "${base[@]}" --results "$tmp/other-id.jsonl"
+expect_error "frame time" "${base[@]}" --results "$tmp/cmu-mix.jsonl"
+expect_error "expected astar, slerp or inertialize" "${base[@]}" --results "$tmp/results.jsonl" --transition foo
+expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.json" --results "$tmp/results.jsonl" --out "$tmp/m.bvh"
+[ ! -e "$tmp/m.bvh" ] || fail "an output was written by a failing run"
+
+"$synth" "${base[@]}" --results "$tmp/results.jsonl" --report "$tmp/r.json" --html "$tmp/r.html" >"$tmp/out.txt"
+grep -q "^motion: .*m.bvh" "$tmp/out.txt" || fail "motion path not printed"
+"$synth" "${base[@]/m.bvh/m2.bvh}" --results "$tmp/results.jsonl" >/dev/null
+cmp -s "$tmp/m.bvh" "$tmp/m2.bvh" || fail "two runs gave different motions"
+"$synth" "${base[@]/m.bvh/ms.bvh}" --results "$tmp/results.jsonl" --transition slerp --report "$tmp/rs.json" >/dev/null
+"$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
+python3 - "$tmp" <<'PY'
+import json, sys
+t = sys.argv[1]
+r = json.load(open(t + "/r.json"))
+segs = r["motion"]["segments"]
+kinds = [s["kind"] for s in segs]
+assert kinds == ["query", "transition", "partial", "transition", "query", "transition", "partial", "transition", "query"], kinds
+assert sum(s["frames"] for s in segs) == r["motion"]["frames"]
+assert len(r["motion"]["step_energies_J"]) == r["motion"]["frames"] - 1
+for s in segs:
+    if s["kind"] == "partial":
+        c = r["chosen"][s["pair"] - 1]
+        assert s["frames"] == c["end_frame"] - c["start_frame"] + 1
+assert len(r["transitions"]) == 4
+for tr in r["transitions"]:
+    assert tr["method"] == "astar" and tr["frames"] >= 0
+    assert tr["g_J"] >= tr["h_J"] >= 0, tr
+    assert len(tr["step_energies_J"]) == tr["frames"] + 1
+    assert tr["frames"] <= r["parameters"]["max_states"]
+    for k in ("foot_sliding_m", "range_violations", "peak_angular_speed_radps"):
+        assert tr[k] >= 0
+    assert "slerp" in tr["baselines_same_length"] and "inertialize" in tr["baselines_same_length"]
+    assert tr["search"]["stop_reason"] in ("threshold", "horizon", "max_states")
+rs = json.load(open(t + "/rs.json"))
+assert all(x["method"] == "slerp" for x in rs["transitions"])
+rp = json.load(open(t + "/rp.json"))
+assert rp["chosen"][0]["rank"] == 2 and rp["chosen"][1]["rank"] == 1
+# The BVH frame count matches the report.
+frames = [l for l in open(t + "/m.bvh") if l.startswith("Frames:")]
+assert int(frames[0].split()[1]) == r["motion"]["frames"]
+print("ok")
+PY
+# Without --results the search engine runs in the process (its rank-1 results).
+"$synth" "${base[@]/m.bvh/me.bvh}" --report "$tmp/re.json" >/dev/null
+python3 - "$tmp/re.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["timings_ms"]["search"] > 0
+assert [c["rank"] for c in r["chosen"]] == [1, 1]
+assert all(c["start_frame"] < c["end_frame"] for c in r["chosen"])
+PY
+echo "ok: mocap-synth CLI"

@@ -1,0 +1,307 @@
+// synth/src: supplementation, measures, placement, results reading, picks.
+// Invalid inputs first, then behaviour on real gaps of set 1 (an index is
+// built once with the indexer binary of this build).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "mocap/error.hpp"
+#include "mocap/synth.hpp"
+#include "mocap/synth_job.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using mocap::SynthFrame;
+
+const mocap::Index* shared_index() {
+  static std::unique_ptr<mocap::Index> index;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    const auto dir = mocap::test::temp_dir("synth-index");
+    const auto out = dir / "set1.h5";
+    const std::string cmd = std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build --out " + out.string() +
+                            " " + (mocap::test::data_dir() / "bandai-namco-1").string() + " " +
+                            (mocap::test::data_dir() / "cmu").string() + " >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) == 0) index = std::make_unique<mocap::Index>(mocap::Index::open(out));
+  }
+  return index.get();
+}
+
+std::size_t clip_named(const mocap::Index& index, const std::string& name) {
+  for (std::size_t c = 0; c < index.clips().size(); ++c)
+    if (index.clips()[c].path.ends_with("/" + name)) return c;
+  ADD_FAILURE() << "no clip " << name;
+  return 0;
+}
+
+// A gap from frame a of clip x to frame b of clip y (same skeleton), y placed by the assembly rule.
+struct RealGap {
+  mocap::SynthSkeleton sk;
+  mocap::RangeOfMotion rom;
+  mocap::GapProblem gap;
+};
+std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std::size_t a, std::size_t y,
+                                  std::size_t b) {
+  auto g = std::make_unique<RealGap>();
+  g->sk = mocap::make_synth_skeleton(index, index.clips()[x].skeleton, x);
+  g->rom = mocap::range_of_motion(index, g->sk, index.skeletons()[index.clips()[x].skeleton].clips);
+  auto& gap = g->gap;
+  gap.skeleton = &g->sk;
+  gap.range = &g->rom;
+  gap.frame_time_s = index.clips()[x].frame_time_s;
+  gap.before = mocap::clip_frame(index, x, a - 1);
+  gap.start = mocap::clip_frame(index, x, a);
+  const SynthFrame g0 = mocap::clip_frame(index, y, b), g1 = mocap::clip_frame(index, y, b + 1);
+  const double dt = gap.frame_time_s;
+  const auto p = mocap::continuation_placement(g->sk, gap.start, mocap::horizontal_root_velocity(gap.before, gap.start, dt),
+                                               g0, mocap::horizontal_root_velocity(g0, g1, dt), 0.4);
+  gap.goal = mocap::place_frame(g->sk, g0, p);
+  gap.after = mocap::place_frame(g->sk, g1, p);
+  return g;
+}
+
+#define REQUIRE_INDEX()                                          \
+  MOCAP_REQUIRE_DATA();                                          \
+  const mocap::Index* index_ptr = shared_index();                \
+  ASSERT_NE(index_ptr, nullptr) << "could not build the index";  \
+  const mocap::Index& index = *index_ptr
+
+}  // namespace
+
+TEST(SynthValidity, PickParsing) {
+  EXPECT_THROW(mocap::parse_pick(""), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("1"), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("1:"), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("0:1"), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("1:0"), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("a:2"), mocap::InputError);
+  EXPECT_THROW(mocap::parse_pick("1:2x"), mocap::InputError);
+  const auto p = mocap::parse_pick("2:3");
+  EXPECT_EQ(p.pair, 2u);
+  EXPECT_EQ(p.rank, 3u);
+}
+
+TEST(SynthValidity, BadGapsAndResults) {
+  REQUIRE_INDEX();
+  const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  auto g = make_gap(index, x, 10, x, 40);
+  mocap::GapProblem bad = g->gap;
+  bad.frame_time_s = 0.0;
+  EXPECT_THROW(mocap::supplement_astar(bad, {}), std::invalid_argument);
+  bad = g->gap;
+  bad.goal.local_rotations.pop_back();
+  EXPECT_THROW(mocap::slerp_transition(bad, 3), std::invalid_argument);
+  bad = g->gap;
+  bad.skeleton = nullptr;
+  EXPECT_THROW(mocap::measure_transition(bad, {}), std::invalid_argument);
+  EXPECT_THROW(mocap::clip_frame(index, x, index.clips()[x].frame_count), std::invalid_argument);
+
+  const auto dir = mocap::test::temp_dir("synth-results");
+  EXPECT_THROW(mocap::read_search_results(dir / "missing.jsonl", "q", index), mocap::InputError);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return dir / name;
+  };
+  EXPECT_THROW(mocap::read_search_results(write("bad.jsonl", "{not json\n"), "q", index), mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("noid.jsonl", "{\"pairs\": []}\n"), "q", index), mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("other.jsonl", "{\"id\": \"p\", \"pairs\": []}\n"), "q", index),
+               mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("err.jsonl", "{\"id\": \"q\", \"error\": \"boom\"}\n"), "q", index),
+               mocap::InputError);
+  const std::string clip = index.clips()[x].path;
+  auto line = [&](const std::string& name, std::size_t ci, std::size_t s, std::size_t e) {
+    return "{\"id\": \"q\", \"pairs\": [{\"from\": 0, \"to\": 1, \"results\": [{\"rank\": 1, \"clip\": \"" + name +
+           "\", \"clip_index\": " + std::to_string(ci) + ", \"start_frame\": " + std::to_string(s) +
+           ", \"end_frame\": " + std::to_string(e) + ", \"score_J\": 1}]}]}\n";
+  };
+  try {
+    mocap::read_search_results(write("unknown.jsonl", line("/x/nope.bvh", x, 1, 5)), "q", index);
+    FAIL() << "unknown clip accepted";
+  } catch (const mocap::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown clip"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(mocap::read_search_results(write("range.jsonl", line(clip, x, 5, 100000)), "q", index),
+               mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("order.jsonl", line(clip, x, 5, 5)), "q", index), mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("idx.jsonl", line(clip, 100000, 1, 5)), "q", index),
+               mocap::InputError);
+  const auto ok = mocap::read_search_results(write("ok.jsonl", line(clip, x, 1, 5)), "q", index);
+  ASSERT_EQ(ok.size(), 1u);
+  EXPECT_EQ(ok[0].results.at(0).end_frame, 5u);
+}
+
+TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
+  REQUIRE_INDEX();
+  const std::size_t w1 = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  const std::size_t cmu = clip_named(index, "131_01.bvh");
+  mocap::Query q = mocap::parse_query_text(
+      R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}]})", "q.json", 0, ".", "q");
+  mocap::RankedPair pair;
+  pair.results.push_back({1, w1, index.clips()[w1].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+  std::optional<mocap::SynthSkeleton> sk;
+  mocap::SynthOptions opt;
+  opt.picks = {{2, 1}};
+  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);  // pair out of range
+  opt.picks = {{1, 4}};
+  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);  // rank absent
+  opt.picks.clear();
+  EXPECT_THROW(mocap::synthesize(index, q, {}, opt, sk), mocap::InputError);  // pairs missing
+  mocap::Query q3 = mocap::parse_query_text(
+      R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}, {"root_heading_deg": 0}]})",
+      "q.json", 0, ".", "q");
+  mocap::RankedPair other;
+  other.results.push_back({1, cmu, index.clips()[cmu].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+  try {
+    mocap::synthesize(index, q3, {pair, other}, opt, sk);
+    FAIL() << "clips of different frame rates accepted";
+  } catch (const mocap::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame time"), std::string::npos) << e.what();
+  }
+  mocap::Query qj = mocap::parse_query_text(
+      R"({"id": "q", "frames": [{"joints": {"NoSuchJoint": {"euler_deg": [0, 0, 0], "order": "XYZ"}}}, {"root_heading_deg": 0}]})",
+      "q.json", 0, ".", "q");
+  EXPECT_THROW(mocap::synthesize(index, qj, {pair}, opt, sk), mocap::InputError);
+}
+
+TEST(SynthKinematics, WorldPoseMatchesIndex) {
+  REQUIRE_INDEX();
+  for (const char* name : {"dataset-1_walk_normal_001.bvh", "131_01.bvh"}) {
+    const std::size_t c = clip_named(index, name);
+    const auto sk = mocap::make_synth_skeleton(index, index.clips()[c].skeleton, c);
+    const auto pos = index.clip_frames(c, "joint_positions_m");
+    const std::size_t n = sk.joint_count();
+    mocap::WorldPose w;
+    for (std::size_t f : {std::size_t{0}, index.clips()[c].frame_count / 2, index.clips()[c].frame_count - 1}) {
+      mocap::synth_world_pose(sk, mocap::clip_frame(index, c, f), w);
+      for (std::size_t j = 0; j < n; ++j)
+        for (int k = 0; k < 3; ++k)
+          EXPECT_NEAR(w.positions_m[j][k], pos[(f * n + j) * 3 + static_cast<std::size_t>(k)], 1e-4)
+              << name << " frame " << f << " joint " << sk.skeleton.names[j];
+    }
+  }
+}
+
+TEST(SynthRange, ClampKeepsInsideAndRecordedFramesAreInside) {
+  REQUIRE_INDEX();
+  const std::size_t c = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  const auto sk = mocap::make_synth_skeleton(index, index.clips()[c].skeleton, c);
+  const auto rom = mocap::range_of_motion(index, sk, {c});
+  const SynthFrame f = mocap::clip_frame(index, c, 20);
+  std::size_t limited = 0;
+  for (std::size_t j = 0; j < sk.joint_count(); ++j) {
+    if (!rom.has_range[j]) continue;
+    ++limited;
+    EXPECT_TRUE(mocap::within_range(sk, rom, static_cast<int>(j), f.local_rotations[j]));
+    // A large twist leaves the range of the elbow / knee; the clamp brings it back.
+    const Eigen::Quaterniond far = f.local_rotations[j] * Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(0.3, 0.9, 0.3).normalized()));
+    const Eigen::Quaterniond cl = mocap::clamp_to_range(sk, rom, static_cast<int>(j), far);
+    EXPECT_TRUE(mocap::within_range(sk, rom, static_cast<int>(j), cl)) << sk.skeleton.names[j];
+  }
+  EXPECT_GT(limited, 10u);
+  for (std::size_t j = 0; j < sk.joint_count(); ++j) {
+    if (sk.is_root_chain[j]) {
+      EXPECT_FALSE(rom.has_range[j]);
+    }
+  }
+}
+
+TEST(SynthPlacement, ContinuationTurnsAndMoves) {
+  REQUIRE_INDEX();
+  const std::size_t a = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  const std::size_t b = clip_named(index, "dataset-1_walk-left_normal_001.bvh");
+  const auto sk = mocap::make_synth_skeleton(index, index.clips()[a].skeleton, a);
+  const SynthFrame end = mocap::clip_frame(index, a, 30), first = mocap::clip_frame(index, b, 10);
+  const Eigen::Vector3d ve(1.0, 0.0, 0.0), vf(0.0, 0.0, 0.0);
+  const auto p = mocap::continuation_placement(sk, end, ve, first, vf, 0.5);
+  const SynthFrame placed = mocap::place_frame(sk, first, p);
+  EXPECT_NEAR(std::remainder(mocap::root_heading(sk, placed) - mocap::root_heading(sk, end), 2 * M_PI), 0.0, 1e-9);
+  EXPECT_NEAR(placed.root_position_m.x(), end.root_position_m.x() + 0.25, 1e-9);
+  EXPECT_NEAR(placed.root_position_m.z(), end.root_position_m.z(), 1e-9);
+  EXPECT_NEAR(placed.root_position_m.y(), first.root_position_m.y(), 1e-9);
+  const double heading = 1.0;
+  const auto p2 = mocap::continuation_placement(sk, end, ve, first, vf, 0.5, &heading);
+  EXPECT_NEAR(std::remainder(mocap::root_heading(sk, mocap::place_frame(sk, first, p2)) - 1.0, 2 * M_PI), 0.0, 1e-9);
+}
+
+TEST(SynthSupplement, BaselinesHitTheirDefinitions) {
+  REQUIRE_INDEX();
+  const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  const std::size_t y = clip_named(index, "dataset-1_walk_angry_001.bvh");
+  auto g = make_gap(index, x, 20, y, 30);
+  const auto s = mocap::slerp_transition(g->gap, 9);
+  ASSERT_EQ(s.size(), 9u);
+  // Midpoint of 9 frames: root half-way.
+  const Eigen::Vector3d mid = 0.5 * (g->gap.start.root_position_m + g->gap.goal.root_position_m);
+  EXPECT_LT((s[4].root_position_m - mid).norm(), 1e-9);
+  EXPECT_TRUE(mocap::slerp_transition(g->gap, 0).empty());
+  const auto in = mocap::inertialize_transition(g->gap, 9);
+  ASSERT_EQ(in.size(), 9u);
+  // Inertialization ends on the goal's own track: the last frame is one goal step before the goal.
+  const Eigen::Vector3d vg = g->gap.after.root_position_m - g->gap.goal.root_position_m;
+  EXPECT_LT((in.back().root_position_m - (g->gap.goal.root_position_m - vg)).norm(), 0.02);
+  for (const auto* fs : {&s, &in}) {
+    const auto m = mocap::measure_transition(g->gap, *fs);
+    EXPECT_EQ(m.frames, 9u);
+    EXPECT_EQ(m.step_energies_J.size(), 10u);
+    EXPECT_GE(m.energy_J, m.approximate_energy_J - 1e-9);
+    EXPECT_GT(m.energy_J, 0.0);
+    EXPECT_GT(m.peak_angular_speed_radps, 0.0);
+  }
+}
+
+TEST(SynthSupplement, AStarIsDeterministicBoundedAndInRange) {
+  REQUIRE_INDEX();
+  const std::size_t x = clip_named(index, "dataset-1_run_normal_001.bvh");
+  const std::size_t y = clip_named(index, "dataset-1_run_angry_001.bvh");
+  auto g = make_gap(index, x, 20, y, 25);
+  mocap::SupplementParams p;
+  mocap::SupplementStats st1, st2;
+  const auto a1 = mocap::supplement_astar(g->gap, p, &st1);
+  const auto a2 = mocap::supplement_astar(g->gap, p, &st2);
+  ASSERT_EQ(a1.size(), a2.size());
+  for (std::size_t i = 0; i < a1.size(); ++i) {
+    EXPECT_EQ(a1[i].root_position_m, a2[i].root_position_m);
+    for (std::size_t j = 0; j < a1[i].local_rotations.size(); ++j)
+      EXPECT_EQ(a1[i].local_rotations[j].coeffs(), a2[i].local_rotations[j].coeffs());
+  }
+  EXPECT_GE(a1.size(), 1u);
+  EXPECT_LE(a1.size(), p.max_states);
+  EXPECT_EQ(st1.stop_reason, st2.stop_reason);
+  EXPECT_GT(st1.energy_evaluations, 0u);
+  // T_n caps the inserted states.
+  mocap::SupplementParams small = p;
+  small.max_states = 3;
+  mocap::SupplementStats st3;
+  EXPECT_LE(mocap::supplement_astar(g->gap, small, &st3).size(), 3u);
+  // A huge T_c stops at once; T_c = 0 never stops by threshold.
+  mocap::SupplementParams loose = p;
+  loose.cost_threshold_J = 1e12;
+  mocap::SupplementStats st4;
+  EXPECT_TRUE(mocap::supplement_astar(g->gap, loose, &st4).empty());
+  EXPECT_EQ(st4.stop_reason, "threshold");
+  // No range violations beyond the slerp of the same length (the clamp).
+  const auto ma = mocap::measure_transition(g->gap, a1);
+  const auto ms = mocap::measure_transition(g->gap, mocap::slerp_transition(g->gap, a1.size()));
+  EXPECT_LE(ma.range_violations, ms.range_violations);
+  EXPECT_GE(ma.energy_J, ma.approximate_energy_J - 1e-9);
+}
+
+TEST(SynthSupplement, IdenticalEndsCostLittle) {
+  REQUIRE_INDEX();
+  const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  auto g = make_gap(index, x, 20, x, 20);
+  // A static pose joined to itself: every method stays put and g is near zero.
+  g->gap.before = g->gap.start;
+  g->gap.goal = g->gap.start;
+  g->gap.after = g->gap.start;
+  for (const auto& fs : {mocap::slerp_transition(g->gap, 5), mocap::inertialize_transition(g->gap, 5)}) {
+    const auto m = mocap::measure_transition(g->gap, fs);
+    EXPECT_LT(m.foot_sliding_m, 1e-9);
+    EXPECT_LT(m.peak_angular_speed_radps, 1e-6);
+  }
+}
