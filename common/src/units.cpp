@@ -110,25 +110,11 @@ std::optional<LengthUnit> parse_unit(std::string_view s) {
   return std::nullopt;
 }
 
-double standing_height_file_units(const RawClip& clip, int samples) {
-  if (clip.joints.empty()) return 0.0;
-  const Skeleton skel = build_skeleton(clip, 1.0);
-  const std::vector<std::uint8_t> body = body_subtree(skel);
-  std::vector<double> heights;
-  LocalPose local;
-  WorldPose world;
-  std::vector<Eigen::Vector3d> ends;
-  for (std::size_t f : sample_frames(clip, samples)) {
-    local_pose_from_row(skel, clip.frame(f), local);
-    forward_kinematics(skel, local, world);
-    end_site_positions(skel, world, ends);
-    const Extremes e = extremes(skel, world, ends, body);
-    if (std::isfinite(e.hi - e.lo)) heights.push_back(e.hi - e.lo);
-  }
-  return median(heights);
-}
-
-double skeleton_height_file_units(const RawClip& clip, int samples) {
+namespace {
+// Median over sampled frames of `measure(skel, local, extremes)`; frames whose
+// extremes are not finite or whose measure is negative (no height) are skipped.
+template <class Measure>
+double median_over_samples(const RawClip& clip, int samples, Measure measure) {
   if (clip.joints.empty()) return 0.0;
   const Skeleton skel = build_skeleton(clip, 1.0);
   const std::vector<std::uint8_t> body = body_subtree(skel);
@@ -142,6 +128,20 @@ double skeleton_height_file_units(const RawClip& clip, int samples) {
     end_site_positions(skel, world, ends);
     const Extremes e = extremes(skel, world, ends, body);
     if (!std::isfinite(e.hi - e.lo)) continue;
+    const double h = measure(skel, local, e);
+    if (h >= 0.0) heights.push_back(h);
+  }
+  return median(heights);
+}
+}  // namespace
+
+double standing_height_file_units(const RawClip& clip, int samples) {
+  return median_over_samples(clip, samples,
+                             [](const Skeleton&, const LocalPose&, const Extremes& e) { return e.hi - e.lo; });
+}
+
+double skeleton_height_file_units(const RawClip& clip, int samples) {
+  return median_over_samples(clip, samples, [](const Skeleton& skel, const LocalPose& local, const Extremes& e) {
     // Bone lengths from each end up to the lowest common ancestor.
     double length = (e.lo_end ? skel.end_sites_m[e.lo_joint].norm() : 0.0) +
                     (e.hi_end ? skel.end_sites_m[e.hi_joint].norm() : 0.0);
@@ -152,10 +152,8 @@ double skeleton_height_file_units(const RawClip& clip, int samples) {
       length += local.translations_m[static_cast<std::size_t>(deeper)].norm();
       deeper = skel.parents[static_cast<std::size_t>(deeper)];
     }
-    if (a != b) continue;  // different trees (several ROOTs): not a body height
-    heights.push_back(length);
-  }
-  return median(heights);
+    return a == b ? length : -1.0;  // different trees (several ROOTs): not a body height
+  });
 }
 
 LengthUnit detect_unit(const RawClip& clip) {
