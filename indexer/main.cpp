@@ -110,17 +110,17 @@ int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
                      .dump()
               << '\n';
   } else {
-    fmt::print("{:<48} {:>7} {:>5} {:>8} {:>6} {:>5} {:>8}\n", "clip", "frames", "fps", "sec",
-               "joints", "unit", "height_m");
+    fmt::print("{:<48} {:>7} {:>5} {:>8} {:>6} {:>5} {:>8} {:>8}\n", "clip", "frames", "fps", "sec",
+               "joints", "unit", "height_m", "skel_m");
     for (const auto& s : sums) {
       const std::string name = std::filesystem::path(s.file).filename().string();
       if (!s.ok) {
         fmt::print("{:<48} ERROR {}\n", name, s.error);
         continue;
       }
-      fmt::print("{:<48} {:>7} {:>5.0f} {:>8.2f} {:>6} {:>5} {:>8.3f}\n", name, s.frames,
+      fmt::print("{:<48} {:>7} {:>5.0f} {:>8.2f} {:>6} {:>5} {:>8.3f} {:>8.3f}\n", name, s.frames,
                  1.0 / s.frame_time_s, static_cast<double>(s.frames) * s.frame_time_s, s.joints,
-                 s.unit, s.height_m);
+                 s.unit, s.height_m, s.skeleton_height_m);
     }
     fmt::print("\n{} clips ({} ok, {} failed), {} frames, {:.1f} s of motion, {:.1f} MB\n",
                sums.size(), ok, failed, frames, seconds, static_cast<double>(bytes) / 1e6);

@@ -78,6 +78,7 @@ std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path
       s.unit = unit_name(u);
       s.unit_scale_m = unit_scale_m(u);
       s.height_m = standing_height_file_units(clip) * s.unit_scale_m;
+      s.skeleton_height_m = skeleton_height_file_units(clip) * s.unit_scale_m;
       s.ok = true;
     } catch (const InputError& e) {
       s.error = e.what();
@@ -97,6 +98,7 @@ nlohmann::json to_json(const ClipSummary& s) {
           {"unit", s.unit},
           {"unit_scale_m", s.unit_scale_m},
           {"height_m", s.height_m},
+          {"skeleton_height_m", s.skeleton_height_m},
           {"bytes", s.bytes}};
 }
 

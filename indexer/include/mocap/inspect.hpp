@@ -38,7 +38,8 @@ struct ClipSummary {
   double frame_time_s = 0.0;
   std::string unit;  // declared or detected
   double unit_scale_m = 0.0;
-  double height_m = 0.0;  // standing height (units.hpp)
+  double height_m = 0.0;           // standing height (units.hpp)
+  double skeleton_height_m = 0.0;  // skeleton height (units.hpp; what detect_unit uses)
   std::size_t bytes = 0;
 };
 
