@@ -58,6 +58,10 @@ struct ResolvedFrame {
   std::array<bool, 3> given{false, false, false};
   /// From a BVH file (relative mode measures offsets from the pair's first such frame).
   bool from_bvh = false;
+  /// partial: the joints of a database frame that partial_approximate_energy
+  /// reads (empty = all: whole-body queries) and those whose local
+  /// translation it needs (the given subtrees); set by the engine.
+  std::vector<int> need_joints, local_joints;
 };
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`.

@@ -12,6 +12,7 @@
 #include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -121,6 +122,8 @@ struct SkelData {
   std::size_t segments = 0;
   std::vector<double> masses;  // per segment
   double segment_mass = 0.0;
+  std::vector<double> lambda_min;     // per segment: smallest principal moment (kg m^2)
+  std::vector<int> segment_of_joint;  // joint -> segment index, -1 if massless
   std::vector<ClipInfo> clips;             // by row
   std::vector<std::uint32_t> frame_row;    // skeleton frame -> clip row
   // Bounds in metres: [row][S][3] COM boxes, [row][3] root boxes.
@@ -216,9 +219,15 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
     sd->sk = &index.skeletons()[k];
     sd->model = index.dynamics_model(k);
     sd->segments = sd->model.segments.size();
+    sd->segment_of_joint.assign(sd->model.joint_count(), -1);
     for (int b : sd->model.segments) {
-      sd->masses.push_back(sd->model.masses_kg[static_cast<std::size_t>(b)]);
+      const auto j = static_cast<std::size_t>(b);
+      sd->masses.push_back(sd->model.masses_kg[j]);
       sd->segment_mass += sd->masses.back();
+      // Smallest eigenvalue of the (symmetric) local inertia: w^T R I R^T w >= lambda_min |w|^2.
+      const Eigen::Vector3d d = sd->model.principal_moments_kgm2[j];
+      sd->lambda_min.push_back(std::max(0.0, std::min({d[0], d[1], d[2]})));
+      sd->segment_of_joint[j] = static_cast<int>(sd->masses.size() - 1);
     }
     const std::size_t n = sd->sk->frame_count, s = sd->segments;
     // h_scan [N][S][9] (one row per frame) -> field-major HScanTable.
@@ -266,7 +275,9 @@ namespace {
 // Per-thread scratch.
 struct Scratch {
   std::vector<float> fbuf;
-  std::vector<double> a, b, lba, lbb, sb, pa;
+  std::vector<double> a, b, la, lb;
+  std::vector<std::uint8_t> skip_a, skip_b;
+  std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   // Database frames converted for partial_approximate_energy.
   std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
   std::vector<Eigen::Quaterniond> rot, lrot;
@@ -290,21 +301,26 @@ FrameArrays frame_arrays(const Index& index, std::uint32_t k) {
 }
 
 // Converts skeleton frame g into scratch (double) and returns its FrameRef.
-FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scratch& sc) {
+// Only the joints in `need` are converted (all when it is empty); the local
+// translations only for `local` (all when `need` is empty). The caller passes
+// the joints partial_approximate_energy reads for its query
+// (partial_needed_joints); the other entries are never read.
+FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scratch& sc,
+                   const std::vector<int>& need, const std::vector<int>& local) {
   const std::size_t nj = sd.model.joint_count();
   if (sc.pos.size() != nj) {
-    sc.pos.resize(nj);
-    sc.com.resize(nj);
-    sc.vel.resize(nj);
-    sc.angvel.resize(nj);
+    sc.pos.assign(nj, Eigen::Vector3d::Zero());
+    sc.com.assign(nj, Eigen::Vector3d::Zero());
+    sc.vel.assign(nj, Eigen::Vector3d::Zero());
+    sc.angvel.assign(nj, Eigen::Vector3d::Zero());
     sc.zero.assign(nj, Eigen::Vector3d::Zero());
-    sc.ltrans.resize(nj);
-    sc.rot.resize(nj);
-    sc.lrot.resize(nj);
+    sc.ltrans.assign(nj, Eigen::Vector3d::Zero());
+    sc.rot.assign(nj, Eigen::Quaterniond::Identity());
+    sc.lrot.assign(nj, Eigen::Quaterniond::Identity());
   }
   auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
   auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
-  for (std::size_t j = 0; j < nj; ++j) {
+  auto convert = [&](std::size_t j) {
     const std::size_t i = g * nj + j;
     sc.pos[j] = v3(fa.pos + i * 3);
     sc.com[j] = v3(fa.com + i * 3);
@@ -312,12 +328,19 @@ FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scr
     sc.angvel[j] = v3(fa.angvel + i * 3);
     sc.rot[j] = q4(fa.rot + i * 4);
     sc.lrot[j] = q4(fa.lrot + i * 4);
-  }
-  for (std::size_t j = 0; j < nj; ++j) {
+  };
+  auto local_translation = [&](std::size_t j) {
     const int p = sd.model.parents[j];
     sc.ltrans[j] = p < 0 ? sc.pos[j]
                          : Eigen::Vector3d(sc.rot[static_cast<std::size_t>(p)].conjugate() *
                                            (sc.pos[j] - sc.pos[static_cast<std::size_t>(p)]));
+  };
+  if (need.empty()) {
+    for (std::size_t j = 0; j < nj; ++j) convert(j);
+    for (std::size_t j = 0; j < nj; ++j) local_translation(j);
+  } else {
+    for (int j : need) convert(static_cast<std::size_t>(j));
+    for (int j : local) local_translation(static_cast<std::size_t>(j));
   }
   FrameRef r;
   r.state.joint_count = nj;
@@ -337,7 +360,8 @@ FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scr
 // mode) the query's given x/z root components are placed at shift (world).
 void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, double t,
               std::size_t g0, std::size_t g1, double* out, Scratch& sc,
-              const std::optional<Eigen::Vector2d>& xz = std::nullopt) {
+              const std::optional<Eigen::Vector2d>& xz = std::nullopt,
+              const std::uint8_t* skip = nullptr) {
   const std::size_t n = g1 - g0;
   if (n == 0) return;
   if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
@@ -376,9 +400,171 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
   }
   const FrameArrays fa = frame_arrays(index, sd.k);
   for (std::size_t i = 0; i < n; ++i) {
-    const FrameRef r = frame_ref(sd, fa, g0 + i, sc);
+    if (skip != nullptr && skip[i]) continue;
+    const FrameRef r = frame_ref(sd, fa, g0 + i, sc, q.need_joints, q.local_joints);
     out[i] = partial_approximate_energy(sd.model, *pq, r, t, sc.state);
   }
+}
+
+// ---------------------------------------------------------------------------
+// Per-frame lower bound of h(Q_F -> F) for partial query frames (heading or
+// joint rotations); docs/search.md "Partial queries" proves it.
+
+struct PartialBoundPlan {
+  bool whole = false;                // root position / heading given: every segment is static in Q_F
+  std::vector<std::size_t> segs;     // affected segments (model.segments index)
+  std::vector<double> rot_coef;      // per listed segment: 1/2 lambda_min / T^2 (slightly reduced)
+  std::vector<std::uint8_t> turns;   // per listed segment: rotated by the heading turn
+  std::vector<int> sub_slot;         // per listed segment: slot in sub_joints whose angle applies, -1
+  bool heading = false;
+  double psi_q = 0.0;
+  // Joint-rotation subtrees (not whole-body): composite rotations per slot.
+  std::vector<int> sub_joints, sub_parent_slot;
+  std::vector<const Eigen::Quaterniond*> sub_given;  // the query's local rotation, null if F's
+  // Whole-body COM term (no joint rotations): root position components.
+  bool com_term = false;
+  std::array<bool, 3> given{false, false, false};
+  Eigen::Vector3d root_q = Eigen::Vector3d::Zero();
+  double mass = 0.0, gravity = 0.0, half_inv_t2 = 0.0;
+};
+
+PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData& sd, double t) {
+  PartialBoundPlan p;
+  const PartialQuery& pq = q.partial;
+  const DynamicsModel& model = sd.model;
+  const std::size_t nj = model.joint_count();
+  const auto root = static_cast<std::size_t>(model.root());
+  p.whole = pq.moves_whole_body;
+  p.half_inv_t2 = 0.5 / (t * t);
+  p.mass = sd.segment_mass;
+  p.gravity = model.params.gravity_mps2;
+  p.heading = pq.spec.root_heading_rad.has_value() && pq.in_subtree[root] == 0;
+  if (p.heading) p.psi_q = *pq.spec.root_heading_rad;
+  std::vector<int> slot(nj, -1);
+  if (!p.whole) {
+    for (int jj : pq.subtree_joints) {
+      const auto j = static_cast<std::size_t>(jj);
+      slot[j] = static_cast<int>(p.sub_joints.size());
+      p.sub_joints.push_back(jj);
+      const int par = model.parents[j];
+      p.sub_parent_slot.push_back(par >= 0 ? slot[static_cast<std::size_t>(par)] : -1);
+      const int gi = pq.given_rotation[j];
+      p.sub_given.push_back(gi >= 0 ? &pq.spec.joint_rotations[static_cast<std::size_t>(gi)].second : nullptr);
+    }
+  }
+  for (std::size_t s = 0; s < sd.segments; ++s) {
+    const auto j = static_cast<std::size_t>(model.segments[s]);
+    if (!pq.affected[j]) continue;
+    p.segs.push_back(s);
+    // lambda_min from an eigen-solver: shave a relative 1e-6 off for its rounding.
+    p.rot_coef.push_back(sd.lambda_min[s] * (1.0 - 1e-6) * p.half_inv_t2);
+    p.turns.push_back(p.whole && p.heading && pq.in_subtree[j] == 0);
+    p.sub_slot.push_back(p.whole ? -1 : slot[j]);
+  }
+  p.com_term = p.whole && pq.subtree_joints.empty();
+  for (std::size_t a = 0; a < 3; ++a) {
+    p.given[a] = pq.spec.root_position_m[a].has_value();
+    if (p.given[a]) p.root_q[static_cast<Eigen::Index>(a)] = *pq.spec.root_position_m[a];
+  }
+  return p;
+}
+
+// A lower bound of the rotation angle (in [0, pi]) between the rotations of
+// two non-zero quaternions: with d = |<x, y>| / (|x| |y|) = cos(theta / 2),
+// cos t >= 1 - t^2 / 2 gives theta >= 2 sqrt(2 (1 - d)) (no acos per frame).
+double quat_angle_lower(const Eigen::Quaterniond& x, const Eigen::Quaterniond& y) {
+  const double d = std::abs(x.coeffs().dot(y.coeffs())) / std::sqrt(x.coeffs().squaredNorm() * y.coeffs().squaredNorm());
+  return 2.0 * std::sqrt(2.0 * std::max(0.0, 1.0 - d));
+}
+
+// Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out.
+void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa,
+                          std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
+  constexpr double kAngleSlack = 1e-4;  // rad: float32 storage and FK rounding of the angles
+  const HScanTable& tb = sd.table;
+  const std::size_t nj = sd.model.joint_count();
+  const auto root = static_cast<std::size_t>(sd.model.root());
+  sc.mq.resize(p.sub_joints.size());
+  sc.mf.resize(p.sub_joints.size());
+  for (std::size_t g = g0; g < g1; ++g) {
+    for (std::size_t t = 0; t < p.sub_joints.size(); ++t) {
+      const float* l = fa.lrot + (g * nj + static_cast<std::size_t>(p.sub_joints[t])) * 4;
+      // Not normalised: quat_angle_lower divides by the norms (which multiply).
+      const Eigen::Quaterniond lf(static_cast<double>(l[0]), static_cast<double>(l[1]), static_cast<double>(l[2]),
+                                  static_cast<double>(l[3]));
+      const Eigen::Quaterniond& lq = p.sub_given[t] ? *p.sub_given[t] : lf;
+      const int ps = p.sub_parent_slot[t];
+      if (ps < 0) {
+        sc.mq[t] = lq;
+        sc.mf[t] = lf;
+      } else {
+        sc.mq[t] = sc.mq[static_cast<std::size_t>(ps)] * lq;
+        sc.mf[t] = sc.mf[static_cast<std::size_t>(ps)] * lf;
+      }
+    }
+    double turn = 0.0;
+    if (p.heading) {
+      const float* r = fa.rot + (g * nj + root) * 4;
+      const Eigen::Quaterniond rr = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized();
+      turn = std::fmod(std::abs(p.psi_q - heading_rad(rr)), 2.0 * std::numbers::pi);
+      if (turn > std::numbers::pi) turn = 2.0 * std::numbers::pi - turn;
+    }
+    double kt = 0.0, rot = 0.0;
+    for (std::size_t i = 0; i < p.segs.size(); ++i) {
+      const std::size_t s = p.segs[i];
+      kt += static_cast<double>(tb.field(s, 3)[g]);
+      const double kr = tb.field(s, 8)[g];
+      double theta = 0.0;
+      if (p.turns[i]) theta = turn;
+      else if (p.sub_slot[i] >= 0) {
+        const auto t = static_cast<std::size_t>(p.sub_slot[i]);
+        theta = quat_angle_lower(sc.mq[t], sc.mf[t]);
+      }
+      theta = std::max(0.0, theta - kAngleSlack);
+      const double ku = p.rot_coef[i] * theta * theta;
+      rot += std::max(kr, 2.0 * ku - kr);
+    }
+    double trans = kt;
+    if (p.com_term) {
+      // Whole-body COM c (segments): Q_F is F turned about the vertical
+      // through the root, then shifted on the given axes.
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (std::size_t s = 0; s < sd.segments; ++s)
+        for (std::size_t a = 0; a < 3; ++a) c[static_cast<Eigen::Index>(a)] += sd.masses[s] * static_cast<double>(tb.field(s, a)[g]);
+      c /= p.mass;
+      const Eigen::Vector3d root_f(tb.root_positions[g], tb.root_positions[tb.stride + g],
+                                   tb.root_positions[2 * tb.stride + g]);
+      Eigen::Vector3d v = c - root_f;
+      if (p.heading) {
+        const float* r = fa.rot + (g * nj + root) * 4;
+        const Eigen::Quaterniond rr = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized();
+        v = Eigen::AngleAxisd(p.psi_q - heading_rad(rr), Eigen::Vector3d::UnitY()) * v;
+      }
+      Eigen::Vector3d cq = root_f + v;
+      for (std::size_t a = 0; a < 3; ++a)
+        if (p.given[a]) cq[static_cast<Eigen::Index>(a)] += p.root_q[static_cast<Eigen::Index>(a)] - root_f[static_cast<Eigen::Index>(a)];
+      const Eigen::Vector3d d = cq - c;
+      trans = std::max(kt, p.mass * d.squaredNorm() * p.half_inv_t2) + p.mass * p.gravity * std::abs(d.y());
+    }
+    out[g - g0] = trans + rot;
+  }
+}
+
+// The joints partial_approximate_energy reads of a database frame (frame_ref).
+void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {
+  q.need_joints.clear();
+  q.local_joints.clear();
+  if (q.kind != FrameKind::partial || q.partial.moves_whole_body) return;
+  std::vector<std::uint8_t> need(model.joint_count(), 0);
+  for (int j : q.partial.affected_joints) need[static_cast<std::size_t>(j)] = 1;
+  for (int j : q.partial.subtree_joints) {
+    const int p = model.parents[static_cast<std::size_t>(j)];
+    if (p >= 0) need[static_cast<std::size_t>(p)] = 1;
+  }
+  for (std::size_t j = 0; j < need.size(); ++j)
+    if (need[j]) q.need_joints.push_back(static_cast<int>(j));
+  q.local_joints = q.partial.subtree_joints;
+  if (q.need_joints.empty()) q.need_joints.push_back(model.root());  // never empty: empty means all
 }
 
 struct Entry {
@@ -424,6 +610,9 @@ struct PairContext {
   Eigen::Vector2d offset_a, offset_b;  // relative mode x/z offsets
   SearchMode mode;
   double max_length_s;
+  // Per skeleton frame lower bounds of a / b for partial query frames (world mode), or null.
+  const double* frame_lb_a = nullptr;
+  const double* frame_lb_b = nullptr;
 };
 
 struct ClipCounters {
@@ -431,7 +620,8 @@ struct ClipCounters {
   bool clip_pruned = false;
 };
 
-// World mode: a(s), b(e) by blocks, then the running minimum.
+// World mode: per-frame lower bounds (block boxes, partial-frame bounds),
+// a(s) and b(e) where they can matter, then the running minimum.
 bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scratch& sc,
                      ClipCounters& cnt, Entry& out) {
   const SkelData& sd = *c.sd;
@@ -439,53 +629,76 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
   const std::size_t nb = (k + 15) / 16;
   sc.a.assign(k, kInf);
   sc.b.assign(k, kInf);
-  sc.lba.assign(nb, 0.0);
-  sc.lbb.assign(nb, 0.0);
+  sc.skip_a.assign(k, 0);
+  sc.skip_b.assign(k, 0);
   const bool prune = c.mode != SearchMode::brute;
-  std::vector<std::uint8_t> need_a(nb, 1), need_b(nb, 1);
   if (prune) {
+    sc.la.resize(k);
+    sc.lb.resize(k);
     const std::size_t s3 = sd.segments * 3;
+    const bool box_a = c.qa->kind != FrameKind::partial, box_b = c.qb->kind != FrameKind::partial;
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t row = ci.block_start + bl;
       const float* cmin = sd.block_com_min.data() + row * s3;
       const float* cmax = sd.block_com_max.data() + row * s3;
       const float* rmin = sd.block_root_min.data() + row * 3;
       const float* rmax = sd.block_root_max.data() + row * 3;
-      sc.lba[bl] = box_lower_bound(*c.qa, sd, c.t, cmin, cmax, rmin, rmax);
-      sc.lbb[bl] = box_lower_bound(*c.qb, sd, c.t, cmin, cmax, rmin, rmax);
+      const double xa = box_a ? box_lower_bound(*c.qa, sd, c.t, cmin, cmax, rmin, rmax) : 0.0;
+      const double xb = box_b ? box_lower_bound(*c.qb, sd, c.t, cmin, cmax, rmin, rmax) : 0.0;
+      const std::size_t f1 = std::min(k, bl * 16 + 16);
+      for (std::size_t f = bl * 16; f < f1; ++f) {
+        sc.la[f] = xa;
+        sc.lb[f] = xb;
+      }
     }
-    sc.sb.assign(nb + 1, kInf);
-    for (std::size_t bl = nb; bl-- > 0;) sc.sb[bl] = std::min(sc.sb[bl + 1], sc.lbb[bl]);
-    sc.pa.assign(nb, kInf);
-    for (std::size_t bl = 0; bl < nb; ++bl) sc.pa[bl] = std::min(bl ? sc.pa[bl - 1] : kInf, sc.lba[bl]);
-    double clip_lb = kInf;
-    for (std::size_t bl = 0; bl < nb; ++bl) {
-      const double x = sc.lba[bl] + sc.sb[bl];
+    if (c.frame_lb_a != nullptr)
+      for (std::size_t f = 0; f < k; ++f) sc.la[f] = std::max(sc.la[f], c.frame_lb_a[ci.frame_start + f]);
+    if (c.frame_lb_b != nullptr)
+      for (std::size_t f = 0; f < k; ++f) sc.lb[f] = std::max(sc.lb[f], c.frame_lb_b[ci.frame_start + f]);
+    // s is needed only if la(s) + min_{e>s} lb(e) can reach tau; e only if
+    // lb(e) + min_{s<e} la(s) can.
+    double clip_lb = kInf, suffix = kInf;
+    for (std::size_t f = k; f-- > 0;) {
+      const double x = sc.la[f] + suffix;
       clip_lb = std::min(clip_lb, x);
-      need_a[bl] = safe(x) <= tau;
-      need_b[bl] = safe(sc.lbb[bl] + sc.pa[bl]) <= tau;
+      sc.skip_a[f] = safe(x) > tau;
+      suffix = std::min(suffix, sc.lb[f]);
     }
     if (safe(clip_lb) > tau) {
       cnt.clip_pruned = true;
       cnt.pruned += 2 * k;
       return false;
     }
-  }
-  for (std::size_t bl = 0; bl < nb; ++bl) {
-    const std::size_t f0 = bl * 16, f1 = std::min(k, f0 + 16);
-    if (need_a[bl]) {
-      evaluate(*c.qa, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, sc.a.data() + f0, sc);
-      cnt.evaluated += f1 - f0;
-    } else {
-      cnt.pruned += f1 - f0;
-    }
-    if (need_b[bl]) {
-      evaluate(*c.qb, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, sc.b.data() + f0, sc);
-      cnt.evaluated += f1 - f0;
-    } else {
-      cnt.pruned += f1 - f0;
+    double prefix_min = kInf;
+    for (std::size_t f = 0; f < k; ++f) {
+      sc.skip_b[f] = safe(sc.lb[f] + prefix_min) > tau;
+      prefix_min = std::min(prefix_min, sc.la[f]);
     }
   }
+  // Full and root-only query frames are scanned in whole 16-frame chunks
+  // (the same chunks in every mode: bit-identical values); partial ones per frame.
+  auto side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& skip, double* dst) {
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t f0 = bl * 16, f1 = std::min(k, f0 + 16);
+      std::size_t need = 0;
+      for (std::size_t f = f0; f < f1; ++f) need += skip[f] == 0;
+      if (need == 0) {
+        cnt.pruned += f1 - f0;
+        continue;
+      }
+      if (q.kind == FrameKind::partial) {
+        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
+                 std::nullopt, skip.data() + f0);
+        cnt.evaluated += need;
+        cnt.pruned += (f1 - f0) - need;
+      } else {
+        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc);
+        cnt.evaluated += f1 - f0;
+      }
+    }
+  };
+  side(*c.qa, sc.skip_a, sc.a.data());
+  side(*c.qb, sc.skip_b, sc.b.data());
   const std::span<const double> prefix = c.eng->index->clip_energy_prefix(ci.clip);
   ClipBest best;
   if (!best_partial_motion(sc.a.data(), sc.b.data(), prefix.data(), k, c.lambda, best)) return false;
@@ -578,6 +791,38 @@ struct QueryRunner {
   // resolved[k][i]: query frame i on skeleton k.
   std::vector<std::vector<ResolvedFrame>> resolved;
   tbb::enumerable_thread_specific<Scratch> scratch;
+  // frame_lb[k][i]: per skeleton frame lower bound of h(query frame i -> F)
+  // for partial query frames (exact mode, world), computed once per query
+  // frame and shared by its two pairs; empty otherwise.
+  std::vector<std::vector<std::vector<double>>> frame_lb;
+
+  void compute_frame_bounds() {
+    frame_lb.assign(eng.skels.size(), std::vector<std::vector<double>>(q.frames.size()));
+    for (std::size_t k = 0; k < eng.skels.size(); ++k) {
+      const SkelData& sd = *eng.skels[k];
+      const std::size_t n = sd.sk->frame_count;
+      for (std::size_t i = 0; i < q.frames.size(); ++i) {
+        if (resolved[k][i].kind != FrameKind::partial || n == 0) continue;
+        const PartialBoundPlan plan = make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
+        const FrameArrays fa = frame_arrays(*eng.index, sd.k);
+        std::vector<double>& out = frame_lb[k][i];
+        out.resize(n);
+        auto chunk = [&](std::size_t g0, std::size_t g1) {
+          partial_frame_bounds(plan, sd, fa, g0, g1, out.data() + g0, scratch.local());
+        };
+        if (opt.parallel_clips)
+          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                            [&](const tbb::blocked_range<std::size_t>& rg) { chunk(rg.begin(), rg.end()); });
+        else
+          chunk(0, n);
+      }
+    }
+  }
+
+  const double* frame_bounds_of(std::size_t k, std::size_t i) const {
+    if (frame_lb.empty() || frame_lb[k][i].empty()) return nullptr;
+    return frame_lb[k][i].data();
+  }
 
   bool passes(std::size_t clip) const {
     if (q.filter.empty()) return true;
@@ -591,7 +836,11 @@ struct QueryRunner {
   PairContext context(std::size_t k, std::size_t h, SearchMode mode) const {
     PairContext c{&eng, eng.skels[k].get(), &resolved[k][h], &resolved[k][h + 1], q.transition_time_s,
                   q.path_weight, q.relative, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), mode,
-                  opt.max_length_s};
+                  opt.max_length_s, nullptr, nullptr};
+    if (mode == SearchMode::exact && !q.relative) {
+      c.frame_lb_a = frame_bounds_of(k, h);
+      c.frame_lb_b = frame_bounds_of(k, h + 1);
+    }
     if (q.relative) {
       // Hand-written frames: given x/z are the offsets. BVH frames: offsets
       // from the pair's first query frame when it is a BVH frame, else 0.
@@ -664,8 +913,21 @@ struct QueryRunner {
         const float* cmax = sd.clip_com_max.data() + r * s3;
         const float* rmin = sd.clip_root_min.data() + r * 3;
         const float* rmax = sd.clip_root_max.data() + r * 3;
-        lb[i] = box_lower_bound(resolved[k][h], sd, q.transition_time_s, cmin, cmax, rmin, rmax) +
-                box_lower_bound(resolved[k][h + 1], sd, q.transition_time_s, cmin, cmax, rmin, rmax);
+        const double xa = box_lower_bound(resolved[k][h], sd, q.transition_time_s, cmin, cmax, rmin, rmax);
+        const double xb = box_lower_bound(resolved[k][h + 1], sd, q.transition_time_s, cmin, cmax, rmin, rmax);
+        lb[i] = xa + xb;
+        const double* fa = frame_bounds_of(k, h);
+        const double* fb = frame_bounds_of(k, h + 1);
+        if (fa == nullptr && fb == nullptr) continue;
+        // min over s < e of (max(xa, fa[s]) + max(xb, fb[e])).
+        const ClipInfo& ci = sd.clips[r];
+        double best = kInf, suffix = kInf;
+        for (std::size_t f = ci.frame_count; f-- > 0;) {
+          const std::size_t g = ci.frame_start + f;
+          best = std::min(best, (fa ? std::max(xa, fa[g]) : xa) + suffix);
+          suffix = std::min(suffix, fb ? std::max(xb, fb[g]) : xb);
+        }
+        lb[i] = std::max(lb[i], best);
       }
     }
     std::vector<std::size_t> order(cands.size());
@@ -727,13 +989,16 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
                                    "index with mocap-index build --character)",
                                    q.character->string(), m.index->info().character_name));
   }
-  QueryRunner run{m, q, opt, {}, {}};
+  QueryRunner run{m, q, opt, {}, {}, {}};
   run.resolved.resize(m.skels.size());
   for (std::size_t k = 0; k < m.skels.size(); ++k)
     for (std::size_t i = 0; i < q.frames.size(); ++i)
       run.resolved[k].push_back(search_detail::resolve_frame(q, i, *m.skels[k]->sk, m.skels[k]->model,
                                                              q.transition_time_s, m.t_index, m.bvh_cache,
                                                              m.index->info().unit_option));
+  for (std::size_t k = 0; k < m.skels.size(); ++k)
+    for (ResolvedFrame& f : run.resolved[k]) set_needed_joints(f, m.skels[k]->model);
+  if ((opt.mode == SearchMode::exact || opt.mode == SearchMode::approx) && !q.relative) run.compute_frame_bounds();
   QueryOutcome out;
   out.id = q.id;
   double recall_sum = 0.0;
@@ -777,6 +1042,36 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
     out.stats.recall = recall_sum / static_cast<double>(q.frames.size() - 1);
   out.stats.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;
+}
+
+void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k, std::vector<double>& lower,
+                                std::vector<double>& h) const {
+  const Impl& m = *impl_;
+  if (k >= m.skels.size() || i >= q.frames.size()) throw std::invalid_argument("frame_bounds: no such skeleton or frame");
+  const SkelData& sd = *m.skels[k];
+  ResolvedFrame f = search_detail::resolve_frame(q, i, *sd.sk, sd.model, q.transition_time_s, m.t_index,
+                                                 m.bvh_cache, m.index->info().unit_option);
+  set_needed_joints(f, sd.model);
+  const std::size_t n = sd.sk->frame_count, s3 = sd.segments * 3;
+  lower.assign(n, 0.0);
+  h.assign(n, kInf);
+  Scratch sc;
+  if (f.kind == FrameKind::partial) {
+    const PartialBoundPlan plan = make_partial_bound_plan(f, sd, q.transition_time_s);
+    partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd.k), 0, n, lower.data(), sc);
+  }
+  for (const ClipInfo& ci : sd.clips)
+    for (std::size_t bl = 0; bl * 16 < ci.frame_count; ++bl) {
+      const std::size_t row = ci.block_start + bl;
+      const double x = f.kind == FrameKind::partial
+                           ? 0.0
+                           : box_lower_bound(f, sd, q.transition_time_s, sd.block_com_min.data() + row * s3,
+                                             sd.block_com_max.data() + row * s3, sd.block_root_min.data() + row * 3,
+                                             sd.block_root_max.data() + row * 3);
+      const std::size_t g0 = ci.frame_start + bl * 16, g1 = ci.frame_start + std::min(ci.frame_count, bl * 16 + 16);
+      for (std::size_t g = g0; g < g1; ++g) lower[g] = std::max(lower[g], x);
+      evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc);
+    }
 }
 
 // ---------------------------------------------------------------------------

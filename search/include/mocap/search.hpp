@@ -134,6 +134,13 @@ class SearchEngine {
   /// frame out of range; a character other than the index's).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
 
+  /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
+  /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
+  /// every frame F of the skeleton (16-frame block boxes, per-frame bounds of
+  /// partial frames; docs/search.md) in `lower`, and h itself in `h`.
+  void frame_bounds(const Query& query, std::size_t i, std::size_t k, std::vector<double>& lower,
+                    std::vector<double>& h) const;
+
   /// Internal tables (search.cpp).
   struct Impl;
 
