@@ -186,12 +186,6 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   WorldPose w_goal, w_after, w_prev, w_cur, w_cand;
   synth_world_pose(sk, gap.goal, w_goal);
   synth_world_pose(sk, gap.after, w_after);
-  // Goal rates for h: one-sided from the goal's successor.
-  BodyState goal_state;
-  {
-    const PoseView pg = view_of(w_goal), pa = view_of(w_after);
-    sequence_state(sk.model, nullptr, pg, &pa, dt, goal_state);
-  }
   const std::size_t estimate = estimate_transition_frames(gap, params);
   // Neighbours of each joint (parent and children that carry rotations).
   std::vector<std::vector<int>> adjacent(n);
@@ -206,11 +200,16 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   std::vector<SynthFrame> closed;
   SynthFrame pprev, prev = gap.before, cur = gap.start;
   bool have_pprev = false;
-  WorldPose w_pprev, w_next;
+  WorldPose w_pprev;
   std::string reason = "max_states";
   std::size_t iterations = 0;
   std::vector<std::pair<double, int>> costs;
   std::vector<int> varied;
+  std::vector<WorldPose> seq_world;
+  std::vector<BodyState> seq_states;
+  std::vector<NewtonEulerData> seq_ids;
+  SynthFrame roll_frame;
+  double window_slide = 0.0;
   for (;;) {
     if (have_pprev) synth_world_pose(sk, pprev, w_pprev);
     synth_world_pose(sk, prev, w_prev);
@@ -228,21 +227,66 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     }
     ++iterations;
     const std::size_t remaining = std::max<std::size_t>(2, estimate + 1 - std::min(estimate, closed.size()));
-    const double t_rest = static_cast<double>(remaining - 1) * dt;
-    // f(C) = g over the steps C changes (prev -> cur -> C -> D, rates by
-    // central differences, D = the next geodesic step from C) + h(D -> S_G)
-    // over the time left after D.
+    // f(C) = g over the steps C changes (prev -> cur -> C -> D_1, rates by
+    // central differences) + the estimate of the rest: the geodesic
+    // completion D_1 .. D_{r-2} -> S_G from C (the slerp of the remaining
+    // steps), each of its steps costed by h (the paper's h(S1' -> Sf) taken
+    // step by step along the straight completion), or by g when
+    // params.exact_lookahead.
+    const std::size_t rollout = remaining - 2;
     auto score = [&](const SynthFrame& c) {
-      synth_world_pose(sk, c, w_cand);
-      const bool d_is_goal = remaining <= 2;
-      const SynthFrame d = d_is_goal ? gap.goal : geodesic_step(gap, c, remaining - 1);
-      if (!d_is_goal) synth_world_pose(sk, d, w_next);
-      const WorldPose& wd = d_is_goal ? w_goal : w_next;
-      double f = ev.g(have_pprev ? &w_pprev : nullptr, w_prev, w_cur, &w_cand, false);
-      f += ev.g(&w_prev, w_cur, w_cand, &wd, false);
-      f += ev.g(&w_cur, w_cand, wd, d_is_goal ? &w_after : nullptr, false);
-      if (!d_is_goal)
-        f += approximate_energy(sk.model, ev.sb.view(), goal_state.view(), t_rest - dt);
+      // Pose list: prev, cur, C, D_1..D_k, goal, after.
+      const std::size_t L = 3 + rollout + 2;
+      if (seq_world.size() < L) seq_world.resize(L);
+      if (seq_states.size() < L) seq_states.resize(L);
+      if (seq_ids.size() < L) seq_ids.resize(L);
+      std::vector<const WorldPose*> P(L);
+      P[0] = &w_prev;
+      P[1] = &w_cur;
+      synth_world_pose(sk, c, seq_world[2]);
+      P[2] = &seq_world[2];
+      for (std::size_t k = 1; k <= rollout; ++k) {
+        const double s = static_cast<double>(k) / static_cast<double>(rollout + 1);
+        SynthFrame& d = roll_frame;
+        d.root_position_m = (1.0 - s) * c.root_position_m + s * gap.goal.root_position_m;
+        d.local_rotations.resize(n);
+        for (std::size_t j = 0; j < n; ++j)
+          d.local_rotations[j] = c.local_rotations[j].slerp(s, gap.goal.local_rotations[j]).normalized();
+        synth_world_pose(sk, d, seq_world[2 + k]);
+        P[2 + k] = &seq_world[2 + k];
+      }
+      P[L - 2] = &w_goal;
+      P[L - 1] = &w_after;
+      // States 0 .. L-2 (prev's predecessor: pprev, when there is one).
+      for (std::size_t k = 0; k + 1 < L; ++k) {
+        const PoseView pc = view_of(*P[k]), px = view_of(*P[k + 1]);
+        PoseView pp{};
+        const bool has_prev = k > 0 || have_pprev;
+        if (k > 0) pp = view_of(*P[k - 1]);
+        else if (have_pprev) pp = view_of(w_pprev);
+        sequence_state(sk.model, has_prev ? &pp : nullptr, pc, &px, dt, seq_states[k]);
+      }
+      // Foot sliding over the steps from cur on (the rest of the path).
+      window_slide = 0.0;
+      for (std::size_t k = 1; k + 2 < L; ++k) window_slide += step_foot_sliding(sk, *P[k], *P[k + 1], dt);
+      double f = 0.0;
+      bool have_id = false;  // seq_ids[k] holds state k's inverse dynamics
+      // The step S_-1 -> S_0 is not part of the transition: skipped.
+      for (std::size_t k = closed.empty() ? 1 : 0; k + 2 < L; ++k) {
+        // g on the steps C changes and on the last two (into S_G, where the
+        // velocity jump is), h (or g: exact_lookahead) in between.
+        if (k <= 2 || k + 4 >= L || params.exact_lookahead) {
+          if (!have_id) inverse_dynamics(sk.model, seq_states[k].view(), seq_ids[k]);
+          inverse_dynamics(sk.model, seq_states[k + 1].view(), seq_ids[k + 1]);
+          have_id = true;
+          ++ev.evaluations;
+          f += full_energy(sk.model, seq_states[k].view(), seq_states[k + 1].view(), dt, seq_ids[k],
+                           seq_ids[k + 1], ev.ws);
+        } else {
+          have_id = false;
+          f += approximate_energy(sk.model, seq_states[k].view(), seq_states[k + 1].view(), dt);
+        }
+      }
       return f;
     };
     // Base proposal: the geodesic step toward the goal over the remaining steps;
@@ -254,6 +298,10 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     synth_world_pose(sk, best, w_cand);
     ev.g(&w_prev, w_cur, w_cand, nullptr, true);
     double best_f = score(best);
+    // A candidate may not slide the feet more than the geodesic completion
+    // from cur (the previous iteration's path): the path never slides more
+    // than the slerp transition of the same length.
+    const double slide_limit = window_slide + 1e-9;
     costs.clear();
     for (std::size_t j = 0; j < n; ++j) {
       const double c = ev.terms.g.joint_J[j] + ev.terms.g.segment_J[j];
@@ -265,7 +313,7 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     varied.clear();
     auto try_candidate = [&](SynthFrame&& cand) {
       const double f = score(cand);
-      if (f < best_f) {
+      if (f < best_f && window_slide <= slide_limit) {
         best_f = f;
         best = std::move(cand);
       }

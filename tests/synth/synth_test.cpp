@@ -291,6 +291,37 @@ TEST(SynthSupplement, AStarIsDeterministicBoundedAndInRange) {
   EXPECT_GE(ma.energy_J, ma.approximate_energy_J - 1e-9);
 }
 
+TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
+  REQUIRE_INDEX();
+  // Real gaps (different clips, same content). Every iteration offers the
+  // geodesic step, whose completion is the previous path, and refuses
+  // candidates that slide the feet more: with the exact lookahead the path's
+  // g, and in both modes its foot sliding, can only go down from the slerp's.
+  const std::pair<const char*, const char*> pairs[] = {
+      {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
+      {"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
+      {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
+  std::size_t strictly_lower = 0;
+  for (const auto& [xn, yn] : pairs) {
+    auto g = make_gap(index, clip_named(index, xn), 20, clip_named(index, yn), 30);
+    for (bool exact : {false, true}) {
+      mocap::SupplementParams p;
+      p.exact_lookahead = exact;
+      mocap::SupplementStats st;
+      const auto a = mocap::supplement_astar(g->gap, p, &st);
+      ASSERT_EQ(st.stop_reason, "horizon") << xn;
+      const auto ma = mocap::measure_transition(g->gap, a);
+      const auto ms = mocap::measure_transition(g->gap, mocap::slerp_transition(g->gap, a.size()));
+      EXPECT_LE(ma.foot_sliding_m, ms.foot_sliding_m + 1e-9) << xn << " exact " << exact;
+      if (exact) {
+        EXPECT_LE(ma.energy_J, ms.energy_J * (1 + 1e-9)) << xn;
+        if (ma.energy_J < ms.energy_J * 0.999) ++strictly_lower;
+      }
+    }
+  }
+  EXPECT_GE(strictly_lower, 2u);
+}
+
 TEST(SynthSupplement, IdenticalEndsCostLittle) {
   REQUIRE_INDEX();
   const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");

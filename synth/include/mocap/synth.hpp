@@ -10,15 +10,17 @@
 //
 // Three methods (docs/synthesis.md):
 //  - astar: best-first search over states, one state accepted per iteration
-//    (the paper's OPEN/CLOSED loop): from the current state a base proposal
-//    (one step of a cubic Hermite path in every DOF toward the goal, matching
-//    the velocities at both ends) is refined joint by joint: the joints with
-//    the largest terms of g(current -> proposal), in decreasing order, each
-//    mapped to its adjacent joint that stands highest; that joint's local
-//    rotation is varied along the geodesic toward / away from the goal's,
-//    clamped to the range of motion, and the variant minimising
-//    g(S -> S') + h(S' -> S_G) is kept. Stops when g(S -> S_G) < T_c or more
-//    than T_n states were inserted.
+//    (the paper's OPEN/CLOSED loop): from the current state the base proposal
+//    is the geodesic step toward the goal; it is refined joint by joint: the
+//    joints with the largest terms of g(current -> proposal), in decreasing
+//    order, each mapped to its adjacent joint that stands highest; that
+//    joint's local rotation is varied (velocity-continuing Hermite rotation,
+//    half way to it, the step scaled), clamped to the range of motion, and
+//    the variant with the lowest f = g(steps it changes) + the estimate of
+//    the rest (the geodesic completion from it to the goal, costed step by
+//    step by h, and by g on its last two steps) is kept, provided it slides
+//    the feet no more than the geodesic completion. Stops when
+//    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
 //    velocity) plus the start offset decayed by Bollo's quintic.
@@ -129,6 +131,9 @@ struct SupplementParams {
   /// Root translation of the base proposal: the velocity-matching Hermite
   /// step (true) or the straight line (false).
   bool smooth_root = false;
+  /// Cost every step of a candidate's geodesic completion with g (true);
+  /// default: g on its first and last two steps, h (the heuristic) between.
+  bool exact_lookahead = false;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
 };
