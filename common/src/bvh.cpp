@@ -605,6 +605,15 @@ std::string write_bvh(const RawClip& clip, int precision) {
 
   Writer w(precision);
   w.str().reserve(clip.values.size() * 10 + n * 128 + 64);
+  const auto write_offset = [&w](std::size_t depth, const Eigen::Vector3d& offset) {
+    w.tabs(depth);
+    w.text("OFFSET");
+    for (int a = 0; a < 3; ++a) {
+      w.ch(' ');
+      w.number(offset[a]);
+    }
+    w.ch('\n');
+  };
   w.text("HIERARCHY\n");
   // Depth-first over the tree; the order in which joints are written is the
   // column order of the written frame rows.
@@ -631,13 +640,7 @@ std::string write_bvh(const RawClip& clip, int precision) {
         w.ch('\n');
         w.tabs(depth);
         w.text("{\n");
-        w.tabs(depth + 1);
-        w.text("OFFSET");
-        for (int a = 0; a < 3; ++a) {
-          w.ch(' ');
-          w.number(j.offset[a]);
-        }
-        w.ch('\n');
+        write_offset(depth + 1, j.offset);
         if (!j.channels.empty()) {
           w.tabs(depth + 1);
           w.text("CHANNELS ");
@@ -661,13 +664,7 @@ std::string write_bvh(const RawClip& clip, int precision) {
         w.text("End Site\n");
         w.tabs(depth + 1);
         w.text("{\n");
-        w.tabs(depth + 2);
-        w.text("OFFSET");
-        for (int a = 0; a < 3; ++a) {
-          w.ch(' ');
-          w.number(j.end_site[a]);
-        }
-        w.ch('\n');
+        write_offset(depth + 2, j.end_site);
         w.tabs(depth + 1);
         w.text("}\n");
       }

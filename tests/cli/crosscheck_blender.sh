@@ -12,14 +12,8 @@ data="${2:?usage: crosscheck_blender.sh BUILD_DIR DATA_DIR}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 bin="$build/indexer/mocap-index"
 
-skip() {
-  if [ "${CI:-}" = "true" ]; then
-    echo "FAIL: $* (CI=true: the cross-check must run; scripts/crosscheck-setup installs it)" >&2
-    exit 1
-  fi
-  echo "SKIP: $* (scripts/crosscheck-setup installs it)"
-  exit 77
-}
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+skip() { missing_tool scripts/crosscheck-setup "$@"; }
 
 [ -x "$bin" ] || { echo "FAIL: $bin not built" >&2; exit 1; }
 command -v python3 >/dev/null 2>&1 || skip "python3 not found"

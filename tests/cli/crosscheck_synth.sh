@@ -7,10 +7,8 @@ set -euo pipefail
 build="${1:?usage: crosscheck_synth.sh BUILD_DIR DATA_DIR}"
 data="${2:?usage: crosscheck_synth.sh BUILD_DIR DATA_DIR}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-skip() {
-  if [ "${CI:-}" = "true" ]; then echo "FAIL: $* (CI=true: scripts/crosscheck-setup installs it)" >&2; exit 1; fi
-  echo "SKIP: $* (scripts/crosscheck-setup installs it)"; exit 77
-}
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+skip() { missing_tool scripts/crosscheck-setup "$@"; }
 [ -x "$build/synth/mocap-synth" ] || { echo "FAIL: mocap-synth not built" >&2; exit 1; }
 [ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
 command -v "${BLENDER:-blender}" >/dev/null 2>&1 || skip "blender not found"

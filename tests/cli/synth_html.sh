@@ -11,10 +11,8 @@ data="${2:?usage: synth_html.sh BUILD_DIR DATA_DIR}"
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 synth="$build/synth/mocap-synth"
 indexer="$build/indexer/mocap-index"
-skip() {
-  if [ "${CI:-}" = "true" ]; then echo "FAIL: $* (CI=true: scripts/synth-setup installs it)" >&2; exit 1; fi
-  echo "SKIP: $* (scripts/synth-setup installs it)"; exit 77
-}
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+skip() { missing_tool scripts/synth-setup "$@"; }
 [ -x "$synth" ] || { echo "FAIL: $synth not built" >&2; exit 1; }
 [ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
 chromium="${CHROMIUM:-$(command -v chromium || command -v chromium-browser || true)}"
