@@ -4,19 +4,21 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
-#include <unistd.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <exception>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -75,7 +77,8 @@ std::vector<std::string> split(const std::string& s, char sep) {
 }
 
 bool all_digits(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) { return c >= '0' && c <= '9'; });
+  return !s.empty() &&
+         std::all_of(s.begin(), s.end(), [](unsigned char c) { return c >= '0' && c <= '9'; });
 }
 
 /// Line `n` (0-based) of cfg/<key>_label.txt near the clip, if any.
@@ -90,11 +93,13 @@ std::optional<std::string> cfg_label(const fs::path& bvh, const std::string& key
     std::string line;
     for (long long i = 0; std::getline(in, line); ++i) {
       if (i != n) continue;
-      while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
+      while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+        line.pop_back();
       // Drop a collection prefix ("dataset-1_") that also starts the file name.
       const std::size_t us = line.find('_');
       const std::string stem = bvh.stem().string();
-      if (us != std::string::npos && us + 1 < line.size() && stem.compare(0, us + 1, line, 0, us + 1) == 0)
+      if (us != std::string::npos && us + 1 < line.size() &&
+          stem.compare(0, us + 1, line, 0, us + 1) == 0)
         line = line.substr(us + 1);
       return line;
     }
@@ -155,12 +160,18 @@ constexpr std::size_t kChunkValues = 1u << 14;  // 64 KB chunks
 
 std::string axes_of(RowShape s) {
   switch (s) {
-    case RowShape::scalar: return "row";
-    case RowShape::vec3: return "row, (x, y, z)";
-    case RowShape::joints3: return "row, joint, (x, y, z)";
-    case RowShape::joints4: return "row, joint, (w, x, y, z)";
-    case RowShape::segments3: return "row, segment, (x, y, z)";
-    case RowShape::segments9: return "row, segment, value";
+    case RowShape::scalar:
+      return "row";
+    case RowShape::vec3:
+      return "row, (x, y, z)";
+    case RowShape::joints3:
+      return "row, joint, (x, y, z)";
+    case RowShape::joints4:
+      return "row, joint, (w, x, y, z)";
+    case RowShape::segments3:
+      return "row, segment, (x, y, z)";
+    case RowShape::segments9:
+      return "row, segment, value";
   }
   return "row";
 }
@@ -201,15 +212,16 @@ struct Column {
   }
 };
 
-void describe(h5::Dataset& d, std::string_view unit, std::string_view description, std::uint64_t checksum) {
+void describe(h5::Dataset& d, std::string_view unit, std::string_view description,
+              std::uint64_t checksum) {
   d.set_attribute("unit", unit);
   d.set_attribute("description", description);
   d.set_attribute("checksum_xxh64", hex64(checksum));
 }
 
 template <class T>
-void put(h5::Group& g, const std::string& name, const std::vector<hsize_t>& shape, const std::vector<T>& values,
-         std::string_view unit, std::string_view description) {
+void put(h5::Group& g, const std::string& name, const std::vector<hsize_t>& shape,
+         const std::vector<T>& values, std::string_view unit, std::string_view description) {
   h5::Dataset d = g.write_dataset<T>(name, shape, std::span<const T>(values));
   describe(d, unit, description, xxh64(values.data(), values.size() * sizeof(T)));
 }
@@ -223,7 +235,8 @@ void put_strings(h5::Group& g, const std::string& name, const std::vector<hsize_
 }
 
 void put_enum(h5::Group& g, const std::string& name, const std::vector<std::uint8_t>& values,
-              const std::vector<std::pair<std::string, int>>& members, std::string_view description) {
+              const std::vector<std::pair<std::string, int>>& members,
+              std::string_view description) {
   h5::Dataset d = g.create_enum_dataset(name, values.size(), members);
   d.write_enum(values);
   describe(d, "", description, xxh64(values.data(), values.size()));
@@ -252,7 +265,8 @@ struct Slot {
 /// Datasets of the previous index, opened once, for copying reused clips.
 class PreviousIndex {
  public:
-  PreviousIndex(const fs::path& path, Index index) : index_(std::move(index)), file_(h5::File::open(path)) {}
+  PreviousIndex(const fs::path& path, Index index)
+      : index_(std::move(index)), file_(h5::File::open(path)) {}
   const Index& index() const { return index_; }
   const h5::Dataset& dataset(std::uint32_t skeleton, const std::string& group, const char* field) {
     const std::string key = std::to_string(skeleton) + "/" + group + "/" + field;
@@ -303,14 +317,17 @@ class IndexWriter {
                                            : g.create_dataset<double>(spec.name, shape, o);
     };
     h5::Group frames = slot->group.create_group("frames");
-    for (std::size_t i = 0; i < kFrameFieldCount; ++i) make(frames, slot->frames[i], kFrameFields[i], deflate_);
+    for (std::size_t i = 0; i < kFrameFieldCount; ++i)
+      make(frames, slot->frames[i], kFrameFields[i], deflate_);
     // Bounds are small and compress well: always deflated.
     for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
       h5::Group g = slot->group.create_group("blocks" + std::to_string(kIndexBlockSizes[b]));
-      for (std::size_t i = 0; i < kBlockFieldCount; ++i) make(g, slot->blocks[b][i], kBlockFields[i], 4);
+      for (std::size_t i = 0; i < kBlockFieldCount; ++i)
+        make(g, slot->blocks[b][i], kBlockFields[i], 4);
     }
     h5::Group cb = slot->group.create_group("clip_bounds");
-    for (std::size_t i = 0; i < kClipBoundFieldCount; ++i) make(cb, slot->bounds[i], kClipBoundFields[i], 4);
+    for (std::size_t i = 0; i < kClipBoundFieldCount; ++i)
+      make(cb, slot->bounds[i], kClipBoundFields[i], 4);
     slots_.push_back(std::move(slot));
     by_id_.emplace(s.id, k);
     return k;
@@ -327,9 +344,11 @@ class IndexWriter {
     }
     for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
       const std::size_t blocks = (d.frame_count + kIndexBlockSizes[b] - 1) / kIndexBlockSizes[b];
-      for (std::size_t i = 0; i < kBlockFieldCount; ++i) s.blocks[b][i].add(d.blocks[b][i].data(), blocks);
+      for (std::size_t i = 0; i < kBlockFieldCount; ++i)
+        s.blocks[b][i].add(d.blocks[b][i].data(), blocks);
     }
-    for (std::size_t i = 0; i < kClipBoundFieldCount; ++i) s.bounds[i].add(d.clip_bounds[i].data(), 1);
+    for (std::size_t i = 0; i < kClipBoundFieldCount; ++i)
+      s.bounds[i].add(d.clip_bounds[i].data(), 1);
   }
 
   /// Copies a reused clip's rows from the previous index.
@@ -337,7 +356,8 @@ class IndexWriter {
     Slot& s = place(clip, clip_index, old.frame_count);
     std::vector<float> buf;
     std::vector<double> buf64;
-    auto copy_rows = [&](Column& c, const std::string& group, std::uint64_t first, std::uint64_t count) {
+    auto copy_rows = [&](Column& c, const std::string& group, std::uint64_t first,
+                         std::uint64_t count) {
       const h5::Dataset& src = prev.dataset(old.skeleton, group, c.spec->name);
       if (c.spec->dtype == IndexDType::f32) {
         buf.resize(count * c.row_elements);
@@ -353,7 +373,8 @@ class IndexWriter {
     for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
       const std::size_t bs = kIndexBlockSizes[b];
       const std::uint64_t first = b == 0 ? old.block16_start : old.block64_start;
-      for (auto& c : s.blocks[b]) copy_rows(c, "blocks" + std::to_string(bs), first, (old.frame_count + bs - 1) / bs);
+      for (auto& c : s.blocks[b])
+        copy_rows(c, "blocks" + std::to_string(bs), first, (old.frame_count + bs - 1) / bs);
     }
     for (auto& c : s.bounds) copy_rows(c, "clip_bounds", old.row, 1);
   }
@@ -362,7 +383,8 @@ class IndexWriter {
 
   /// Writes the tables and attributes and closes the file.
   void finish(const std::vector<IndexClip>& clips, const std::vector<std::string>& label_keys,
-              const std::vector<IndexSkippedFile>& skipped, const std::vector<std::pair<std::int64_t, std::uint64_t>>& skipped_stat,
+              const std::vector<IndexSkippedFile>& skipped,
+              const std::vector<std::pair<std::int64_t, std::uint64_t>>& skipped_stat,
               const RootAttributes& attrs) {
     std::uint64_t frames = 0;
     for (const auto& c : clips) frames += c.frame_count;
@@ -379,16 +401,20 @@ class IndexWriter {
       sizes.push_back(skipped_stat[i].second);
     }
     put_strings(sk, "path", {paths.size()}, paths, "files that were not indexed");
-    put_strings(sk, "reason", {reasons.size()}, reasons, "why (file:line: what was expected, or an I/O error)");
-    put(sk, "size_bytes", {sizes.size()}, sizes, "B", "file size when it was tried (0 for a missing input)");
-    put(sk, "mtime_ns", {mtimes.size()}, mtimes, "ns", "modification time when it was tried, since the Unix epoch");
+    put_strings(sk, "reason", {reasons.size()}, reasons,
+                "why (file:line: what was expected, or an I/O error)");
+    put(sk, "size_bytes", {sizes.size()}, sizes, "B",
+        "file size when it was tried (0 for a missing input)");
+    put(sk, "mtime_ns", {mtimes.size()}, mtimes, "ns",
+        "modification time when it was tried, since the Unix epoch");
 
     h5::Group& r = file_.root();
     r.set_attribute("format", kIndexFormat);
     r.set_attribute("schema_version", kIndexSchemaVersion);
-    r.set_attribute("description",
-                    "motion-capture index: clips, skeletons, per-frame kinematics and dynamics, bounds "
-                    "(docs/index-format.md)");
+    r.set_attribute(
+        "description",
+        "motion-capture index: clips, skeletons, per-frame kinematics and dynamics, bounds "
+        "(docs/index-format.md)");
     r.set_attribute("length_unit", "m");
     r.set_attribute("time_unit", "s");
     r.set_attribute("mass_unit", "kg");
@@ -409,7 +435,8 @@ class IndexWriter {
     r.set_attribute("contact_speed_mps", attrs.energy.contact_speed_mps);
     r.set_attribute("friction_coefficient", attrs.energy.friction_coefficient);
     r.set_attribute("contact_patch_radius_m", attrs.energy.contact_patch_radius_m);
-    const double blocks[] = {static_cast<double>(kIndexBlockSizes[0]), static_cast<double>(kIndexBlockSizes[1])};
+    const double blocks[] = {static_cast<double>(kIndexBlockSizes[0]),
+                             static_cast<double>(kIndexBlockSizes[1])};
     r.set_attribute("block_sizes", std::span<const double>(blocks));
     r.set_attribute("clip_count", static_cast<std::int64_t>(clips.size()));
     r.set_attribute("frame_count", static_cast<std::int64_t>(frames));
@@ -490,16 +517,21 @@ class IndexWriter {
     put_strings(g, "names", {J}, k.names, "joint names in depth-first file order");
     put(g, "parents", {J}, parents, "", "parent joint index, -1 for a root; parents[j] < j");
     put(g, "offsets_m", {J, 3}, offsets, "m", "OFFSET (rest translation from the parent)");
-    put(g, "end_sites_m", {J, 3}, ends, "m", "End Site offset in the joint frame (0 when has_end_site is 0)");
+    put(g, "end_sites_m", {J, 3}, ends, "m",
+        "End Site offset in the joint frame (0 when has_end_site is 0)");
     put(g, "has_end_site", {J}, has_end, "", "1 when the joint has an End Site");
-    put(g, "translation_scales", {J}, scales, "1", "multiplier on the joint's local translation (character length scales)");
+    put(g, "translation_scales", {J}, scales, "1",
+        "multiplier on the joint's local translation (character length scales)");
     put_strings(g, "channels", {J}, t.channels, "the joint's BVH channels in file order");
-    put_strings(g, "segment_class", {J}, classes, "body segment class of the joint (body.hpp), none = no mass");
+    put_strings(g, "segment_class", {J}, classes,
+                "body segment class of the joint (body.hpp), none = no mass");
     put_strings(g, "segment_side", {J}, sides, "center, left or right");
     put(g, "mass_kg", {J}, mass, "kg", "segment mass for the index's character");
     put(g, "com_local_m", {J, 3}, com, "m", "segment centre of mass in the joint frame");
-    put(g, "tip_local_m", {J, 3}, tip, "m", "bone end (child, mean of children or End Site) in the joint frame");
-    put(g, "inertia_local_kgm2", {J, 3, 3}, inertia, "kg m^2", "segment inertia tensor about its COM, joint frame");
+    put(g, "tip_local_m", {J, 3}, tip, "m",
+        "bone end (child, mean of children or End Site) in the joint frame");
+    put(g, "inertia_local_kgm2", {J, 3, 3}, inertia, "kg m^2",
+        "segment inertia tensor about its COM, joint frame");
     put(g, "segment_length_m", {J}, length, "m", "bone length of the segment");
     put(g, "segments", {segments.size()}, segments, "",
         "joints with mass (DynamicsModel::segments): the segment axis of h_scan and kd arrays");
@@ -540,15 +572,20 @@ class IndexWriter {
     put(g, "row", {C}, rows, "", "row of the clip in its skeleton's clip_bounds arrays");
     put(g, "frame_start", {C}, fstart, "", "first row of the clip in its skeleton's frames arrays");
     put(g, "frame_count", {C}, fcount, "", "number of frames (rows) of the clip");
-    put(g, "block16_start", {C}, b16, "", "first row of the clip in blocks16 (ceil(frame_count / 16) rows)");
-    put(g, "block64_start", {C}, b64, "", "first row of the clip in blocks64 (ceil(frame_count / 64) rows)");
+    put(g, "block16_start", {C}, b16, "",
+        "first row of the clip in blocks16 (ceil(frame_count / 16) rows)");
+    put(g, "block64_start", {C}, b64, "",
+        "first row of the clip in blocks64 (ceil(frame_count / 64) rows)");
     put(g, "frame_time_s", {C}, ftime, "s", "seconds between frames (the file's Frame Time)");
     put(g, "unit_scale_m", {C}, uscale, "m", "metres per file length unit");
     put_strings(g, "unit", {C}, units, "file length unit, declared (--unit) or detected");
     put_enum(g, "status", status, {{"new", 0}, {"changed", 1}, {"reused", 2}},
-             "how this build obtained the clip: parsed (new file), parsed (changed file), reused from the previous index");
-    put_enum(g, "label_source", lsrc, {{"none", 0}, {"file_name", 1}, {"sidecar", 2}, {"sidecar_cfg", 3}},
-             "where the labels came from: none, the file name, the NAME.json sidecar, the sidecar resolved via cfg/*_label.txt");
+             "how this build obtained the clip: parsed (new file), parsed (changed file), reused "
+             "from the previous index");
+    put_enum(g, "label_source", lsrc,
+             {{"none", 0}, {"file_name", 1}, {"sidecar", 2}, {"sidecar_cfg", 3}},
+             "where the labels came from: none, the file name, the NAME.json sidecar, the sidecar "
+             "resolved via cfg/*_label.txt");
     put_strings(g, "label_keys", {keys.size()}, keys, "label names, the columns of labels");
     put_strings(g, "labels", {C, keys.size()}, labels, "label of each clip per key (\"\" = none)");
   }
@@ -621,7 +658,8 @@ void remove_stale_temporaries(const fs::path& out) {
     const std::string name = e.path().filename().string();
     if (name.rfind(prefix, 0) != 0) continue;
     const std::string pid_s = name.substr(prefix.size());
-    if (pid_s.empty() || !std::all_of(pid_s.begin(), pid_s.end(), [](unsigned char c) { return std::isdigit(c); }))
+    if (pid_s.empty() ||
+        !std::all_of(pid_s.begin(), pid_s.end(), [](unsigned char c) { return std::isdigit(c); }))
       continue;
     const pid_t pid = static_cast<pid_t>(std::stol(pid_s));
     if (pid == ::getpid() || (::kill(pid, 0) != 0 && errno == ESRCH)) fs::remove(e.path(), ec);
@@ -686,14 +724,18 @@ IndexSkeleton to_table(const IndexedSkeleton& s) {
 
 IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   const auto t0 = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
   const bool trace = std::getenv("MOCAP_INDEX_TRACE") != nullptr;
   auto phase = [&](const char* what) {
     if (trace) std::fprintf(stderr, "mocap-index: %.3f s %s\n", elapsed(), what);
   };
   if (opt.out.empty()) throw InputError("<build>", 0, "no output file given");
-  if (!(opt.transition_time_s > 0.0)) throw InputError("<build>", 0, "transition time must be positive");
-  if (opt.deflate_level < 0 || opt.deflate_level > 9) throw InputError("<build>", 0, "compression level must be 0..9");
+  if (!(opt.transition_time_s > 0.0))
+    throw InputError("<build>", 0, "transition time must be positive");
+  if (opt.deflate_level < 0 || opt.deflate_level > 9)
+    throw InputError("<build>", 0, "compression level must be 0..9");
   const fs::path out = fs::absolute(opt.out).lexically_normal();
   const std::size_t jobs = opt.jobs ? opt.jobs : std::max(1u, std::thread::hardware_concurrency());
 
@@ -716,9 +758,12 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
     std::set<std::string> seen;
     for (const auto& e : col.files) {
       std::string p = fs::absolute(e.path).lexically_normal().string();
-      if (seen.insert(p).second) files.push_back(FileEntry{std::move(p), {}, false, {}, Plan::parse, 0, nullptr, nullptr, {}});
+      if (seen.insert(p).second)
+        files.push_back(
+            FileEntry{std::move(p), {}, false, {}, Plan::parse, 0, nullptr, nullptr, {}});
     }
-    std::sort(files.begin(), files.end(), [](const FileEntry& a, const FileEntry& b) { return a.path < b.path; });
+    std::sort(files.begin(), files.end(),
+              [](const FileEntry& a, const FileEntry& b) { return a.path < b.path; });
   }
   if (opt.strict && !col.problems.empty())
     throw InputError(col.problems.front().input, 0, col.problems.front().reason);
@@ -736,17 +781,20 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
       if (oi.build_tool != attrs.build_tool)
         sum.previous_index_note = "built by " + oi.build_tool + ": everything re-parsed";
       else if (oi.character_json != attrs.character_json || oi.unit_option != attrs.unit_option ||
-               oi.transition_time_s != attrs.transition_time_s || oi.energy_params.gravity_mps2 != energy.gravity_mps2 ||
+               oi.transition_time_s != attrs.transition_time_s ||
+               oi.energy_params.gravity_mps2 != energy.gravity_mps2 ||
                oi.energy_params.contact_height_m != energy.contact_height_m ||
                oi.energy_params.contact_speed_mps != energy.contact_speed_mps ||
                oi.energy_params.ground_height_m != energy.ground_height_m ||
                oi.energy_params.friction_coefficient != energy.friction_coefficient ||
                oi.energy_params.contact_patch_radius_m != energy.contact_patch_radius_m)
-        sum.previous_index_note = "build parameters changed (character, unit or transition time): everything re-parsed";
+        sum.previous_index_note =
+            "build parameters changed (character, unit or transition time): everything re-parsed";
       else
         prev = std::make_unique<PreviousIndex>(out, std::move(old));
     } catch (const InputError& e) {
-      sum.previous_index_note = std::string("existing index not reusable (") + e.detail() + "): everything re-parsed";
+      sum.previous_index_note =
+          std::string("existing index not reusable (") + e.detail() + "): everything re-parsed";
     }
   }
 
@@ -775,30 +823,33 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   const std::size_t hw = std::max(1u, std::thread::hardware_concurrency());
   tbb::task_arena arena(static_cast<int>(std::min(jobs, hw)));
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, files.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        FileEntry& f = files[i];
-        auto st = stat_file(f.path, f.stat_error);
-        f.stat_ok = st.has_value();
-        if (st) f.stat = *st;
-        f.labels = resolve_clip_labels(f.path);
-        if (!f.stat_ok) continue;
-        if (auto it = old_clips.find(f.path); it != old_clips.end()) {
-          f.old_clip = it->second;
-          if (f.old_clip->size_bytes == f.stat.size && f.old_clip->mtime_ns == f.stat.mtime_ns) {
-            std::string err;
-            bool ok = false;
-            f.hash = hash_file(f.path, err, ok);
-            if (ok && f.hash == f.old_clip->content_hash) f.plan = Plan::reuse;
-          }
-        } else if (auto sk = old_skips.find(f.path); sk != old_skips.end()) {
-          f.old_skip = sk->second;
-          auto ss = old_skip_stat.find(f.path);
-          if (ss != old_skip_stat.end() && ss->second.first == f.stat.mtime_ns && ss->second.second == f.stat.size)
-            f.plan = Plan::still_bad;
-        }
-      }
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, files.size(), 4),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          FileEntry& f = files[i];
+                          auto st = stat_file(f.path, f.stat_error);
+                          f.stat_ok = st.has_value();
+                          if (st) f.stat = *st;
+                          f.labels = resolve_clip_labels(f.path);
+                          if (!f.stat_ok) continue;
+                          if (auto it = old_clips.find(f.path); it != old_clips.end()) {
+                            f.old_clip = it->second;
+                            if (f.old_clip->size_bytes == f.stat.size &&
+                                f.old_clip->mtime_ns == f.stat.mtime_ns) {
+                              std::string err;
+                              bool ok = false;
+                              f.hash = hash_file(f.path, err, ok);
+                              if (ok && f.hash == f.old_clip->content_hash) f.plan = Plan::reuse;
+                            }
+                          } else if (auto sk = old_skips.find(f.path); sk != old_skips.end()) {
+                            f.old_skip = sk->second;
+                            auto ss = old_skip_stat.find(f.path);
+                            if (ss != old_skip_stat.end() && ss->second.first == f.stat.mtime_ns &&
+                                ss->second.second == f.stat.size)
+                              f.plan = Plan::still_bad;
+                          }
+                        }
+                      });
   });
 
   phase("planned");
@@ -833,7 +884,8 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
           }
           lab[static_cast<std::size_t>(it - old.label_keys().begin())] = v;
         }
-        if (lab != f.old_clip->labels || f.labels.source != f.old_clip->label_source) all_same = false;
+        if (lab != f.old_clip->labels || f.labels.source != f.old_clip->label_source)
+          all_same = false;
         if (!all_same) break;
       }
     }
@@ -877,12 +929,16 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
 
   std::size_t next = 0;
   const std::size_t tokens = 2 * jobs + 2;
+  // First error of the writing stage (--strict failures, HDF5 errors):
+  // rethrown once the pipeline has drained.
+  std::exception_ptr writer_failure;
+  std::atomic<bool> writer_failed{false};
   arena.execute([&] {
     tbb::parallel_pipeline(
         tokens,
         tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
                                             [&](tbb::flow_control& fc) -> std::size_t {
-                                              if (next >= files.size()) {
+                                              if (writer_failed.load() || next >= files.size()) {
                                                 fc.stop();
                                                 return 0;
                                               }
@@ -931,53 +987,65 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                 }) &
             tbb::make_filter<std::shared_ptr<Work>, void>(
                 tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Work> w) {
-                  FileEntry& f = files[w->file];
-                  std::lock_guard lib(h5::library_mutex());
-                  if (f.plan == Plan::reuse) {
-                    IndexClip c = *f.old_clip;
-                    c.skeleton = writer->slot_for(prev->index().skeletons()[f.old_clip->skeleton]);
-                    c.status = ClipStatus::reused;
-                    c.label_source = f.labels.source;
-                    writer->copy(c, clips.size(), *prev, *f.old_clip);
-                    clips.push_back(std::move(c));
-                    clip_labels.push_back(f.labels);
-                    ++sum.reused;
-                  } else if (f.plan == Plan::still_bad) {
-                    if (opt.strict) throw InputError(f.path, 0, f.old_skip->reason);
-                    skipped.push_back({f.path, f.old_skip->reason});
-                    skipped_stat.emplace_back(f.stat.mtime_ns, f.stat.size);
-                  } else if (!w->ok) {
-                    if (opt.strict) throw InputError(f.path, 0, w->reason);
-                    skipped.push_back({f.path, w->reason});
-                    skipped_stat.emplace_back(f.stat.mtime_ns, f.stat.size);
-                  } else {
-                    IndexClip& c = w->clip;
-                    c.path = f.path;
-                    c.size_bytes = f.stat.size;
-                    c.mtime_ns = f.stat.mtime_ns;
-                    c.status = f.old_clip ? ClipStatus::parsed_changed : ClipStatus::parsed_new;
-                    c.label_source = f.labels.source;
-                    c.skeleton = writer->slot_for(to_table(*w->skeleton));
-                    writer->append(c, clips.size(), w->data);
-                    (f.old_clip ? sum.parsed_changed : sum.parsed_new) += 1;
-                    clips.push_back(std::move(c));
-                    clip_labels.push_back(f.labels);
+                  // After a failure the remaining items only drain: an
+                  // exception thrown out of a filter would cancel the pipeline
+                  // and leak the items in flight (oneTBB does not destroy them).
+                  if (writer_failure) return;
+                  try {
+                    FileEntry& f = files[w->file];
+                    std::lock_guard lib(h5::library_mutex());
+                    if (f.plan == Plan::reuse) {
+                      IndexClip c = *f.old_clip;
+                      c.skeleton =
+                          writer->slot_for(prev->index().skeletons()[f.old_clip->skeleton]);
+                      c.status = ClipStatus::reused;
+                      c.label_source = f.labels.source;
+                      writer->copy(c, clips.size(), *prev, *f.old_clip);
+                      clips.push_back(std::move(c));
+                      clip_labels.push_back(f.labels);
+                      ++sum.reused;
+                    } else if (f.plan == Plan::still_bad) {
+                      if (opt.strict) throw InputError(f.path, 0, f.old_skip->reason);
+                      skipped.push_back({f.path, f.old_skip->reason});
+                      skipped_stat.emplace_back(f.stat.mtime_ns, f.stat.size);
+                    } else if (!w->ok) {
+                      if (opt.strict) throw InputError(f.path, 0, w->reason);
+                      skipped.push_back({f.path, w->reason});
+                      skipped_stat.emplace_back(f.stat.mtime_ns, f.stat.size);
+                    } else {
+                      IndexClip& c = w->clip;
+                      c.path = f.path;
+                      c.size_bytes = f.stat.size;
+                      c.mtime_ns = f.stat.mtime_ns;
+                      c.status = f.old_clip ? ClipStatus::parsed_changed : ClipStatus::parsed_new;
+                      c.label_source = f.labels.source;
+                      c.skeleton = writer->slot_for(to_table(*w->skeleton));
+                      writer->append(c, clips.size(), w->data);
+                      (f.old_clip ? sum.parsed_changed : sum.parsed_new) += 1;
+                      clips.push_back(std::move(c));
+                      clip_labels.push_back(f.labels);
+                    }
+                    ++progress.files_done;
+                    if (!clips.empty() && clips.back().path == f.path) {
+                      progress.frames_done += clips.back().frame_count;
+                      progress.bytes_done += clips.back().size_bytes;
+                    }
+                    progress.elapsed_s = elapsed();
+                    progress.current = f.path;
+                    if (opt.progress) opt.progress(progress);
+                  } catch (...) {
+                    writer_failure = std::current_exception();
+                    writer_failed.store(true);
                   }
-                  ++progress.files_done;
-                  if (!clips.empty() && clips.back().path == f.path) {
-                    progress.frames_done += clips.back().frame_count;
-                    progress.bytes_done += clips.back().size_bytes;
-                  }
-                  progress.elapsed_s = elapsed();
-                  progress.current = f.path;
-                  if (opt.progress) opt.progress(progress);
                 }));
   });
+  if (writer_failure) std::rethrow_exception(writer_failure);
 
   phase("pipeline done");
   if (clips.empty()) {
     std::string why = "no clip could be indexed";
-    if (!skipped.empty()) why += " (first problem: " + skipped.front().path + ": " + skipped.front().reason + ")";
+    if (!skipped.empty())
+      why += " (first problem: " + skipped.front().path + ": " + skipped.front().reason + ")";
     throw InputError(opt.inputs.empty() ? "<build>" : opt.inputs.front(), 0, why);
   }
 
@@ -989,7 +1057,8 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   for (std::size_t c = 0; c < clips.size(); ++c) {
     clips[c].labels.assign(keys.size(), std::string());
     for (const auto& [k, v] : clip_labels[c].labels)
-      clips[c].labels[static_cast<std::size_t>(std::lower_bound(keys.begin(), keys.end(), k) - keys.begin())] = v;
+      clips[c].labels[static_cast<std::size_t>(std::lower_bound(keys.begin(), keys.end(), k) -
+                                               keys.begin())] = v;
   }
 
   {
