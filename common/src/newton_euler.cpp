@@ -15,12 +15,57 @@ void JointMotion::resize(std::size_t n) {
 }
 
 void NewtonEulerData::resize(std::size_t n) {
+  if (joint_forces_N.size() == n && in_contact.size() == n) return;
   for (auto* v : {&joint_forces_N, &joint_torques_Nm, &contact_forces_N, &contact_points_m,
                   &contact_torques_Nm, &required_forces_N, &required_torques_Nm,
                   &origin_velocities_mps, &origin_accelerations_mps2})
     v->resize(n, Eigen::Vector3d::Zero());
   in_contact.resize(n, 0);
+  principal_rotations.resize(n, Eigen::Matrix3d::Identity());
+  rotational_energies_J.resize(n, 0.0);
 }
+
+namespace {
+
+// A rotation matrix held in nine scalars (row-major names). Eigen's
+// toRotationMatrix() builds the matrix in memory with wide stores that the
+// following narrow loads cannot forward from (a ~15-cycle stall per segment
+// on x86); nine named scalars stay in registers.
+struct Rotation3 {
+  double m00, m01, m02, m10, m11, m12, m20, m21, m22;
+  explicit Rotation3(const Eigen::Quaterniond& q) {
+    const double w = q.w(), x = q.x(), y = q.y(), z = q.z();
+    const double tx = 2.0 * x, ty = 2.0 * y, tz = 2.0 * z;
+    const double twx = tx * w, twy = ty * w, twz = tz * w;
+    const double txx = tx * x, txy = ty * x, txz = tz * x;
+    const double tyy = ty * y, tyz = tz * y, tzz = tz * z;
+    m00 = 1.0 - (tyy + tzz);
+    m01 = txy - twz;
+    m02 = txz + twy;
+    m10 = txy + twz;
+    m11 = 1.0 - (txx + tzz);
+    m12 = tyz - twx;
+    m20 = txz - twy;
+    m21 = tyz + twx;
+    m22 = 1.0 - (txx + tyy);
+  }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& v) const {
+    return {m00 * v.x() + m01 * v.y() + m02 * v.z(), m10 * v.x() + m11 * v.y() + m12 * v.z(),
+            m20 * v.x() + m21 * v.y() + m22 * v.z()};
+  }
+  /// R^T v
+  Eigen::Vector3d transpose_times(const Eigen::Vector3d& v) const {
+    return {m00 * v.x() + m10 * v.y() + m20 * v.z(), m01 * v.x() + m11 * v.y() + m21 * v.z(),
+            m02 * v.x() + m12 * v.y() + m22 * v.z()};
+  }
+  Eigen::Matrix3d matrix() const {
+    Eigen::Matrix3d r;
+    r << m00, m01, m02, m10, m11, m12, m20, m21, m22;
+    return r;
+  }
+};
+
+}  // namespace
 
 // Root -> leaves propagation of velocities and accelerations (formulas in the
 // header): each joint's frame rates from its parent's plus the joint's own
@@ -88,13 +133,22 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
   const EnergyParams& prm = model.params;
   const Eigen::Vector3d gravity = model.gravity();
 
-  // 1. Requirements and whole-body totals. Euler's equation in the body
-  // frame (I_local constant): tau = R (I w_l' + w_l x I w_l), w_l = R^T w.
-  double mass = 0.0;
-  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  // 1. Requirements and whole-body totals, in one pass. Euler's equation in
+  // the segment's principal frame (rotation R P, I_local = P diag(D) P^T,
+  // where the inertia is diagonal): tau = R P (D al_p + w_p x D w_p), w_p =
+  // (R P)^T w. Moments and the composite inertia are accumulated about a
+  // reference point o near the body (the first segment's COM) and moved to
+  // the COM at the end:
+  //   M_req = sum tau_j + sum (c_j - o) x F_j - (c_G - o) x F_req,
+  //   I_G = sum R P D (R P)^T + S - M (|r_G|^2 1 - r_G r_G^T),
+  //   S = sum m_j (|r_j|^2 1 - r_j r_j^T),  r = c - o.
   for (std::size_t j = 0; j < n; ++j) {
-    d.required_forces_N[j].setZero();  // massless joints keep zero requirements
-    d.required_torques_Nm[j].setZero();
+    if (!(model.masses_kg[j] > 0.0)) {  // massless joints keep zero requirements
+      d.required_forces_N[j].setZero();
+      d.required_torques_Nm[j].setZero();
+      d.principal_rotations[j].setIdentity();
+      d.rotational_energies_J[j] = 0.0;
+    }
     d.contact_forces_N[j].setZero();
     d.contact_torques_Nm[j].setZero();
     d.contact_points_m[j].setZero();
@@ -102,26 +156,49 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     d.joint_forces_N[j].setZero();
     d.joint_torques_Nm[j].setZero();
   }
+  const Eigen::Vector3d origin =
+      model.segments.empty()
+          ? Eigen::Vector3d::Zero()
+          : Eigen::Vector3d(s.coms_m[static_cast<std::size_t>(model.segments[0])]);
+  double mass = 0.0;
+  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // sum m r
+  Eigen::Vector3d f_req = Eigen::Vector3d::Zero(), m_req_o = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second_moment = Eigen::Matrix3d::Zero();  // sum m r r^T
   for (int jj : model.segments) {
     const auto j = static_cast<std::size_t>(jj);
     const double m = model.masses_kg[j];
-    const Eigen::Quaterniond qc = s.rotations[j].conjugate();
-    const Eigen::Matrix3d& inertia = model.inertias_local_kgm2[j];
-    const Eigen::Vector3d wl = qc * s.angular_velocities_radps[j];
-    const Eigen::Vector3d al = qc * s.angular_accelerations_radps2[j];
-    d.required_forces_N[j] = m * (s.com_accelerations_mps2[j] - gravity);
-    d.required_torques_Nm[j] =
-        s.rotations[j] * Eigen::Vector3d(inertia * al + wl.cross(inertia * wl));
+    const Rotation3 rp(s.rotations[j] * model.principal_frames[j]);
+    const Eigen::Vector3d& dm = model.principal_moments_kgm2[j];
+    const Eigen::Vector3d wp = rp.transpose_times(s.angular_velocities_radps[j]);
+    const Eigen::Vector3d alp = rp.transpose_times(s.angular_accelerations_radps2[j]);
+    const Eigen::Vector3d iw = dm.cwiseProduct(wp);
+    const Eigen::Vector3d fj = m * (s.com_accelerations_mps2[j] - gravity);
+    const Eigen::Vector3d tj = rp * Eigen::Vector3d(dm.cwiseProduct(alp) + wp.cross(iw));
+    d.required_forces_N[j] = fj;
+    d.required_torques_Nm[j] = tj;
+    const Eigen::Vector3d r = s.coms_m[j] - origin;
     mass += m;
-    com += m * s.coms_m[j];
+    first_moment += m * r;
+    f_req += fj;
+    m_req_o += tj + r.cross(fj);
+    d.principal_rotations[j] = rp.matrix();
+    d.rotational_energies_J[j] = 0.5 * wp.dot(iw);
+    // Symmetric: only the upper triangle is accumulated here.
+    const Eigen::Vector3d mr = m * r;
+    second_moment(0, 0) += mr.x() * r.x();
+    second_moment(0, 1) += mr.x() * r.y();
+    second_moment(0, 2) += mr.x() * r.z();
+    second_moment(1, 1) += mr.y() * r.y();
+    second_moment(1, 2) += mr.y() * r.z();
+    second_moment(2, 2) += mr.z() * r.z();
   }
-  if (mass > 0.0) com /= mass;
-  Eigen::Vector3d f_req = Eigen::Vector3d::Zero(), m_req = Eigen::Vector3d::Zero();
-  for (int jj : model.segments) {
-    const auto j = static_cast<std::size_t>(jj);
-    f_req += d.required_forces_N[j];
-    m_req += d.required_torques_Nm[j] + (s.coms_m[j] - com).cross(d.required_forces_N[j]);
-  }
+  second_moment(1, 0) = second_moment(0, 1);
+  second_moment(2, 0) = second_moment(0, 2);
+  second_moment(2, 1) = second_moment(1, 2);
+  const Eigen::Vector3d r_g =
+      mass > 0.0 ? Eigen::Vector3d(first_moment / mass) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d com = origin + r_g;
+  const Eigen::Vector3d m_req = m_req_o - r_g.cross(f_req);
   d.com_m = com;
 
   // 2. Contacts.
@@ -196,9 +273,28 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
   }
   d.residual_force_N = f_res;
   d.residual_torque_Nm = m_res;
-}
 
-namespace {}  // namespace
+  // 4. What the residual impulse would inject per T^2/2 (see the header).
+  const double total = model.total_mass_kg;
+  double e = total > 0.0 ? f_res.squaredNorm() / total : 0.0;
+  const double negligible = 1e-9 * total * prm.gravity_mps2;
+  if (total > 0.0 && m_res.squaredNorm() > negligible * negligible) {
+    // S - M r_G r_G^T off the diagonal; the |r|^2 1 parts from the traces.
+    const Eigen::Matrix3d shifted = second_moment - mass * r_g * r_g.transpose();
+    Eigen::Matrix3d i_g = shifted.trace() * Eigen::Matrix3d::Identity() - shifted;
+    for (int jj : model.segments) {
+      const auto j = static_cast<std::size_t>(jj);
+      const Eigen::Matrix3d& rp = d.principal_rotations[j];
+      i_g.noalias() += rp * model.principal_moments_kgm2[j].asDiagonal() * rp.transpose();
+    }
+    const double tr = i_g.trace();
+    if (tr > 0.0) {
+      const Eigen::Matrix3d reg = i_g + 1e-9 * tr * Eigen::Matrix3d::Identity();
+      e += m_res.dot(reg.ldlt().solve(m_res));
+    }
+  }
+  d.residual_impulse_coefficient_Jps2 = e;
+}
 
 Eigen::Matrix3d composite_inertia(const DynamicsModel& model, const StateView& s,
                                   const Eigen::Vector3d& com) {
@@ -206,35 +302,15 @@ Eigen::Matrix3d composite_inertia(const DynamicsModel& model, const StateView& s
   for (int jj : model.segments) {
     const auto j = static_cast<std::size_t>(jj);
     const Eigen::Vector3d r = s.coms_m[j] - com;
-    const Eigen::Matrix3d rot = s.rotations[j].toRotationMatrix();
-    i_g += rot * model.inertias_local_kgm2[j] * rot.transpose() +
-           model.masses_kg[j] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+    // R I R^T = (R P) diag(D) (R P)^T
+    const Eigen::Matrix3d rp = (s.rotations[j] * model.principal_frames[j]).toRotationMatrix();
+    i_g.noalias() += rp * model.principal_moments_kgm2[j].asDiagonal() * rp.transpose();
+    i_g += model.masses_kg[j] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
   }
   return i_g;
 }
 
 namespace {
-
-// T^2/2 (|F|^2 / M + M^T I_G^-1 M): kinetic energy the residual impulse
-// (F T, M T) would give the whole body (translation + rotation about its COM).
-// I_G is only formed when the residual torque is above round-off
-// (1e-9 M g x 1 m; below it the term is < 1e-18 J for any T of interest).
-double residual_impulse_energy(const DynamicsModel& model, const StateView& s,
-                               const NewtonEulerData& d, double t) {
-  const double mass = model.total_mass_kg;
-  if (!(mass > 0.0)) return 0.0;
-  double e = d.residual_force_N.squaredNorm() / mass;
-  const double negligible = 1e-9 * mass * model.params.gravity_mps2;
-  if (d.residual_torque_Nm.squaredNorm() > negligible * negligible) {
-    const Eigen::Matrix3d i_g = composite_inertia(model, s, d.com_m);
-    const double tr = i_g.trace();
-    if (tr > 0.0) {
-      const Eigen::Matrix3d reg = i_g + 1e-9 * tr * Eigen::Matrix3d::Identity();
-      e += d.residual_torque_Nm.dot(reg.ldlt().solve(d.residual_torque_Nm));
-    }
-  }
-  return 0.5 * t * t * e;
-}
 
 // Contact wrench of segment j about its COM: (F_c, tau_c + (p - c) x F_c).
 inline Eigen::Vector3d contact_moment_about_com(const NewtonEulerData& d, const StateView& s,
@@ -261,11 +337,37 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   const std::size_t n = model.joint_count();
   if (da.joint_forces_N.size() != n || db.joint_forces_N.size() != n)
     throw std::invalid_argument("inverse dynamics results do not match the character model");
+  if (!(transition_time_s > 0.0) || !std::isfinite(transition_time_s))
+    throw std::invalid_argument("transition time must be a positive number of seconds");
   ws.rotation_steps.resize(n);
   for (std::size_t j = 0; j < n; ++j)
     ws.rotation_steps[j] = rotation_step(a.rotations[j], b.rotations[j]);
-  const double h_total = detail::approximate_energy_given_rotations(
-      model, a, b, transition_time_s, ws.rotation_steps.data(), &ws.h);
+  // The h part (energy.hpp), with the rotational kinetic energies taken from
+  // the inverse dynamics (principal axes: 1/2 sum D_k w_k^2). Equal to
+  // approximate_energy(a, b) up to round-off (1e-15 relative).
+  const double inv_t = 1.0 / transition_time_s;
+  ws.h.reset(n);
+  double h_total = 0.0;
+  for (int jj : model.segments) {
+    const auto j = static_cast<std::size_t>(jj);
+    const double m = model.masses_kg[j];
+    const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
+    const double grav = std::abs(m * model.params.gravity_mps2 * dc.y());
+    const double k_u = 0.5 * m * dc.squaredNorm() * inv_t * inv_t;
+    const double h_seg =
+        grav + transition_kinetic_change(0.5 * m * a.com_velocities_mps[j].squaredNorm(), k_u,
+                                         0.5 * m * b.com_velocities_mps[j].squaredNorm());
+    // w^ in A's principal axes (the transition's rotational KE uses A's frame).
+    const Eigen::Vector3d w_hat =
+        da.principal_rotations[j].transpose() * (ws.rotation_steps[j] * inv_t);
+    const double h_joint = transition_kinetic_change(
+        da.rotational_energies_J[j],
+        0.5 * w_hat.dot(model.principal_moments_kgm2[j].cwiseProduct(w_hat)),
+        db.rotational_energies_J[j]);
+    ws.h.segment_J[j] = h_seg;
+    ws.h.joint_J[j] = h_joint;
+    h_total += h_seg + h_joint;
+  }
   if (terms != nullptr) {
     terms->h = ws.h;
     terms->g.reset(n);
@@ -344,8 +446,11 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
       terms->g.joint_J[j] = ws.h.joint_J[j] + g_joint;
     }
   }
-  const double impulse = 0.5 * (residual_impulse_energy(model, a, da, transition_time_s) +
-                                residual_impulse_energy(model, b, db, transition_time_s));
+  // T^2/2 (|F_res|^2 / M + M_res^T I_G^-1 M_res), mean of A and B: kinetic
+  // energy the residual impulse (F T, M T) would give the whole body.
+  const double impulse =
+      0.25 * transition_time_s * transition_time_s *
+      (da.residual_impulse_coefficient_Jps2 + db.residual_impulse_coefficient_Jps2);
   if (terms != nullptr) {
     terms->residual_impulse_J = impulse;
     if (model.root() >= 0) terms->g.segment_J[static_cast<std::size_t>(model.root())] += impulse;

@@ -80,6 +80,12 @@ struct NewtonEulerData {
   /// Free contact moment on segment j, N m.
   std::vector<Eigen::Vector3d> contact_torques_Nm;
   std::vector<std::uint8_t> in_contact;
+  /// R_j P_j: rotation of segment j's principal axes (world from principal;
+  /// I_world = R P diag(D) (R P)^T), and 1/2 w^T I_world w, its rotational
+  /// kinetic energy in J. Identity / 0 for massless joints. full_energy takes
+  /// its kinetic energies from them.
+  std::vector<Eigen::Matrix3d> principal_rotations;
+  std::vector<double> rotational_energies_J;
   /// F_j = m (a - g) and tau_j (about c_j): what segment j needs from all non-gravity forces.
   std::vector<Eigen::Vector3d> required_forces_N;
   std::vector<Eigen::Vector3d> required_torques_Nm;
@@ -88,6 +94,12 @@ struct NewtonEulerData {
   Eigen::Vector3d residual_force_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d residual_torque_Nm = Eigen::Vector3d::Zero();
   std::size_t contact_count = 0;
+  /// |F_res|^2 / M + M_res^T I_G^-1 M_res (J/s^2, I_G = composite_inertia about
+  /// com_m): times T^2/2 it is the kinetic energy the residual impulse would
+  /// inject over a step of T seconds (full_energy). I_G is only formed when
+  /// M_res is above round-off (1e-9 M g x 1 m), so this costs nothing for a
+  /// well-supported state.
+  double residual_impulse_coefficient_Jps2 = 0.0;
   // Forward-pass scratch: joint origin velocity / acceleration.
   std::vector<Eigen::Vector3d> origin_velocities_mps;
   std::vector<Eigen::Vector3d> origin_accelerations_mps2;
