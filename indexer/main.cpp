@@ -8,8 +8,8 @@
 //   info INDEX.h5 [--json]
 // Exit status: 0 success; 1 some inputs were bad (reported, the rest done);
 // 2 usage error or nothing could be done.
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include <unistd.h>
 
@@ -36,7 +36,8 @@ constexpr int kExitFatal = 2;
 std::optional<mocap::LengthUnit> unit_option(const std::string& s) {
   if (s.empty() || s == "auto") return std::nullopt;
   auto u = mocap::parse_unit(s);
-  if (!u) throw CLI::ValidationError("--unit", "expected m, cm, mm, inch, cmu or auto, got '" + s + "'");
+  if (!u)
+    throw CLI::ValidationError("--unit", "expected m, cm, mm, inch, cmu or auto, got '" + s + "'");
   return u;
 }
 
@@ -56,12 +57,14 @@ int run_inspect(const std::string& file, std::size_t frame, const std::string& u
              out["file"].get<std::string>(), frame, out["frames"].get<std::size_t>(),
              out["frame_time_s"].get<double>(), out["unit"].get<std::string>(),
              out["unit_scale_m"].get<double>(), out["total_mass_kg"].get<double>());
-  fmt::print("{:<4} {:<20} {:>6}  {:>9} {:>9} {:>9}\n", "#", "joint", "parent", "x_m", "y_m", "z_m");
+  fmt::print("{:<4} {:<20} {:>6}  {:>9} {:>9} {:>9}\n", "#", "joint", "parent", "x_m", "y_m",
+             "z_m");
   int i = 0;
   for (const auto& j : out["joints"]) {
     const auto& p = j["position_m"];
-    fmt::print("{:<4} {:<20} {:>6}  {:>9.4f} {:>9.4f} {:>9.4f}\n", i++, j["name"].get<std::string>(),
-               j["parent"].get<int>(), p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+    fmt::print("{:<4} {:<20} {:>6}  {:>9.4f} {:>9.4f} {:>9.4f}\n", i++,
+               j["name"].get<std::string>(), j["parent"].get<int>(), p[0].get<double>(),
+               p[1].get<double>(), p[2].get<double>());
   }
   fmt::print("\n{:<20} {:<13} {:<6} {:>8}\n", "segment", "class", "side", "mass_kg");
   for (const auto& s : out["segments"])
@@ -97,7 +100,8 @@ int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
     nlohmann::json clips = nlohmann::json::array();
     for (const auto& s : sums) clips.push_back(mocap::to_json(s));
     nlohmann::json problems = nlohmann::json::array();
-    for (const auto& p : col.problems) problems.push_back({{"input", p.input}, {"error", p.reason}});
+    for (const auto& p : col.problems)
+      problems.push_back({{"input", p.input}, {"error", p.reason}});
     std::cout << nlohmann::json{{"clips", std::move(clips)},
                                 {"input_problems", std::move(problems)},
                                 {"total",
@@ -152,20 +156,25 @@ class ProgressPrinter {
     const double eta = frac > 0 ? p.elapsed_s * (1.0 - frac) / frac : 0.0;
     if (tty_) {
       const auto now = std::chrono::steady_clock::now();
-      if (p.files_done != p.files_total && p.files_done != 0 && now - last_ < std::chrono::milliseconds(100)) return;
+      if (p.files_done != p.files_total && p.files_done != 0 &&
+          now - last_ < std::chrono::milliseconds(100))
+        return;
       last_ = now;
       constexpr int kWidth = 30;
       const int filled = static_cast<int>(frac * kWidth);
       fmt::print(stderr, "\r[{}{}] {}/{} files  {} frames  {:.0f} frames/s  ETA {:.0f} s   ",
-                 std::string(static_cast<std::size_t>(filled), '#'), std::string(static_cast<std::size_t>(kWidth - filled), '.'),
-                 p.files_done, p.files_total, p.frames_done, rate, eta);
+                 std::string(static_cast<std::size_t>(filled), '#'),
+                 std::string(static_cast<std::size_t>(kWidth - filled), '.'), p.files_done,
+                 p.files_total, p.frames_done, rate, eta);
       if (p.files_done == p.files_total) fmt::print(stderr, "\n");
     } else {
       const int decile = static_cast<int>(frac * 10.0);
       if (p.files_done != 0 && decile <= last_decile_) return;
       last_decile_ = decile;
-      fmt::print(stderr, "mocap-index: {}/{} files, {} frames, {:.0f} frames/s, {:.1f} s elapsed, ETA {:.0f} s\n",
-                 p.files_done, p.files_total, p.frames_done, rate, p.elapsed_s, eta);
+      fmt::print(
+          stderr,
+          "mocap-index: {}/{} files, {} frames, {:.0f} frames/s, {:.1f} s elapsed, ETA {:.0f} s\n",
+          p.files_done, p.files_total, p.frames_done, rate, p.elapsed_s, eta);
     }
   }
 
@@ -175,8 +184,8 @@ class ProgressPrinter {
   std::chrono::steady_clock::time_point last_{};
 };
 
-int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& character, bool json,
-              bool quiet) {
+int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& character,
+              bool json, bool quiet) {
   opt.unit = unit_option(unit);
   if (!character.empty()) opt.character = character;
   opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
@@ -199,6 +208,13 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
                                 {"skipped", skipped},
                                 {"previous_index_note", s.previous_index_note},
                                 {"seconds", s.seconds},
+                                {"stages",
+                                 {{"plan_s", s.stages.plan_s},
+                                  {"read_s", s.stages.read_s},
+                                  {"parse_s", s.stages.parse_s},
+                                  {"dynamics_s", s.stages.dynamics_s},
+                                  {"write_s", s.stages.write_s},
+                                  {"finalize_s", s.stages.finalize_s}}},
                                 {"frames_per_s", fps},
                                 {"index_bytes", s.index_bytes},
                                 {"source_bytes", s.source_bytes}}
@@ -206,13 +222,14 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
               << '\n';
   } else {
     if (!s.previous_index_note.empty()) fmt::print("note: {}\n", s.previous_index_note);
-    fmt::print("{}: {}{} clips, {} frames, {} skeleton(s)\n", s.out.string(), s.up_to_date ? "up to date, " : "",
-               s.clips, s.frames, s.skeletons);
-    fmt::print("  new {}, changed {}, reused {}, removed {}, skipped {}\n", s.parsed_new, s.parsed_changed,
-               s.reused, s.removed, s.skipped.size());
+    fmt::print("{}: {}{} clips, {} frames, {} skeleton(s)\n", s.out.string(),
+               s.up_to_date ? "up to date, " : "", s.clips, s.frames, s.skeletons);
+    fmt::print("  new {}, changed {}, reused {}, removed {}, skipped {}\n", s.parsed_new,
+               s.parsed_changed, s.reused, s.removed, s.skipped.size());
     for (const auto& k : s.skipped) fmt::print("  skipped {}: {}\n", k.path, k.reason);
     fmt::print("  {:.2f} s, {:.0f} frames/s, source {}, index {}\n", s.seconds, fps,
-               human_bytes(static_cast<double>(s.source_bytes)), human_bytes(static_cast<double>(s.index_bytes)));
+               human_bytes(static_cast<double>(s.source_bytes)),
+               human_bytes(static_cast<double>(s.index_bytes)));
   }
   return s.skipped.empty() ? kExitOk : kExitSomeFailed;
 }
@@ -232,7 +249,8 @@ int run_verify(const std::string& file, bool json) {
                human_bytes(static_cast<double>(r.bytes)), mocap::kIndexSchemaVersion);
   } else {
     for (const auto& p : r.problems) fmt::print(stderr, "mocap-index: {}: {}\n", file, p);
-    fmt::print(stderr, "mocap-index: {}: verification FAILED ({} problem(s))\n", file, r.problems.size());
+    fmt::print(stderr, "mocap-index: {}: verification FAILED ({} problem(s))\n", file,
+               r.problems.size());
   }
   return r.ok ? kExitOk : kExitSomeFailed;
 }
@@ -290,15 +308,19 @@ int run_info(const std::string& file, bool json) {
     std::cout << out.dump() << '\n';
     return kExitOk;
   }
-  fmt::print("{}  ({}, {} schema version {}, built {} by {})\n", file, human_bytes(static_cast<double>(bytes)),
-             in.format, in.schema_version, in.build_time_utc, in.build_tool);
-  fmt::print("{} clips, {} frames, {:.1f} s of motion, {} skeleton(s), {} skipped file(s)\n", index.clips().size(),
-             index.frame_count(), seconds, index.skeletons().size(), index.skipped().size());
-  fmt::print("character {} ({:.1f} kg), transition time {} s, unit {}, compression {}\n", in.character_name,
-             in.character_total_mass_kg, in.transition_time_s, in.unit_option, in.deflate_level);
+  fmt::print("{}  ({}, {} schema version {}, built {} by {})\n", file,
+             human_bytes(static_cast<double>(bytes)), in.format, in.schema_version,
+             in.build_time_utc, in.build_tool);
+  fmt::print("{} clips, {} frames, {:.1f} s of motion, {} skeleton(s), {} skipped file(s)\n",
+             index.clips().size(), index.frame_count(), seconds, index.skeletons().size(),
+             index.skipped().size());
+  fmt::print("character {} ({:.1f} kg), transition time {} s, unit {}, compression {}\n",
+             in.character_name, in.character_total_mass_kg, in.transition_time_s, in.unit_option,
+             in.deflate_level);
   for (const auto& s : skel)
-    fmt::print("  skeleton {}: {} joints, {} segments, root {}, {} clips, {} frames\n", s["index"].get<std::size_t>(),
-               s["joints"].get<std::size_t>(), s["segments"].get<std::size_t>(), s["root_joint"].get<std::string>(),
+    fmt::print("  skeleton {}: {} joints, {} segments, root {}, {} clips, {} frames\n",
+               s["index"].get<std::size_t>(), s["joints"].get<std::size_t>(),
+               s["segments"].get<std::size_t>(), s["root_joint"].get<std::string>(),
                s["clips"].get<std::size_t>(), s["frames"].get<std::uint64_t>());
   for (const auto& [key, counts] : hist) {
     fmt::print("label {}:", key);
@@ -326,7 +348,8 @@ int main(int argc, char** argv) {
   inspect->add_option("--unit", unit,
                       "Length unit of the file: m, cm, mm, inch, cmu (0.056444 m) or auto "
                       "(default: detected from the standing height)");
-  inspect->add_option("--character", character, "Character JSON (docs/character.md); default 70 kg male");
+  inspect->add_option("--character", character,
+                      "Character JSON (docs/character.md); default 70 kg male");
   inspect->add_flag("--json", json, "Print one JSON object (docs/cli.md)");
 
   std::vector<std::string> inputs;
@@ -342,22 +365,34 @@ int main(int argc, char** argv) {
   mocap::IndexBuildOptions build_opt;
   std::string build_unit, build_character;
   bool build_json = false, build_quiet = false;
-  auto* build = app.add_subcommand(
-      "build",
-      "Index capture collections into one HDF5 file (docs/index-format.md). When --out exists, clips whose "
-      "size, mtime and content hash are unchanged are reused without parsing; the new index replaces the old "
-      "one atomically once complete and verified. Bad files are reported and skipped (see --strict).");
-  build->add_option("INPUT", build_opt.inputs, "Folders (searched recursively), .bvh files or list files")->required();
+  auto* build = app.add_subcommand("build",
+                                   "Index capture collections into one HDF5 file "
+                                   "(docs/index-format.md). When --out exists, clips whose "
+                                   "size, mtime and content hash are unchanged are reused without "
+                                   "parsing; the new index replaces the old "
+                                   "one atomically once complete and verified. Bad files are "
+                                   "reported and skipped (see --strict).");
+  build
+      ->add_option("INPUT", build_opt.inputs,
+                   "Folders (searched recursively), .bvh files or list files")
+      ->required();
   build->add_option("--out,-o", build_opt.out, "Index file to write (HDF5)")->required();
-  build->add_option("--jobs,-j", build_opt.jobs, "Worker threads (default: all cores); output is identical for any value");
-  build->add_flag("--strict", build_opt.strict, "Fail (keeping the previous index) on the first bad file");
-  build->add_option("--unit", build_unit, "Length unit of the files: m, cm, mm, inch, cmu or auto (default: detected per file)");
-  build->add_option("--character", build_character,
-                    "Character JSON the dynamics are computed for (docs/character.md); default 70 kg male");
+  build->add_option("--jobs,-j", build_opt.jobs,
+                    "Worker threads (default: all cores); output is identical for any value");
+  build->add_flag("--strict", build_opt.strict,
+                  "Fail (keeping the previous index) on the first bad file");
+  build->add_option(
+      "--unit", build_unit,
+      "Length unit of the files: m, cm, mm, inch, cmu or auto (default: detected per file)");
+  build->add_option(
+      "--character", build_character,
+      "Character JSON the dynamics are computed for (docs/character.md); default 70 kg male");
   build->add_option("--transition-time", build_opt.transition_time_s,
                     "T of the kd features in seconds (default 0.5)");
-  build->add_option("--compress", build_opt.deflate_level,
-                    "Deflate level 0-9 for the per-frame arrays (default 0: fastest; bounds are always compressed)")
+  build
+      ->add_option("--compress", build_opt.deflate_level,
+                   "Deflate level 0-9 for the per-frame arrays (default 0: fastest; bounds are "
+                   "always compressed)")
       ->check(CLI::Range(0, 9));
   build->add_flag("--full", build_opt.full, "Ignore an existing index: parse every file");
   build->add_flag("--json", build_json, "Print the summary as one JSON object");
@@ -365,16 +400,18 @@ int main(int argc, char** argv) {
 
   std::string verify_file;
   bool verify_json = false;
-  auto* verify = app.add_subcommand(
-      "verify",
-      "Check an index: user block and whole-file checksum (truncation, bit flips), format tag and schema "
-      "version, every dataset's checksum, internal consistency. Exit 0 when sound, 1 when damaged.");
+  auto* verify = app.add_subcommand("verify",
+                                    "Check an index: user block and whole-file checksum "
+                                    "(truncation, bit flips), format tag and schema "
+                                    "version, every dataset's checksum, internal consistency. Exit "
+                                    "0 when sound, 1 when damaged.");
   verify->add_option("INDEX", verify_file, "Index file")->required();
   verify->add_flag("--json", verify_json, "Print one JSON object");
 
   std::string info_file;
   bool info_json = false;
-  auto* info = app.add_subcommand("info", "Clips, frames, skeletons, label histogram and build parameters of an index");
+  auto* info = app.add_subcommand(
+      "info", "Clips, frames, skeletons, label histogram and build parameters of an index");
   info->add_option("INDEX", info_file, "Index file")->required();
   info->add_flag("--json", info_json, "Print one JSON object");
 

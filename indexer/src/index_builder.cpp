@@ -853,6 +853,7 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   });
 
   phase("planned");
+  const double planned_at = elapsed();
   // Nothing changed: keep the existing index as it is.
   if (prev) {
     std::set<std::string> now;
@@ -929,6 +930,14 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
 
   std::size_t next = 0;
   const std::size_t tokens = 2 * jobs + 2;
+  // Stage timings (nanoseconds; worker stages summed over threads).
+  using Clock = std::chrono::steady_clock;
+  auto ns_since = [](Clock::time_point t) {
+    return static_cast<std::int64_t>(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t).count());
+  };
+  std::atomic<std::int64_t> read_ns{0}, parse_ns{0}, dynamics_ns{0};
+  std::int64_t write_ns = 0;
   // First error of the writing stage (--strict failures, HDF5 errors):
   // rethrown once the pipeline has drained.
   std::exception_ptr writer_failure;
@@ -960,23 +969,30 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                     return w;
                   }
                   std::string text, err;
-                  if (!read_file(f.path, text, err)) {
+                  auto t = Clock::now();
+                  const bool read_ok = read_file(f.path, text, err);
+                  read_ns += ns_since(t);
+                  if (!read_ok) {
                     w->reason = err;
                     return w;
                   }
                   try {
                     IndexClip& c = w->clip;
+                    t = Clock::now();
                     c.content_hash = xxh64(text.data(), text.size());
                     const RawClip raw = parse_bvh(text, f.path);
                     text = std::string();
                     if (raw.frame_count == 0) throw InputError(f.path, 0, "the clip has no frames");
                     const LengthUnit unit = opt.unit ? *opt.unit : detect_unit(raw);
+                    parse_ns += ns_since(t);
+                    t = Clock::now();
                     c.unit = unit_name(unit);
                     c.unit_scale_m = unit_scale_m(unit);
                     c.frame_time_s = raw.frame_time_s;
                     w->skeleton = std::make_unique<IndexedSkeleton>(
                         index_skeleton(raw, c.unit_scale_m, character, energy));
                     w->data = compute_clip_frame_data(raw, *w->skeleton, opt.transition_time_s);
+                    dynamics_ns += ns_since(t);
                     w->ok = true;
                   } catch (const InputError& e) {
                     w->reason = failure_reason(e);
@@ -991,6 +1007,7 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                   // exception thrown out of a filter would cancel the pipeline
                   // and leak the items in flight (oneTBB does not destroy them).
                   if (writer_failure) return;
+                  const auto t_write = Clock::now();
                   try {
                     FileEntry& f = files[w->file];
                     std::lock_guard lib(h5::library_mutex());
@@ -1037,11 +1054,18 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                     writer_failure = std::current_exception();
                     writer_failed.store(true);
                   }
+                  write_ns += ns_since(t_write);
                 }));
   });
   if (writer_failure) std::rethrow_exception(writer_failure);
 
   phase("pipeline done");
+  const double pipeline_done_at = elapsed();
+  sum.stages.plan_s = planned_at;
+  sum.stages.read_s = 1e-9 * static_cast<double>(read_ns.load());
+  sum.stages.parse_s = 1e-9 * static_cast<double>(parse_ns.load());
+  sum.stages.dynamics_s = 1e-9 * static_cast<double>(dynamics_ns.load());
+  sum.stages.write_s = 1e-9 * static_cast<double>(write_ns);
   if (clips.empty()) {
     std::string why = "no clip could be indexed";
     if (!skipped.empty())
@@ -1094,6 +1118,7 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   sum.skipped = std::move(skipped);
   sum.index_bytes = fs::file_size(out, ec);
   sum.seconds = elapsed();
+  sum.stages.finalize_s = sum.seconds - pipeline_done_at;
   return sum;
 }
 

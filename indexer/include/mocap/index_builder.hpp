@@ -76,7 +76,8 @@ IndexedSkeleton index_skeleton(const RawClip& clip, double scale_m, const Charac
 /// block bounds. This is the
 /// one place that decides what a clip's rows contain: add a schema field in
 /// index.hpp and fill it here. Requires clip.frame_count >= 1.
-ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton& skel, double transition_time_s);
+ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton& skel,
+                                      double transition_time_s);
 
 /// Clip and block bounds from the frame arrays (and the raw rotation channels
 /// for the range of motion); called by compute_clip_frame_data.
@@ -139,6 +140,19 @@ struct IndexBuildOptions {
   std::function<void(const IndexBuildProgress&)> progress;
 };
 
+/// Where a build's time went, in seconds. The worker stages (read, parse,
+/// dynamics) are summed over worker threads, so they can exceed the wall time;
+/// the others are serial sections (wall time). Zero for an up-to-date index.
+struct IndexBuildStages {
+  double plan_s = 0.0;      ///< collect inputs, stat, open the previous index (serial)
+  double read_s = 0.0;      ///< read the files into memory (workers)
+  double parse_s = 0.0;     ///< BVH parsing and unit detection (workers)
+  double dynamics_s = 0.0;  ///< skeleton, per-frame dynamics, bounds, kd features (workers)
+  double write_s = 0.0;     ///< the writer stage: HDF5 appends and reused-clip copies (serial)
+  double finalize_s =
+      0.0;  ///< clip tables, sealing (whole-file hash), check, fsync, rename (serial)
+};
+
 struct IndexBuildSummary {
   std::filesystem::path out;
   std::size_t clips = 0;
@@ -155,6 +169,7 @@ struct IndexBuildSummary {
   /// Why clips of an existing index could not be reused ("" when they could).
   std::string previous_index_note;
   double seconds = 0.0;
+  IndexBuildStages stages;
   std::uint64_t index_bytes = 0;
   std::uint64_t source_bytes = 0;
 };
