@@ -23,6 +23,7 @@ void NewtonEulerData::resize(std::size_t n) {
   in_contact.resize(n, 0);
   principal_rotations.resize(n, Eigen::Matrix3d::Identity());
   rotational_energies_J.resize(n, 0.0);
+  translational_energies_J.resize(n, 0.0);
 }
 
 namespace {
@@ -148,6 +149,7 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
       d.required_torques_Nm[j].setZero();
       d.principal_rotations[j].setIdentity();
       d.rotational_energies_J[j] = 0.0;
+      d.translational_energies_J[j] = 0.0;
     }
     d.contact_forces_N[j].setZero();
     d.contact_torques_Nm[j].setZero();
@@ -183,6 +185,7 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     m_req_o += tj + r.cross(fj);
     d.principal_rotations[j] = rp.matrix();
     d.rotational_energies_J[j] = 0.5 * wp.dot(iw);
+    d.translational_energies_J[j] = 0.5 * m * s.com_velocities_mps[j].squaredNorm();
     // Symmetric: only the upper triangle is accumulated here.
     const Eigen::Vector3d mr = m * r;
     second_moment(0, 0) += mr.x() * r.x();
@@ -354,9 +357,8 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
     const double grav = std::abs(m * model.params.gravity_mps2 * dc.y());
     const double k_u = 0.5 * m * dc.squaredNorm() * inv_t * inv_t;
-    const double h_seg =
-        grav + transition_kinetic_change(0.5 * m * a.com_velocities_mps[j].squaredNorm(), k_u,
-                                         0.5 * m * b.com_velocities_mps[j].squaredNorm());
+    const double h_seg = grav + transition_kinetic_change(da.translational_energies_J[j], k_u,
+                                                          db.translational_energies_J[j]);
     // w^ in A's principal axes (the transition's rotational KE uses A's frame).
     const Eigen::Vector3d w_hat =
         da.principal_rotations[j].transpose() * (ws.rotation_steps[j] * inv_t);

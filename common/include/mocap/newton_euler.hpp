@@ -81,11 +81,14 @@ struct NewtonEulerData {
   std::vector<Eigen::Vector3d> contact_torques_Nm;
   std::vector<std::uint8_t> in_contact;
   /// R_j P_j: rotation of segment j's principal axes (world from principal;
-  /// I_world = R P diag(D) (R P)^T), and 1/2 w^T I_world w, its rotational
-  /// kinetic energy in J. Identity / 0 for massless joints. full_energy takes
-  /// its kinetic energies from them.
+  /// I_world = R P diag(D) (R P)^T); 1/2 w^T I_world w and 1/2 m |v|^2, its
+  /// rotational and translational kinetic energies in J. Identity / 0 for
+  /// massless joints. full_energy takes its kinetic energies from them (one
+  /// code path for both states: identical states give bitwise equal energies,
+  /// so h(A, A) = 0 exactly whatever the compiler fuses).
   std::vector<Eigen::Matrix3d> principal_rotations;
   std::vector<double> rotational_energies_J;
+  std::vector<double> translational_energies_J;
   /// F_j = m (a - g) and tau_j (about c_j): what segment j needs from all non-gravity forces.
   std::vector<Eigen::Vector3d> required_forces_N;
   std::vector<Eigen::Vector3d> required_torques_Nm;
