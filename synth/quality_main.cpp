@@ -60,10 +60,17 @@ int main(int argc, char** argv) {
   app.add_option("--label", label_key, "label key whose equal values make a gap")->capture_default_str();
   app.add_option("--max-states", params.max_states, "T_n")->capture_default_str();
   app.add_option("--cost-threshold", params.cost_threshold_J, "T_c, joules")->capture_default_str();
-  app.add_flag("--exact-lookahead", params.exact_lookahead,
-               "cost the whole completion of a candidate with g instead of h");
+  bool h_lookahead = false;
+  app.add_flag("--h-lookahead", h_lookahead,
+               "cost the middle of a candidate's completion with h instead of g");
+  bool no_plant = false, no_choose = false;
+  app.add_flag("--no-choose-length", no_choose, "plan with the length estimate instead of choosing the length");
+  app.add_flag("--no-plant-feet", no_plant, "no contact-aware (foot planting) proposals");
   app.add_option("--json", json_path, "write all measures as JSON");
   CLI11_PARSE(app, argc, argv);
+  params.plant_feet = !no_plant;
+  params.exact_lookahead = !h_lookahead;
+  params.choose_length = !no_choose;
   try {
     const mocap::Index index = mocap::Index::open(index_path);
     // Clips by label value (index order), skeleton of the first.

@@ -10,7 +10,7 @@
 #include "mocap/error.hpp"
 #include "mocap/units.hpp"
 
-namespace mocap::search_detail {
+namespace mocap {
 
 namespace {
 
@@ -65,7 +65,7 @@ std::vector<int> map_joints(const Query& q, const std::string& path, const Index
 
 }  // namespace
 
-std::shared_ptr<const LoadedBvh> BvhCache::get(const std::filesystem::path& path,
+std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::path& path,
                                                const std::string& unit_option) {
   std::error_code ec;
   const auto mtime = std::filesystem::last_write_time(path, ec);
@@ -81,7 +81,7 @@ std::shared_ptr<const LoadedBvh> BvhCache::get(const std::filesystem::path& path
   std::optional<LengthUnit> unit;
   if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
   const LengthUnit u = unit ? *unit : detect_unit(raw);
-  auto loaded = std::make_shared<LoadedBvh>();
+  auto loaded = std::make_shared<QueryBvhFile>();
   loaded->motion = clip_motion_from_raw(raw, unit_scale_m(u));
   loaded->mtime = mtime;
   loaded->size = size;
@@ -91,20 +91,19 @@ std::shared_ptr<const LoadedBvh> BvhCache::get(const std::filesystem::path& path
   return loaded;
 }
 
-ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
-                            const DynamicsModel& model, double transition_time_s,
-                            double index_transition_time_s, BvhCache& cache,
-                            const std::string& unit_option) {
+ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                                     const DynamicsModel& model, QueryBvhCache& cache,
+                                     const std::string& unit_option) {
   const QueryFrameSpec& spec = q.frames[i];
   const std::string path = field(i);
   const Skeleton& skel = sk.skeleton;
   const std::size_t nj = skel.joint_count();
   const int root = model.root();
-  ResolvedFrame out;
-  PartialPoseSpec partial;
+  ResolvedQueryPose out;
+  PartialPoseSpec& partial = out.given;
   if (spec.bvh) {
     out.from_bvh = true;
-    std::shared_ptr<const LoadedBvh> bvh;
+    std::shared_ptr<const QueryBvhFile> bvh;
     try {
       bvh = cache.get(*spec.bvh, unit_option);
     } catch (const InputError& e) {
@@ -153,8 +152,10 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
     compute_clip_dynamics(model, n, m.frame_time_s, positions.data(), rotations.data(), dyn);
     const StateView v = dyn.state(spec.bvh_frame - f0);
     const std::size_t r = static_cast<std::size_t>(root);
+    out.local_rotations = locals_at_frame;
+    out.file_joints = map;
     if (spec.only.empty()) {
-      out.kind = FrameKind::full;
+      out.full = true;
       out.state.resize(nj);
       for (std::size_t j = 0; j < nj; ++j) {
         out.state.joint_positions_m[j] = v.joint_positions_m[j];
@@ -165,15 +166,9 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
         out.state.angular_velocities_radps[j] = v.angular_velocities_radps[j];
         out.state.angular_accelerations_radps2[j] = v.angular_accelerations_radps2[j];
       }
-      out.scan = make_h_scan_query(model, out.state.view(), transition_time_s);
-      for (int b : model.segments) {
-        const std::size_t bb = static_cast<std::size_t>(b);
-        out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] * out.state.com_velocities_mps[bb].squaredNorm());
-      }
-      out.kd.resize(kd_feature_dimension(model));
-      kd_feature(model, out.state.view(), index_transition_time_s, out.kd.data());
-      out.root_m = out.state.joint_positions_m[r];
-      out.given = {true, true, true};
+      for (int a = 0; a < 3; ++a) partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+      for (std::size_t j = 0; j < nj; ++j)
+        if (map[j] >= 0) partial.joint_rotations.emplace_back(static_cast<int>(j), locals_at_frame[j]);
       return out;
     }
     for (std::size_t k = 0; k < spec.only.size(); ++k) {
@@ -213,6 +208,33 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
     }
     partial.joint_rotations = std::move(unique);
   }
+  return out;
+}
+
+namespace search_detail {
+
+ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                            const DynamicsModel& model, double transition_time_s,
+                            double index_transition_time_s, BvhCache& cache,
+                            const std::string& unit_option) {
+  ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option);
+  ResolvedFrame out;
+  out.from_bvh = pose.from_bvh;
+  if (pose.full) {
+    out.kind = FrameKind::full;
+    out.state = std::move(pose.state);
+    out.scan = make_h_scan_query(model, out.state.view(), transition_time_s);
+    for (int b : model.segments) {
+      const std::size_t bb = static_cast<std::size_t>(b);
+      out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] * out.state.com_velocities_mps[bb].squaredNorm());
+    }
+    out.kd.resize(kd_feature_dimension(model));
+    kd_feature(model, out.state.view(), index_transition_time_s, out.kd.data());
+    out.root_m = out.state.joint_positions_m[static_cast<std::size_t>(model.root())];
+    out.given = {true, true, true};
+    return out;
+  }
+  PartialPoseSpec& partial = pose.given;
   for (std::size_t a = 0; a < 3; ++a) {
     out.given[a] = partial.root_position_m[a].has_value();
     if (out.given[a]) out.root_m[static_cast<Eigen::Index>(a)] = *partial.root_position_m[a];
@@ -227,9 +249,10 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
   try {
     out.partial = prepare_partial_query(model, std::move(partial));
   } catch (const InputError& e) {
-    fail(q, path, e.detail());
+    fail(q, field(i), e.detail());
   }
   return out;
 }
 
-}  // namespace mocap::search_detail
+}  // namespace search_detail
+}  // namespace mocap

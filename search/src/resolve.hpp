@@ -1,5 +1,8 @@
 #pragma once
-// Internal to mocap_search: query frames resolved against one index skeleton.
+// Internal to mocap_search: query frames resolved against one index skeleton,
+// with what the engine precomputes for them (scan queries, kd features). The
+// degrees of freedom themselves come from the public resolver
+// (mocap/query_pose.hpp), which synthesis uses too.
 #include <Eigen/Core>
 #include <array>
 #include <filesystem>
@@ -15,26 +18,13 @@
 #include "mocap/index.hpp"
 #include "mocap/kinematics.hpp"
 #include "mocap/query.hpp"
+#include "mocap/query_pose.hpp"
 
 namespace mocap::search_detail {
 
-/// A BVH file read for queries (file skeleton, local and world pose per frame).
-struct LoadedBvh {
-  ClipMotion motion;
-  std::filesystem::file_time_type mtime;
-  std::uintmax_t size = 0;
-};
-
-/// Parsed BVH files shared by the queries of a batch (bounded, thread-safe).
-class BvhCache {
- public:
-  std::shared_ptr<const LoadedBvh> get(const std::filesystem::path& path,
-                                       const std::string& unit_option);
-
- private:
-  std::mutex mutex_;
-  std::map<std::string, std::shared_ptr<const LoadedBvh>> entries_;
-};
+/// The public query-frame resolver's BVH cache (mocap/query_pose.hpp).
+using LoadedBvh = QueryBvhFile;
+using BvhCache = QueryBvhCache;
 
 /// How a query frame is evaluated against database frames.
 enum class FrameKind { full, root_only, partial };
@@ -64,8 +54,8 @@ struct ResolvedFrame {
   std::vector<int> need_joints, local_joints;
 };
 
-/// Resolves query frame `i` of `q` on skeleton `sk` with model `model`.
-/// Throws InputError ("frames[i]...: ...") for unknown joints (listing the
+/// Resolves query frame `i` of `q` on skeleton `sk` with model `model`
+/// (resolve_query_pose, then the engine's precomputation). Throws InputError ("frames[i]...: ...") for unknown joints (listing the
 /// valid names), unreadable files, frames out of range, unmappable skeletons.
 ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
                             const DynamicsModel& model, double transition_time_s,

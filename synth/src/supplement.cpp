@@ -151,6 +151,101 @@ double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const Worl
   return sum;
 }
 
+// A leg for foot planting: hip, knee and ankle joints (the ankle a foot joint
+// whose parent is not one) and the foot joints it carries (ankle, toes).
+struct LegChain {
+  int hip = -1, knee = -1, ankle = -1;
+  std::vector<int> feet;
+};
+
+std::vector<LegChain> leg_chains(const SynthSkeleton& sk) {
+  std::vector<LegChain> legs;
+  const auto is_foot = [&](int j) {
+    return std::find(sk.foot_joints.begin(), sk.foot_joints.end(), j) != sk.foot_joints.end();
+  };
+  for (int j : sk.foot_joints) {
+    const int knee = sk.skeleton.parents[static_cast<std::size_t>(j)];
+    if (knee < 0 || is_foot(knee)) continue;
+    const int hip = sk.skeleton.parents[static_cast<std::size_t>(knee)];
+    if (hip < 0 || sk.is_root_chain[static_cast<std::size_t>(hip)] ||
+        sk.is_root_chain[static_cast<std::size_t>(knee)])
+      continue;
+    LegChain leg{hip, knee, j, {}};
+    for (int f : sk.foot_joints)
+      for (int a = f; a >= 0; a = sk.skeleton.parents[static_cast<std::size_t>(a)])
+        if (a == j) {
+          leg.feet.push_back(f);
+          break;
+        }
+    legs.push_back(std::move(leg));
+  }
+  return legs;
+}
+
+// Turns the leg of `f` so that its ankle lies at `target` with the world
+// rotation `target_rotation` (two-bone inverse kinematics: the knee angle
+// gives the hip-ankle distance, clamped to the reachable range; the hip
+// turns the hip-ankle line onto the target; the ankle takes the rotation),
+// each joint then clamped to the range of motion. `w` is scratch. False when
+// the leg is straight (no knee plane) or degenerate.
+bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegChain& leg,
+               const Eigen::Vector3d& target, const Eigen::Quaterniond& target_rotation, SynthFrame& f,
+               WorldPose& w) {
+  const auto hip = static_cast<std::size_t>(leg.hip), knee = static_cast<std::size_t>(leg.knee),
+             ankle = static_cast<std::size_t>(leg.ankle);
+  synth_world_pose(sk, f, w);
+  const Eigen::Vector3d a = w.positions_m[hip], b = w.positions_m[knee], c = w.positions_m[ankle];
+  const double lab = (b - a).norm(), lcb = (c - b).norm();
+  if (lab < 1e-6 || lcb < 1e-6) return false;
+  const Eigen::Vector3d bend = (a - b).cross(c - b);
+  if (bend.norm() < 1e-9 * lab * lcb) return false;
+  const double lat = std::clamp((target - a).norm(), std::abs(lab - lcb) + 1e-4, lab + lcb - 1e-4);
+  const double angle0 = std::acos(std::clamp((a - b).normalized().dot((c - b).normalized()), -1.0, 1.0));
+  const double angle1 = std::acos(std::clamp((lab * lab + lcb * lcb - lat * lat) / (2.0 * lab * lcb), -1.0, 1.0));
+  const Eigen::Quaterniond rk(Eigen::AngleAxisd(angle1 - angle0, bend.normalized()));
+  f.local_rotations[knee] = (f.local_rotations[knee] * (w.rotations[knee].conjugate() * rk * w.rotations[knee])).normalized();
+  synth_world_pose(sk, f, w);
+  const Eigen::Quaterniond rh =
+      Eigen::Quaterniond::FromTwoVectors(w.positions_m[ankle] - w.positions_m[hip], target - w.positions_m[hip]);
+  f.local_rotations[hip] = (f.local_rotations[hip] * (w.rotations[hip].conjugate() * rh * w.rotations[hip])).normalized();
+  synth_world_pose(sk, f, w);
+  f.local_rotations[ankle] = (w.rotations[knee].conjugate() * target_rotation).normalized();
+  if (range)
+    for (std::size_t j : {hip, knee, ankle}) f.local_rotations[j] = clamp_to_range(sk, *range, static_cast<int>(j), f.local_rotations[j]);
+  return true;
+}
+
+// g of the transition `frames` (measure_transition's energy_J, without the
+// other measures), reusing the scratch of `ws`.
+struct PathScratch {
+  std::vector<WorldPose> world;
+  std::vector<BodyState> states;
+  std::vector<NewtonEulerData> ids;
+  NewtonEulerWorkspace ws;
+};
+double path_energy(const GapProblem& gap, const std::vector<SynthFrame>& frames, PathScratch& sc) {
+  const SynthSkeleton& sk = *gap.skeleton;
+  const double dt = gap.frame_time_s;
+  const std::size_t L = frames.size() + 4;
+  if (sc.world.size() < L) sc.world.resize(L);
+  if (sc.states.size() < L) sc.states.resize(L);
+  if (sc.ids.size() < L) sc.ids.resize(L);
+  synth_world_pose(sk, gap.before, sc.world[0]);
+  synth_world_pose(sk, gap.start, sc.world[1]);
+  for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], sc.world[2 + i]);
+  synth_world_pose(sk, gap.goal, sc.world[L - 2]);
+  synth_world_pose(sk, gap.after, sc.world[L - 1]);
+  for (std::size_t k = 1; k + 1 < L; ++k) {
+    const PoseView p = pose_view(sc.world[k - 1]), c = pose_view(sc.world[k]), x = pose_view(sc.world[k + 1]);
+    sequence_state(sk.model, &p, c, &x, dt, sc.states[k]);
+    inverse_dynamics(sk.model, sc.states[k].view(), sc.ids[k]);
+  }
+  double g = 0.0;
+  for (std::size_t k = 1; k + 2 < L; ++k)
+    g += full_energy(sk.model, sc.states[k].view(), sc.states[k + 1].view(), dt, sc.ids[k], sc.ids[k + 1], sc.ws);
+  return g;
+}
+
 }  // namespace
 
 const char* transition_method_name(TransitionMethod m) {
@@ -175,10 +270,41 @@ std::size_t estimate_transition_frames(const GapProblem& gap, const SupplementPa
   return std::clamp<std::size_t>(frames, 1, std::max<std::size_t>(1, params.max_states));
 }
 
-std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
-                                         SupplementStats* stats) {
-  check_gap(gap);
-  if (!(params.cost_threshold_J >= 0.0)) throw std::invalid_argument("cost threshold must be >= 0");
+std::size_t choose_transition_frames(const GapProblem& gap, const SupplementParams& params) {
+  const std::size_t estimate = estimate_transition_frames(gap, params);
+  if (!params.choose_length) return estimate;
+  const std::size_t cap = std::max<std::size_t>(1, params.max_states);
+  const std::size_t hi = std::min(cap, 2 * estimate + 2);
+  // Coarse grid (steps growing by ~20%), then every length between the
+  // best grid point's neighbours; ties go to the shorter length.
+  std::vector<std::size_t> grid{1};
+  for (std::size_t m = 2; m < hi; m = std::max(m + 1, m + m / 5)) grid.push_back(m);
+  if (hi > 1) grid.push_back(hi);
+  PathScratch sc;
+  std::vector<double> energy(hi + 1, -1.0);
+  auto eval = [&](std::size_t m) {
+    if (energy[m] < 0.0) energy[m] = path_energy(gap, slerp_transition(gap, m), sc);
+    return energy[m];
+  };
+  std::size_t best = grid[0];
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i)
+    if (eval(grid[i]) < eval(best)) {
+      best = grid[i];
+      at = i;
+    }
+  const std::size_t lo2 = at > 0 ? grid[at - 1] + 1 : 1;
+  const std::size_t hi2 = at + 1 < grid.size() ? grid[at + 1] - 1 : hi;
+  for (std::size_t m = lo2; m <= hi2; ++m)
+    if (eval(m) < eval(best)) best = m;
+  return best;
+}
+
+namespace {
+
+// The search of figure 4 planned over `estimate` inserted frames.
+std::vector<SynthFrame> astar_search(const GapProblem& gap, const SupplementParams& params,
+                                     std::size_t estimate, SupplementStats* stats) {
   const SynthSkeleton& sk = *gap.skeleton;
   const double dt = gap.frame_time_s;
   const std::size_t n = sk.joint_count();
@@ -186,7 +312,6 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   WorldPose w_goal, w_after, w_prev, w_cur, w_cand;
   synth_world_pose(sk, gap.goal, w_goal);
   synth_world_pose(sk, gap.after, w_after);
-  const std::size_t estimate = estimate_transition_frames(gap, params);
   // Neighbours of each joint (parent and children that carry rotations).
   std::vector<std::vector<int>> adjacent(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -196,6 +321,8 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     for (int c : sk.skeleton.children(static_cast<int>(j))) adjacent[j].push_back(c);
   }
 
+  const std::vector<LegChain> legs = params.plant_feet ? leg_chains(sk) : std::vector<LegChain>{};
+  WorldPose w_ik;
   // CLOSED: accepted states (the path); OPEN: this iteration's candidates.
   std::vector<SynthFrame> closed;
   SynthFrame pprev, prev = gap.before, cur = gap.start;
@@ -294,14 +421,55 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     const SynthFrame smooth = hermite_step(gap, prev, cur, remaining);
     SynthFrame best = geodesic_step(gap, cur, remaining);
     if (params.smooth_root) best.root_position_m = smooth.root_position_m;
-    // The costliest joints of the proposal step, in decreasing order.
-    synth_world_pose(sk, best, w_cand);
-    ev.g(&w_prev, w_cur, w_cand, nullptr, true);
     double best_f = score(best);
     // A candidate may not slide the feet more than the geodesic completion
     // from cur (the previous iteration's path): the path never slides more
     // than the slerp transition of the same length.
     const double slide_limit = window_slide + 1e-9;
+    auto try_candidate = [&](SynthFrame&& cand) {
+      const double f = score(cand);
+      if (f < best_f && window_slide <= slide_limit) {
+        best_f = f;
+        best = std::move(cand);
+      }
+    };
+    // Contact-aware proposals: a foot on the ground in S stays where it is
+    // (fully or half way from the proposal's), its leg turned by inverse
+    // kinematics, each leg alone and both together.
+    if (!legs.empty()) {
+      synth_world_pose(sk, best, w_cand);
+      const EnergyParams& ep = sk.model.params;
+      std::vector<std::size_t> down;
+      for (std::size_t l = 0; l < legs.size(); ++l)
+        for (int fj : legs[l].feet)
+          if (contact_point(sk, w_cur, fj).y() - ep.ground_height_m <= ep.contact_height_m) {
+            down.push_back(l);
+            break;
+          }
+      const SynthFrame base = best;
+      auto planted = [&](const SynthFrame& from, std::size_t l, double alpha, SynthFrame& out) {
+        const auto ankle = static_cast<std::size_t>(legs[l].ankle);
+        const Eigen::Vector3d t = (1.0 - alpha) * w_cand.positions_m[ankle] + alpha * w_cur.positions_m[ankle];
+        const Eigen::Quaterniond r = w_cand.rotations[ankle].slerp(alpha, w_cur.rotations[ankle]);
+        out = from;
+        return plant_leg(sk, gap.range, legs[l], t, r, out, w_ik);
+      };
+      SynthFrame cand, both;
+      for (double alpha : {1.0, 0.5}) {
+        for (std::size_t l : down)
+          if (planted(base, l, alpha, cand)) try_candidate(SynthFrame(cand));
+        bool all = down.size() > 1;
+        both = base;
+        for (std::size_t l = 0; all && l < down.size(); ++l) {
+          all = planted(both, down[l], alpha, cand);
+          both = cand;
+        }
+        if (all) try_candidate(std::move(both));
+      }
+    }
+    // The costliest joints of the proposal step, in decreasing order.
+    synth_world_pose(sk, best, w_cand);
+    ev.g(&w_prev, w_cur, w_cand, nullptr, true);
     costs.clear();
     for (std::size_t j = 0; j < n; ++j) {
       const double c = ev.terms.g.joint_J[j] + ev.terms.g.segment_J[j];
@@ -311,13 +479,6 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
       return x.first != y.first ? x.first > y.first : x.second < y.second;
     });
     varied.clear();
-    auto try_candidate = [&](SynthFrame&& cand) {
-      const double f = score(cand);
-      if (f < best_f && window_slide <= slide_limit) {
-        best_f = f;
-        best = std::move(cand);
-      }
-    };
     for (const auto& [c, j] : costs) {
       if (varied.size() >= params.joints_per_iteration) break;
       // Its adjacent joint that stands highest (itself when it has none).
@@ -367,12 +528,24 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     cur = best;
   }
   if (stats) {
-    stats->iterations = iterations;
-    stats->energy_evaluations = ev.evaluations;
+    stats->iterations += iterations;
+    stats->energy_evaluations += ev.evaluations;
     stats->estimated_frames = estimate;
     stats->stop_reason = reason;
   }
   return closed;
+}
+
+}  // namespace
+
+std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
+                                         SupplementStats* stats) {
+  check_gap(gap);
+  if (!(params.cost_threshold_J >= 0.0)) throw std::invalid_argument("cost threshold must be >= 0");
+  SupplementStats local;
+  SupplementStats& st = stats ? *stats : local;
+  st = SupplementStats{};
+  return astar_search(gap, params, choose_transition_frames(gap, params), &st);
 }
 
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames) {

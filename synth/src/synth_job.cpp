@@ -14,6 +14,7 @@
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
 #include "mocap/kinematics.hpp"
+#include "mocap/query_pose.hpp"
 #include "mocap/skeleton.hpp"
 #include "mocap/units.hpp"
 
@@ -29,65 +30,27 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// A query frame resolved on the target skeleton (private to synth; the search
-// library's resolver is internal to it).
+// A query frame on the target skeleton: the DOFs it gives, from the search
+// library's resolver (mocap/query_pose.hpp), errors naming the query file.
 struct ResolvedQueryFrame {
   std::array<std::optional<double>, 3> root_m;
   std::optional<double> heading_rad;
   std::vector<std::pair<int, Eigen::Quaterniond>> joints;
 };
 
-ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const SynthSkeleton& sk,
+ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const Index& index,
+                                       const SynthSkeleton& sk, QueryBvhCache& cache,
                                        const std::string& source) {
-  const QueryFrameSpec& spec = q.frames[i];
-  const std::string where = "frames[" + std::to_string(i) + "]";
-  ResolvedQueryFrame out;
-  auto joint_of = [&](const std::string& name, const std::string& field) {
-    const int j = find_joint_by_alias(sk.skeleton, name);
-    if (j < 0) {
-      std::string names;
-      for (const auto& n : sk.skeleton.names) names += (names.empty() ? "" : ", ") + n;
-      throw InputError(source, 0, field + ": unknown joint \"" + name + "\" (skeleton joints: " + names + ")");
-    }
-    return j;
-  };
-  if (spec.bvh) {
-    const RawClip raw = read_bvh_file(*spec.bvh);
-    if (spec.bvh_frame >= raw.frame_count)
-      throw InputError(source, 0, where + ".frame: " + std::to_string(spec.bvh_frame) + " out of range (" +
-                                      spec.bvh->string() + " has " + std::to_string(raw.frame_count) + " frames)");
-    const double scale = unit_scale_m(detect_unit(raw));
-    const Skeleton fs = build_skeleton(raw, scale);
-    LocalPose local;
-    local_pose_from_row(fs, raw.frame(spec.bvh_frame), local);
-    WorldPose world;
-    forward_kinematics(fs, local, world);
-    auto wanted = [&](const std::string& dof) {
-      return spec.only.empty() || std::find(spec.only.begin(), spec.only.end(), dof) != spec.only.end();
-    };
-    const std::string& root_name = sk.skeleton.names[static_cast<std::size_t>(sk.root_joint)];
-    int froot = fs.find(root_name);
-    if (froot < 0) froot = find_joint_by_alias(fs, "Hips");
-    if (froot < 0) throw InputError(source, 0, where + ".bvh: no pelvis joint in " + spec.bvh->string());
-    const Eigen::Vector3d p = world.positions_m[static_cast<std::size_t>(froot)];
-    if (wanted("root_position")) out.root_m = {p.x(), p.y(), p.z()};
-    else if (wanted("root_position_xz")) out.root_m = {p.x(), std::nullopt, p.z()};
-    for (std::size_t fj = 0; fj < fs.joint_count(); ++fj) {
-      if (fs.parents[fj] < 0 && static_cast<int>(fj) != froot) continue;
-      int tj = sk.skeleton.find(fs.names[fj]);
-      if (tj < 0) tj = find_joint_by_alias(sk.skeleton, fs.names[fj]);
-      if (tj < 0) continue;
-      if (!spec.only.empty() && !wanted(fs.names[fj]) && !(tj == sk.root_joint && wanted("root_heading")))
-        continue;
-      out.joints.emplace_back(tj, local.rotations[fj]);
-    }
+  ResolvedQueryPose pose;
+  try {
+    pose = resolve_query_pose(q, i, index.skeletons()[sk.index_skeleton], sk.model, cache);
+  } catch (const InputError& e) {
+    throw InputError(source, 0, e.detail());
   }
-  for (int k = 0; k < 3; ++k)
-    if (spec.root_position_m[static_cast<std::size_t>(k)])
-      out.root_m[static_cast<std::size_t>(k)] = spec.root_position_m[static_cast<std::size_t>(k)];
-  if (spec.root_heading_deg) out.heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
-  for (const JointRotationSpec& js : spec.joints)
-    out.joints.emplace_back(joint_of(js.name, where + ".joints." + js.name), js.rotation.normalized());
+  ResolvedQueryFrame out;
+  out.root_m = pose.given.root_position_m;
+  out.heading_rad = pose.given.root_heading_rad;
+  for (const auto& [j, rot] : pose.given.joint_rotations) out.joints.emplace_back(j, rot.normalized());
   return out;
 }
 
@@ -279,7 +242,8 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
   const std::vector<std::size_t>& clips = index.skeletons()[c0.skeleton].clips;
   const RangeOfMotion rom = range_of_motion(index, sk, clips);
   std::vector<ResolvedQueryFrame> qf;
-  for (std::size_t i = 0; i < H; ++i) qf.push_back(resolve_query_frame(query, i, sk, src));
+  QueryBvhCache bvh_cache;
+  for (std::size_t i = 0; i < H; ++i) qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
   const double T = query.transition_time_s;
 
   // Place the partial motions.

@@ -10,15 +10,19 @@
 //
 // Three methods (docs/synthesis.md):
 //  - astar: best-first search over states, one state accepted per iteration
-//    (the paper's OPEN/CLOSED loop): from the current state the base proposal
-//    is the geodesic step toward the goal; it is refined joint by joint: the
+//    (the paper's OPEN/CLOSED loop), over the length whose geodesic path has
+//    the lowest g (choose_transition_frames): from the current state the base
+//    proposal is the geodesic step toward the goal, or that step with a foot
+//    that is on the ground kept in place (inverse kinematics of the leg,
+//    plant_feet); it is refined joint by joint: the
 //    joints with the largest terms of g(current -> proposal), in decreasing
 //    order, each mapped to its adjacent joint that stands highest; that
 //    joint's local rotation is varied (velocity-continuing Hermite rotation,
 //    half way to it, the step scaled), clamped to the range of motion, and
 //    the variant with the lowest f = g(steps it changes) + the estimate of
 //    the rest (the geodesic completion from it to the goal, costed step by
-//    step by h, and by g on its last two steps) is kept, provided it slides
+//    step by g; by h between its first and last two steps when
+//    exact_lookahead is off) is kept, provided it slides
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
 //  - slerp: linear root, slerp per joint, the same number of frames;
@@ -131,9 +135,16 @@ struct SupplementParams {
   /// Root translation of the base proposal: the velocity-matching Hermite
   /// step (true) or the straight line (false).
   bool smooth_root = false;
-  /// Cost every step of a candidate's geodesic completion with g (true);
-  /// default: g on its first and last two steps, h (the heuristic) between.
-  bool exact_lookahead = false;
+  /// Cost every step of a candidate's geodesic completion with g (default:
+  /// the path's g can then only go down from the geodesic's); false: g on
+  /// its first and last two steps, h (the paper's heuristic) between.
+  bool exact_lookahead = true;
+  /// Contact-aware proposals: a foot within contact height of the ground in
+  /// the current state is kept in place (its leg turned by inverse kinematics).
+  bool plant_feet = true;
+  /// Choose the length (choose_transition_frames) instead of taking the
+  /// estimate.
+  bool choose_length = true;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
 };
@@ -160,6 +171,12 @@ struct SupplementStats {
 
 /// Initial length estimate (frames to insert), in [1, max_states].
 std::size_t estimate_transition_frames(const GapProblem& gap, const SupplementParams& params);
+
+/// The length the supplementation plans with: among 1 .. min(T_n, 2 x the
+/// estimate + 2) inserted frames, the one whose geodesic (slerp) transition
+/// has the lowest g (a coarse grid, then every length around its best point);
+/// the estimate itself when params.choose_length is false.
+std::size_t choose_transition_frames(const GapProblem& gap, const SupplementParams& params);
 
 /// A*-based supplementation (header). Throws std::invalid_argument on a bad gap.
 std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,

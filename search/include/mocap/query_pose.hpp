@@ -1,0 +1,80 @@
+#pragma once
+// Query frames resolved on one index skeleton (docs/queries.md): the one
+// resolver that the search engine and synthesis both read query frames
+// through. A frame gives some degrees of freedom (root position components,
+// root heading, joints' local rotations) or is a frame of a BVH file (all of
+// them, with the file's velocities, or the DOFs listed in "only").
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "mocap/dynamics.hpp"
+#include "mocap/energy.hpp"
+#include "mocap/index.hpp"
+#include "mocap/kinematics.hpp"
+#include "mocap/query.hpp"
+
+namespace mocap {
+
+/// A BVH file read for queries (file skeleton, local and world pose per frame).
+struct QueryBvhFile {
+  ClipMotion motion;
+  std::filesystem::file_time_type mtime;
+  std::uintmax_t size = 0;
+};
+
+/// Parsed BVH files shared by the queries of a batch (bounded, thread-safe;
+/// an entry is re-read when the file's size or modification time changes).
+class QueryBvhCache {
+ public:
+  /// `unit_option`: "auto" (or empty) detects the file's length unit, else a
+  /// unit name (units.hpp parse_unit). Throws InputError naming the file.
+  std::shared_ptr<const QueryBvhFile> get(const std::filesystem::path& path,
+                                          const std::string& unit_option);
+
+ private:
+  std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
+};
+
+/// Query frame i of a query on one index skeleton.
+struct ResolvedQueryPose {
+  /// The frame is a frame of a BVH file (QueryFrameSpec::bvh).
+  bool from_bvh = false;
+  /// A whole BVH frame (no "only"): `state` holds its world state.
+  bool full = false;
+  /// The degrees of freedom the frame gives, on the index skeleton: root
+  /// (pelvis) world position components (metres), root heading (radians,
+  /// heading_rad()), local rotations by joint index (each joint once; a joint
+  /// named twice through aliases: the last wins). For a whole BVH frame: the
+  /// root position (x, y, z) and the local rotation of every joint the file
+  /// has a counterpart for (no heading: the root's rotation is given).
+  PartialPoseSpec given;
+  /// from_bvh: the frame's local rotation of every skeleton joint (identity
+  /// where the file has no counterpart) and the file joint of each skeleton
+  /// joint (-1: none; by name, else by canonical body part).
+  std::vector<Eigen::Quaterniond> local_rotations;
+  std::vector<int> file_joints;
+  /// full: world state (joint origins, rotations, COMs) with the file's own
+  /// finite-difference rates at the frame (dynamics.hpp), index skeleton and
+  /// `model`'s body.
+  BodyState state;
+};
+
+/// Resolves query frame `i` of `q` on skeleton `sk` (character `model`).
+/// Throws InputError ("query ID: frames[i]...: ...") for unknown joints
+/// (listing the valid names), unreadable files, frames out of range and BVH
+/// files whose skeleton does not map onto `sk` (a segment or the root with
+/// no counterpart).
+ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                                     const DynamicsModel& model, QueryBvhCache& cache,
+                                     const std::string& unit_option = "auto");
+
+}  // namespace mocap
