@@ -291,7 +291,10 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
     tr.method = options.method;
     const auto ts = std::chrono::steady_clock::now();
     std::vector<SynthFrame> fs;
-    const std::size_t frames = options.method == TransitionMethod::astar ? 0 : estimate_transition_frames(gap, options.params);
+    // Baselines get the length A* would plan with (choose_transition_frames),
+    // so --transition slerp|inertialize compare like with like.
+    const std::size_t frames =
+        options.method == TransitionMethod::astar ? 0 : choose_transition_frames(gap, options.params);
     switch (options.method) {
       case TransitionMethod::astar: fs = supplement_astar(gap, options.params, &tr.stats); break;
       case TransitionMethod::slerp: fs = slerp_transition(gap, frames); break;
