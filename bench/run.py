@@ -278,6 +278,9 @@ def scaling_stage(a, set2, work):
             "queries": len(ok), "query_errors": len(out) - len(ok),
             "search_median_ms": statistics.median(ms), "search_p99_ms": percentile(ms, 99),
             "search_batch_wall_s": wall, "search_peak_rss_MB": rss,
+            # wall time outside the queries: start-up, opening the index and
+            # loading the arrays the batch needs (serial, once per batch)
+            "search_open_load_s": max(0.0, wall - sum(ms) / 1000.0),
             "clips_pruned_fraction": sum(r["stats"]["clips_pruned"] for r in ok) / max(1, clips),
             "frames_pruned_fraction": frames_pruned / max(1, frames_eval + frames_pruned),
         })
