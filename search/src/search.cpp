@@ -2,14 +2,22 @@
 #include "mocap/search.hpp"
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -21,6 +29,7 @@
 #include "mocap/body.hpp"
 #include "mocap/energy.hpp"
 #include "mocap/error.hpp"
+#include "mocap/newton_euler.hpp"
 #include "resolve.hpp"
 
 namespace mocap {
@@ -31,9 +40,12 @@ using search_detail::ResolvedFrame;
 
 const char* search_mode_name(SearchMode m) {
   switch (m) {
-    case SearchMode::exact: return "exact";
-    case SearchMode::approx: return "approx";
-    case SearchMode::brute: return "brute";
+    case SearchMode::exact:
+      return "exact";
+    case SearchMode::approx:
+      return "approx";
+    case SearchMode::brute:
+      return "brute";
   }
   return "?";
 }
@@ -110,9 +122,22 @@ struct ClipInfo {
   std::size_t clip = 0;         // global clip index
   std::size_t frame_start = 0;  // skeleton row of frame 0
   std::size_t frame_count = 0;
-  std::size_t block_start = 0;  // blocks16 row of block 0
+  std::size_t block_start = 0;  // row of block 0 in SkelData::block_bounds (16-frame blocks)
   std::size_t row = 0;          // clip_bounds row
 };
+
+struct FrameArrays {
+  const float *pos, *rot, *com, *vel, *angvel, *lrot;
+};
+
+// Bound tables (docs/search.md "Box bounds"): per 16-frame block and per clip,
+// kBoundFields rows of S floats: the minimum and maximum over the frames of
+// the scan table's segment COM x, y, z, translational KE and rotational KE.
+// Computed from the very float values the scan reads, so a bound computed
+// from them holds for the scanned h of every frame of the block.
+constexpr std::size_t kBoundFields = 10;  // cmin xyz, cmax xyz, KE min max, KE_rot min max
+constexpr std::size_t kBlock = 16;
+constexpr std::size_t kGroup = 16;  // clips per group (group bound tables)
 
 struct SkelData {
   std::uint32_t k = 0;
@@ -120,73 +145,496 @@ struct SkelData {
   DynamicsModel model;
   HScanTable table;
   std::size_t segments = 0;
+  std::size_t padded = 0;      // segments rounded up to a multiple of 8 (bound tables)
   std::vector<double> masses;  // per segment
   double segment_mass = 0.0;
-  std::vector<double> lambda_min;     // per segment: smallest principal moment (kg m^2)
-  std::vector<int> segment_of_joint;  // joint -> segment index, -1 if massless
-  std::vector<ClipInfo> clips;             // by row
-  std::vector<std::uint32_t> frame_row;    // skeleton frame -> clip row
-  // Bounds in metres: [row][S][3] COM boxes, [row][3] root boxes.
-  std::vector<float> clip_com_min, clip_com_max, clip_root_min, clip_root_max;
-  std::vector<float> block_com_min, block_com_max, block_root_min, block_root_max;
+  std::vector<double> lambda_min;        // per segment: smallest principal moment (kg m^2)
+  std::vector<int> segment_of_joint;     // joint -> segment index, -1 if massless
+  std::vector<ClipInfo> clips;           // by row
+  std::vector<std::uint32_t> frame_row;  // skeleton frame -> clip row
+  // The scan table again, one small table per 16-frame block (the blocks of
+  // block_bounds): a block's 16 x S x 9 values are contiguous, so scanning a
+  // block reads 12 KB in one stream instead of S x 9 rows far apart.
+  std::vector<HScanTable> tiles;
+  // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules.
+  std::vector<float> block_bounds, clip_bounds, block_root, clip_root;
+  // The same for groups of kGroup consecutive clip rows (union of their clips).
+  std::vector<float> group_bounds, group_root;
   const float* kd = nullptr;  // [N][S*3]
+  std::vector<float> kd_own;  // a query character's kd features (kd points here)
+  // Frame arrays for partial queries (index arrays, loaded on first use; for a
+  // query character the character-dependent ones are owned).
+  mutable std::once_flag frames_once;
+  mutable FrameArrays fa{};
+  std::vector<float> pos_own, com_own, vel_own;
+  bool own_frames = false;
+  // The index's energy prefix sums of the skeleton's frames (Index::array
+  // locks a mutex: fetched once, not per clip); null for a query character.
+  const double* prefix_index = nullptr;
+  // A query character's energy prefix sums (lambda > 0), built on first use.
+  mutable std::once_flag prefix_once;
+  mutable std::vector<double> prefix_own;
+  std::vector<double> joint_ratio;  // query character: bone length ratio per joint (1 = index's)
+  IndexSkeleton sk_own;  // query character: the skeleton with its length scales, its body
   mutable std::once_flag flann_once;
   mutable std::unique_ptr<search_detail::KnnIndex> flann;
 };
 
-// kd bounds (sqrt(m/2)/T_index c) -> COM bounds in metres.
-void kd_to_com(const IndexArray& kd, const std::vector<double>& masses, double t_index,
-               std::vector<float>& out) {
-  const std::size_t s = masses.size();
-  out.resize(kd.f32.size());
-  for (std::size_t r = 0; r < kd.rows; ++r)
-    for (std::size_t b = 0; b < s; ++b) {
-      const double inv = t_index / std::sqrt(masses[b] / 2.0);
-      for (std::size_t a = 0; a < 3; ++a) {
-        const std::size_t i = (r * s + b) * 3 + a;
-        out[i] = static_cast<float>(static_cast<double>(kd.f32[i]) * inv);
+// The frame arrays of skeleton k (loaded once).
+const FrameArrays& frame_arrays(const Index& index, const SkelData& sd) {
+  std::call_once(sd.frames_once, [&] {
+    tbb::this_task_arena::isolate([&] {
+      const std::uint32_t k = sd.k;
+      sd.fa = {index.array(k, "frames", "joint_positions_m").f32.data(),
+               index.array(k, "frames", "world_rotations").f32.data(),
+               index.array(k, "frames", "segment_com_m").f32.data(),
+               index.array(k, "frames", "segment_com_velocity_mps").f32.data(),
+               index.array(k, "frames", "segment_angular_velocity_radps").f32.data(),
+               index.array(k, "frames", "local_rotations").f32.data()};
+      if (sd.own_frames) {
+        sd.fa.pos = sd.pos_own.data();
+        sd.fa.com = sd.com_own.data();
+        sd.fa.vel = sd.vel_own.data();
       }
-    }
+    });
+  });
+  return sd.fa;
 }
 
-// Lower bound of h(Q -> F) over frames F whose segment COMs lie in the boxes
-// (full queries) or whose root lies in the box (root-only): docs/search.md.
-double box_lower_bound(const ResolvedFrame& q, const SkelData& sd, double t, const float* com_min,
-                       const float* com_max, const float* root_min, const float* root_max) {
-  const double g = sd.model.params.gravity_mps2;
-  if (q.kind == FrameKind::full) {
-    double lb = 0.0;
-    for (std::size_t b = 0; b < sd.segments; ++b) {
-      const Eigen::Vector3d& c = q.state.coms_m[static_cast<std::size_t>(sd.model.segments[b])];
-      double d2 = 0.0, dy = 0.0;
-      for (int a = 0; a < 3; ++a) {
-        const double lo = com_min[b * 3 + static_cast<std::size_t>(a)], hi = com_max[b * 3 + static_cast<std::size_t>(a)];
-        const double d = c[a] < lo ? lo - c[a] : (c[a] > hi ? c[a] - hi : 0.0);
-        d2 += d * d;
-        if (a == 1) dy = d;
+// Model-derived per-segment constants, clip rows, frame -> clip row.
+void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, SkelData& sd) {
+  sd.k = k;
+  sd.sk = &index.skeletons()[k];
+  sd.model = std::move(model);
+  sd.segments = sd.model.segments.size();
+  sd.padded = (sd.segments + 7) / 8 * 8;
+  sd.segment_of_joint.assign(sd.model.joint_count(), -1);
+  for (int b : sd.model.segments) {
+    const auto j = static_cast<std::size_t>(b);
+    sd.masses.push_back(sd.model.masses_kg[j]);
+    sd.segment_mass += sd.masses.back();
+    // Smallest eigenvalue of the (symmetric) local inertia: w^T R I R^T w >= lambda_min |w|^2.
+    const Eigen::Vector3d d = sd.model.principal_moments_kgm2[j];
+    sd.lambda_min.push_back(std::max(0.0, std::min({d[0], d[1], d[2]})));
+    sd.segment_of_joint[j] = static_cast<int>(sd.masses.size() - 1);
+  }
+  const std::size_t n = sd.sk->frame_count;
+  std::size_t blocks = 0;
+  for (std::size_t row = 0; row < sd.sk->clips.size(); ++row) {
+    const IndexClip& c = index.clips()[sd.sk->clips[row]];
+    sd.clips.push_back({sd.sk->clips[row], c.frame_start, c.frame_count, blocks, c.row});
+    blocks += (c.frame_count + kBlock - 1) / kBlock;
+  }
+  sd.frame_row.assign(n, 0);
+  for (std::size_t row = 0; row < sd.clips.size(); ++row)
+    for (std::size_t f = 0; f < sd.clips[row].frame_count; ++f)
+      sd.frame_row[sd.clips[row].frame_start + f] = static_cast<std::uint32_t>(row);
+  init_h_scan_table(sd.model, n, sd.table);
+}
+
+// Block and clip bound tables from the scan table (parallel over clips).
+void build_bound_tables(SkelData& sd) {
+  // Rows of `padded` floats; the padding stays 0 (a zero box and zero query
+  // constants make a zero term).
+  const std::size_t s = sd.padded, w = kBoundFields * s, real = sd.segments;
+  const std::size_t blocks =
+      sd.clips.empty()
+          ? 0
+          : sd.clips.back().block_start + (sd.clips.back().frame_count + kBlock - 1) / kBlock;
+  sd.block_bounds.assign(blocks * w, 0.0f);
+  sd.block_root.assign(blocks * 6, 0.0f);
+  sd.clip_bounds.assign(sd.clips.size() * w, 0.0f);
+  sd.clip_root.assign(sd.clips.size() * 6, 0.0f);
+  sd.tiles.assign(blocks, HScanTable{});
+  const HScanTable& tb = sd.table;
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  auto init = [&](float* row, float* root) {
+    for (std::size_t f = 0; f < 3; ++f)
+      for (std::size_t b = 0; b < real; ++b) {
+        row[f * s + b] = inf;
+        row[(f + 3) * s + b] = -inf;
       }
-      const double m = sd.masses[b];
-      lb += m * g * dy + std::max(0.0, m * d2 / (2.0 * t * t) - q.segment_ke_J[b]);
+    for (std::size_t b = 0; b < real; ++b) {
+      row[6 * s + b] = row[8 * s + b] = inf;
+      row[7 * s + b] = row[9 * s + b] = -inf;
     }
-    return lb;
+    for (std::size_t a = 0; a < 3; ++a) {
+      root[a] = inf;
+      root[a + 3] = -inf;
+    }
+  };
+  tbb::parallel_for(std::size_t{0}, sd.clips.size(), [&](std::size_t r) {
+    const ClipInfo& ci = sd.clips[r];
+    float* crow = sd.clip_bounds.data() + r * w;
+    float* croot = sd.clip_root.data() + r * 6;
+    init(crow, croot);
+    for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+      float* row = sd.block_bounds.data() + (ci.block_start + bl) * w;
+      float* root = sd.block_root.data() + (ci.block_start + bl) * 6;
+      init(row, root);
+      const std::size_t g0 = ci.frame_start + bl * kBlock,
+                        g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
+      HScanTable& tile = sd.tiles[ci.block_start + bl];
+      init_h_scan_table(sd.model, g1 - g0, tile);
+      for (std::size_t f = 0; f < real * HScanTable::kFields; ++f)
+        std::copy(tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g0),
+                  tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g1),
+                  tile.values.begin() + static_cast<std::ptrdiff_t>(f * tile.stride));
+      for (std::size_t a = 0; a < 3; ++a)
+        std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
+                  tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
+                  tile.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tile.stride));
+      // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
+      constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
+                            hi_f[5] = {3, 4, 5, 7, 9};
+      for (std::size_t b = 0; b < real; ++b)
+        for (std::size_t i = 0; i < 5; ++i) {
+          const float* v = tb.field(b, src[i]);
+          float& lo = row[lo_f[i] * s + b];
+          float& hi = row[hi_f[i] * s + b];
+          for (std::size_t g = g0; g < g1; ++g) {
+            lo = std::min(lo, v[g]);
+            hi = std::max(hi, v[g]);
+          }
+        }
+      for (std::size_t a = 0; a < 3; ++a)
+        for (std::size_t g = g0; g < g1; ++g) {
+          const float v = tb.root_positions[a * tb.stride + g];
+          root[a] = std::min(root[a], v);
+          root[a + 3] = std::max(root[a + 3], v);
+        }
+      for (std::size_t i = 0; i < w; ++i) {
+        // min rows: fields 0..2, 6, 8; max rows: 3..5, 7, 9.
+        const std::size_t f = i / s;
+        const bool is_min = f < 3 || f == 6 || f == 8;
+        crow[i] = is_min ? std::min(crow[i], row[i]) : std::max(crow[i], row[i]);
+      }
+      for (std::size_t a = 0; a < 3; ++a) {
+        croot[a] = std::min(croot[a], root[a]);
+        croot[a + 3] = std::max(croot[a + 3], root[a + 3]);
+      }
+    }
+  });
+  const std::size_t groups = (sd.clips.size() + kGroup - 1) / kGroup;
+  sd.group_bounds.assign(groups * w, 0.0f);
+  sd.group_root.assign(groups * 6, 0.0f);
+  for (std::size_t g = 0; g < groups; ++g) {
+    float* grow = sd.group_bounds.data() + g * w;
+    float* groot = sd.group_root.data() + g * 6;
+    init(grow, groot);
+    for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r) {
+      const float* crow = sd.clip_bounds.data() + r * w;
+      const float* croot = sd.clip_root.data() + r * 6;
+      for (std::size_t i = 0; i < w; ++i) {
+        const std::size_t f = i / s;
+        const bool is_min = f < 3 || f == 6 || f == 8;
+        grow[i] = is_min ? std::min(grow[i], crow[i]) : std::max(grow[i], crow[i]);
+      }
+      for (std::size_t a = 0; a < 3; ++a) {
+        groot[a] = std::min(groot[a], croot[a]);
+        groot[a + 3] = std::max(groot[a + 3], croot[a + 3]);
+      }
+    }
+  }
+}
+
+// A query frame prepared for box bounds (full and root-only frames; other
+// kinds have bound 0 here and per-frame bounds instead).
+struct BoundQuery {
+  FrameKind kind = FrameKind::partial;
+  std::size_t s = 0;
+  // full: per segment COM, KE_A, m g, m / (2 T^2), KE_A^rot (the scan constants).
+  std::vector<float> ax, ay, az, ka, mg, mh, kar;
+  // root_only: position, given axes, M g, per segment m / T^2.
+  std::array<float, 3> p{0.0f, 0.0f, 0.0f};
+  std::array<bool, 3> given{false, false, false};
+  float total_mg = 0.0f;
+  std::vector<float> m_inv_t2;
+};
+
+BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
+  BoundQuery b;
+  b.kind = q.kind;
+  b.s = sd.padded;
+  if (q.kind == FrameKind::full) {
+    for (std::size_t s = 0; s < sd.segments; ++s) {
+      const float* k = q.scan.constants.data() + s * HScanQuery::kConstants;
+      b.ax.push_back(k[0]);
+      b.ay.push_back(k[1]);
+      b.az.push_back(k[2]);
+      b.ka.push_back(k[3]);
+      b.mg.push_back(k[4]);
+      b.mh.push_back(k[5]);
+      b.kar.push_back(k[10]);
+    }
+    for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
+  } else if (q.kind == FrameKind::root_only) {
+    float total = 0.0f;
+    for (float m : q.root_scan.masses) {
+      total += m;
+      b.m_inv_t2.push_back(m * q.root_scan.inv_t2);
+    }
+    b.m_inv_t2.resize(b.s, 0.0f);
+    b.total_mg = total * q.root_scan.gravity;
+    for (std::size_t a = 0; a < 3; ++a) {
+      b.p[a] = q.root_scan.position[a];
+      b.given[a] = q.root_scan.given[a] != 0.0f;
+    }
+  }
+  return b;
+}
+
+// Lower bound of the scanned h(Q -> F) over every frame F of a block or clip
+// (`row`: kBoundFields x S bounds, `root`: root box); docs/search.md proves it. Computed in float
+// from the same float values and constants as the scan; the caller's slack (safe()) absorbs the
+// roundings.
+float box_bound(const BoundQuery& q, const float* __restrict row, const float* __restrict root) {
+  if (q.kind == FrameKind::full) {
+    const std::size_t n = q.s;
+    const float *lx = row, *ly = row + n, *lz = row + 2 * n, *hx = row + 3 * n, *hy = row + 4 * n,
+                *hz = row + 5 * n;
+    const float *klo = row + 6 * n, *khi = row + 7 * n, *rlo = row + 8 * n, *rhi = row + 9 * n;
+    const float* __restrict qx = q.ax.data(), * __restrict qy = q.ay.data(), * __restrict qz = q.az.data();
+    const float* __restrict qka = q.ka.data(), * __restrict qkr = q.kar.data(), * __restrict qmg = q.mg.data(), * __restrict qmh = q.mh.data();
+#if defined(__SSE__)
+    // Per segment terms, 4 at a time (SSE; n is a multiple of 8).
+    const __m128 zero = _mm_setzero_ps();
+    __m128 acc = zero;
+    for (std::size_t s = 0; s < n; s += 4) {
+      const __m128 ax = _mm_loadu_ps(qx + s), ay = _mm_loadu_ps(qy + s), az = _mm_loadu_ps(qz + s);
+      const __m128 ka = _mm_loadu_ps(qka + s), kar = _mm_loadu_ps(qkr + s);
+      const __m128 dx = _mm_max_ps(
+          _mm_max_ps(_mm_sub_ps(_mm_loadu_ps(lx + s), ax), _mm_sub_ps(ax, _mm_loadu_ps(hx + s))),
+          zero);
+      const __m128 dy = _mm_max_ps(
+          _mm_max_ps(_mm_sub_ps(_mm_loadu_ps(ly + s), ay), _mm_sub_ps(ay, _mm_loadu_ps(hy + s))),
+          zero);
+      const __m128 dz = _mm_max_ps(
+          _mm_max_ps(_mm_sub_ps(_mm_loadu_ps(lz + s), az), _mm_sub_ps(az, _mm_loadu_ps(hz + s))),
+          zero);
+      const __m128 ku = _mm_mul_ps(
+          _mm_loadu_ps(qmh + s),
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)));
+      // min over K_B in [klo, khi] of max(|K_B - K_A|, 2 K_u - K_A - K_B): convex in K_B,
+      // minimal at max(K_u, K_A) clamped into the interval.
+      const __m128 x =
+          _mm_min_ps(_mm_max_ps(_mm_max_ps(ku, ka), _mm_loadu_ps(klo + s)), _mm_loadu_ps(khi + s));
+      const __m128 phi = _mm_max_ps(_mm_max_ps(_mm_sub_ps(x, ka), _mm_sub_ps(ka, x)),
+                                    _mm_sub_ps(_mm_sub_ps(_mm_add_ps(ku, ku), ka), x));
+      // Rotation: K_w >= 0, so the term is at least the distance of K_A^rot to [rlo, rhi].
+      const __m128 rot = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(rlo + s), kar),
+                                               _mm_sub_ps(kar, _mm_loadu_ps(rhi + s))),
+                                    zero);
+      acc =
+          _mm_add_ps(acc, _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(qmg + s), dy), phi), rot));
+    }
+    alignas(16) float lane[4];
+    _mm_store_ps(lane, acc);
+    const float total = (lane[0] + lane[1]) + (lane[2] + lane[3]);
+#else
+    // The same arithmetic, one segment at a time, summed in the same lane order.
+    float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    for (std::size_t s = 0; s < n; ++s) {
+      const float ax = qx[s], ay = qy[s], az = qz[s], ka = qka[s], kar = qkr[s];
+      const float dx = std::max(std::max(lx[s] - ax, ax - hx[s]), 0.0f);
+      const float dy = std::max(std::max(ly[s] - ay, ay - hy[s]), 0.0f);
+      const float dz = std::max(std::max(lz[s] - az, az - hz[s]), 0.0f);
+      const float ku = qmh[s] * ((dx * dx + dy * dy) + dz * dz);
+      const float x = std::min(std::max(std::max(ku, ka), klo[s]), khi[s]);
+      const float phi = std::max(std::max(x - ka, ka - x), ((ku + ku) - ka) - x);
+      const float rot = std::max(std::max(rlo[s] - kar, kar - rhi[s]), 0.0f);
+      lane[s % 4] += (qmg[s] * dy + phi) + rot;
+    }
+    const float total = (lane[0] + lane[1]) + (lane[2] + lane[3]);
+#endif
+    return total;
   }
   if (q.kind == FrameKind::root_only) {
-    double d2 = 0.0, dy = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      if (!q.given[static_cast<std::size_t>(a)]) continue;
-      const double lo = root_min[a], hi = root_max[a], p = q.root_m[a];
-      const double d = p < lo ? lo - p : (p > hi ? p - hi : 0.0);
+    // Q_F is F shifted by delta (given axes), |delta_a| >= distance of p_a to the root box.
+    float d2 = 0.0f, dy = 0.0f;
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (!q.given[a]) continue;
+      const float d = std::max(std::max(root[a] - q.p[a], q.p[a] - root[a + 3]), 0.0f);
       d2 += d * d;
       if (a == 1) dy = d;
     }
-    return sd.segment_mass * (g * dy + d2 / (2.0 * t * t));
+    const std::size_t n = q.s;
+    const float *klo = row + 6 * n, *khi = row + 7 * n, *rlo = row + 8 * n;
+    float acc = q.total_mg * dy;
+    for (std::size_t s = 0; s < n; ++s) {
+      // min over K_B in [klo, khi] of max(K_B, 2 K_u - K_B) (scan: 2 K_u = m |delta|^2 / T^2).
+      const float c = q.m_inv_t2[s] * d2;
+      const float x = std::min(std::max(0.5f * c, klo[s]), khi[s]);
+      acc += std::max(x, c - x) + rlo[s];
+    }
+    return acc;
   }
-  return 0.0;
+  return 0.0f;
 }
 
-// A bound computed in float/double from float32 data is compared with scores
+// A bound computed in float from float32 data is compared with scores
 // computed by the float32 scan: the slack covers both roundings.
-double safe(double lb) { return lb * (1.0 - 1e-4) - 1e-3; }
+double safe(double lb) {
+  return lb * (1.0 - 1e-4) - 1e-3;
+}
+
+// A character's tables for skeleton k: the index's skeleton with the
+// character's length scales, its body and model; per-frame dynamics
+// recomputed from the stored world pose (joint positions moved for the new
+// bone lengths, rotations unchanged) exactly as the indexer computes them.
+std::unique_ptr<SkelData> make_character_skel_data(const Index& index, std::uint32_t k,
+                                                   const Character& ch) {
+  const IndexSkeleton& isk = index.skeletons()[k];
+  Skeleton base = isk.skeleton;
+  base.translation_scales.clear();
+  const Skeleton scaled = apply_length_scales(base, ch);
+  const Body body = build_body(scaled, ch);
+  DynamicsModel model = build_dynamics_model(scaled, body, index.info().energy_params);
+  if (model.segments.empty())
+    throw InputError("character", 0,
+                     "no joint of the index skeleton carries mass with this character");
+  auto sd = std::make_unique<SkelData>();
+  init_skel_data(index, k, std::move(model), *sd);
+  // Query frames are posed on the character's skeleton (resolve_frame).
+  sd->sk_own = isk;
+  sd->sk_own.skeleton = scaled;
+  sd->sk_own.body = body;
+  sd->sk = &sd->sk_own;
+  const std::size_t nj = sd->model.joint_count(), n = isk.frame_count, s = sd->segments;
+  sd->joint_ratio.assign(nj, 1.0);
+  bool scaled_bones = false;
+  for (std::size_t j = 0; j < nj; ++j) {
+    const double old_s =
+        isk.skeleton.translation_scales.empty() ? 1.0 : isk.skeleton.translation_scales[j];
+    const double new_s = scaled.translation_scales.empty() ? 1.0 : scaled.translation_scales[j];
+    sd->joint_ratio[j] = new_s / old_s;
+    scaled_bones = scaled_bones || sd->joint_ratio[j] != 1.0;
+  }
+  const float* pos = index.array(k, "frames", "joint_positions_m").f32.data();
+  const float* rot = index.array(k, "frames", "world_rotations").f32.data();
+  sd->pos_own.resize(n * nj * 3);
+  sd->com_own.resize(n * nj * 3);
+  sd->vel_own.resize(n * nj * 3);
+  sd->kd_own.resize(n * s * 3);
+  sd->own_frames = true;
+  const double t_index = index.info().transition_time_s;
+  tbb::parallel_for(std::size_t{0}, sd->clips.size(), [&](std::size_t r) {
+    const ClipInfo& ci = sd->clips[r];
+    const std::size_t kf = ci.frame_count;
+    std::vector<Eigen::Vector3d> p(kf * nj);
+    std::vector<Eigen::Quaterniond> q(kf * nj);
+    for (std::size_t f = 0; f < kf; ++f)
+      for (std::size_t j = 0; j < nj; ++j) {
+        const std::size_t i = (ci.frame_start + f) * nj + j;
+        const float* x = pos + i * 3;
+        const float* w = rot + i * 4;
+        q[f * nj + j] = Eigen::Quaterniond(w[0], w[1], w[2], w[3]).normalized();
+        const Eigen::Vector3d pj(x[0], x[1], x[2]);
+        const int par = sd->model.parents[j];
+        if (!scaled_bones || par < 0) {
+          p[f * nj + j] = pj;
+        } else {
+          // x'_j = x'_parent + ratio_j (x_j - x_parent): the bone from the parent, rescaled.
+          const auto pp = static_cast<std::size_t>(par);
+          const float* xp = pos + ((ci.frame_start + f) * nj + pp) * 3;
+          p[f * nj + j] =
+              p[f * nj + pp] + sd->joint_ratio[j] * (pj - Eigen::Vector3d(xp[0], xp[1], xp[2]));
+        }
+      }
+    ClipDynamics dyn;
+    compute_clip_dynamics(sd->model, kf, index.clips()[ci.clip].frame_time_s, p.data(), q.data(),
+                          dyn);
+    for (std::size_t f = 0; f < kf; ++f) {
+      const std::size_t g = ci.frame_start + f;
+      set_h_scan_frame(sd->model, dyn.state(f), g, sd->table);
+      const Eigen::Vector3d& root =
+          dyn.joint_positions_m[f * nj + static_cast<std::size_t>(isk.root_joint)];
+      for (std::size_t a = 0; a < 3; ++a)
+        sd->table.root_positions[a * sd->table.stride + g] =
+            static_cast<float>(root[static_cast<Eigen::Index>(a)]);
+      for (std::size_t j = 0; j < nj; ++j)
+        for (std::size_t a = 0; a < 3; ++a) {
+          const auto e = static_cast<Eigen::Index>(a);
+          sd->pos_own[(g * nj + j) * 3 + a] =
+              static_cast<float>(dyn.joint_positions_m[f * nj + j][e]);
+          sd->com_own[(g * nj + j) * 3 + a] = static_cast<float>(dyn.coms_m[f * nj + j][e]);
+          sd->vel_own[(g * nj + j) * 3 + a] =
+              static_cast<float>(dyn.com_velocities_mps[f * nj + j][e]);
+        }
+      kd_feature(sd->model, dyn.state(f), t_index, sd->kd_own.data() + g * s * 3);
+    }
+  });
+  sd->kd = sd->kd_own.data();
+  build_bound_tables(*sd);
+  return sd;
+}
+
+// A clip's energy prefix sums for the skeleton's character.
+std::span<const double> clip_prefix(const Index& index, const SkelData& sd, const ClipInfo& ci) {
+  if (!sd.own_frames) return {sd.prefix_index + ci.frame_start, ci.frame_count};
+  // Isolated: while waiting for its parallel_for, the thread inside call_once
+  // must not pick up another clip task that would wait on the same flag.
+  std::call_once(sd.prefix_once, [&] {
+    tbb::this_task_arena::isolate([&] {
+      const std::size_t nj = sd.model.joint_count();
+      std::vector<double> out(sd.sk->frame_count, 0.0);
+      const float* rot = index.array(sd.k, "frames", "world_rotations").f32.data();
+      tbb::parallel_for(std::size_t{0}, sd.clips.size(), [&](std::size_t r) {
+        const ClipInfo& c = sd.clips[r];
+        std::vector<Eigen::Vector3d> p(c.frame_count * nj);
+        std::vector<Eigen::Quaterniond> q(c.frame_count * nj);
+        for (std::size_t i = 0; i < c.frame_count * nj; ++i) {
+          const float* x = sd.pos_own.data() + (c.frame_start * nj + i) * 3;
+          const float* w = rot + (c.frame_start * nj + i) * 4;
+          p[i] = Eigen::Vector3d(x[0], x[1], x[2]);
+          q[i] = Eigen::Quaterniond(w[0], w[1], w[2], w[3]).normalized();
+        }
+        ClipDynamics dyn;
+        compute_clip_dynamics(sd.model, c.frame_count, index.clips()[c.clip].frame_time_s, p.data(),
+                              q.data(), dyn);
+        const std::vector<double> pre = energy_prefix_sums(clip_step_energies(sd.model, dyn));
+        std::copy(pre.begin(), pre.end(), out.begin() + static_cast<std::ptrdiff_t>(c.frame_start));
+      });
+      sd.prefix_own = std::move(out);
+    });
+  });
+  return {sd.prefix_own.data() + ci.frame_start, ci.frame_count};
+}
+
+// The index's character from its `character` attribute: the indexer's
+// canonical form (index_builder.cpp character_json: every map written out),
+// or a character file's form; nullopt when neither parses (then every query
+// character gets its own tables).
+std::optional<Character> index_character(const Index& index) {
+  const std::string& text = index.info().character_json;
+  try {
+    const auto j = nlohmann::json::parse(text);
+    if (j.is_object() && j.contains("class_mass_kg")) {
+      using Map = std::map<std::string, double>;
+      Character c;
+      c.name = j.at("name").get<std::string>();
+      c.total_mass_kg = j.at("total_mass_kg").get<double>();
+      c.sex = j.at("sex").get<std::string>() == "female" ? Sex::female : Sex::male;
+      auto classes = [&](const char* key, std::map<SegmentClass, double>& out) {
+        for (const auto& [name, v] : j.at(key).get<Map>()) {
+          const auto cls = parse_segment_class(name);
+          if (!cls)
+            throw InputError(index.path().string(), 0, "character: unknown segment class " + name);
+          out[*cls] = v;
+        }
+      };
+      classes("class_mass_kg", c.class_mass_kg);
+      classes("class_mass_scale", c.class_mass_scale);
+      c.joint_mass_kg = j.at("joint_mass_kg").get<Map>();
+      classes("class_length_scale", c.class_length_scale);
+      c.joint_length_scale = j.at("joint_length_scale").get<Map>();
+      return c;
+    }
+    return parse_character_json(text, index.path().string());
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
 
 }  // namespace
 
@@ -197,6 +645,14 @@ struct SearchEngine::Impl {
   int content_key = -1, style_key = -1;
   mutable BvhCache bvh_cache;
   std::optional<Character> character;
+  // Query characters other than the index's: tables built once, shared.
+  struct CharacterTables {
+    std::once_flag once;
+    std::vector<std::unique_ptr<SkelData>> skels;
+    std::string error;
+  };
+  mutable std::mutex characters_mutex;
+  mutable std::map<std::string, std::shared_ptr<CharacterTables>> characters;
 };
 
 SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>()) {
@@ -207,65 +663,39 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
     if (index.label_keys()[i] == "content") m.content_key = static_cast<int>(i);
     if (index.label_keys()[i] == "style") m.style_key = static_cast<int>(i);
   }
-  try {
-    m.character = parse_character_json(index.info().character_json, index.path().string());
-  } catch (const InputError&) {
-    m.character.reset();
-  }
-  const auto& clips = index.clips();
+  m.character = index_character(index);
   for (std::uint32_t k = 0; k < index.skeletons().size(); ++k) {
     auto sd = std::make_unique<SkelData>();
-    sd->k = k;
-    sd->sk = &index.skeletons()[k];
-    sd->model = index.dynamics_model(k);
-    sd->segments = sd->model.segments.size();
-    sd->segment_of_joint.assign(sd->model.joint_count(), -1);
-    for (int b : sd->model.segments) {
-      const auto j = static_cast<std::size_t>(b);
-      sd->masses.push_back(sd->model.masses_kg[j]);
-      sd->segment_mass += sd->masses.back();
-      // Smallest eigenvalue of the (symmetric) local inertia: w^T R I R^T w >= lambda_min |w|^2.
-      const Eigen::Vector3d d = sd->model.principal_moments_kgm2[j];
-      sd->lambda_min.push_back(std::max(0.0, std::min({d[0], d[1], d[2]})));
-      sd->segment_of_joint[j] = static_cast<int>(sd->masses.size() - 1);
-    }
+    init_skel_data(index, k, index.dynamics_model(k), *sd);
     const std::size_t n = sd->sk->frame_count, s = sd->segments;
     // h_scan [N][S][9] (one row per frame) -> field-major HScanTable.
     const IndexArray& hs = index.array(k, "frames", "h_scan");
-    init_h_scan_table(sd->model, n, sd->table);
     const std::size_t stride = sd->table.stride;
-    for (std::size_t f = 0; f < n; ++f) {
-      const float* row = hs.f32.data() + f * s * 9;
-      for (std::size_t b = 0; b < s; ++b)
-        for (std::size_t q = 0; q < 9; ++q) sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                      [&](const tbb::blocked_range<std::size_t>& rg) {
+                        for (std::size_t f = rg.begin(); f != rg.end(); ++f) {
+                          const float* row = hs.f32.data() + f * s * 9;
+                          for (std::size_t b = 0; b < s; ++b)
+                            for (std::size_t q = 0; q < 9; ++q)
+                              sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
+                        }
+                      });
     const IndexArray& rp = index.array(k, "frames", "root_position_m");
     for (std::size_t f = 0; f < n; ++f)
-      for (std::size_t a = 0; a < 3; ++a) sd->table.root_positions[a * stride + f] = rp.f32[f * 3 + a];
+      for (std::size_t a = 0; a < 3; ++a)
+        sd->table.root_positions[a * stride + f] = rp.f32[f * 3 + a];
     sd->kd = index.array(k, "frames", "kd_features").f32.data();
-    for (std::size_t row = 0; row < sd->sk->clips.size(); ++row) {
-      const IndexClip& c = clips[sd->sk->clips[row]];
-      sd->clips.push_back({sd->sk->clips[row], c.frame_start, c.frame_count, c.block16_start, c.row});
-    }
-    sd->frame_row.assign(n, 0);
-    for (std::size_t row = 0; row < sd->clips.size(); ++row)
-      for (std::size_t f = 0; f < sd->clips[row].frame_count; ++f)
-        sd->frame_row[sd->clips[row].frame_start + f] = static_cast<std::uint32_t>(row);
-    kd_to_com(index.array(k, "clip_bounds", "kd_min"), sd->masses, m.t_index, sd->clip_com_min);
-    kd_to_com(index.array(k, "clip_bounds", "kd_max"), sd->masses, m.t_index, sd->clip_com_max);
-    kd_to_com(index.array(k, "blocks16", "kd_min"), sd->masses, m.t_index, sd->block_com_min);
-    kd_to_com(index.array(k, "blocks16", "kd_max"), sd->masses, m.t_index, sd->block_com_max);
-    sd->clip_root_min = index.array(k, "clip_bounds", "root_min_m").f32;
-    sd->clip_root_max = index.array(k, "clip_bounds", "root_max_m").f32;
-    sd->block_root_min = index.array(k, "blocks16", "root_min_m").f32;
-    sd->block_root_max = index.array(k, "blocks16", "root_max_m").f32;
+    sd->prefix_index = index.array(k, "frames", "energy_prefix_J").f64.data();
+    build_bound_tables(*sd);
     m.skels.push_back(std::move(sd));
   }
 }
 
 SearchEngine::SearchEngine(SearchEngine&&) noexcept = default;
 SearchEngine::~SearchEngine() = default;
-const Index& SearchEngine::index() const { return *impl_->index; }
+const Index& SearchEngine::index() const {
+  return *impl_->index;
+}
 
 // ---------------------------------------------------------------------------
 // Evaluation
@@ -286,19 +716,6 @@ struct Scratch {
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;
 };
-
-struct FrameArrays {
-  const float *pos, *rot, *com, *vel, *angvel, *lrot;
-};
-
-FrameArrays frame_arrays(const Index& index, std::uint32_t k) {
-  return {index.array(k, "frames", "joint_positions_m").f32.data(),
-          index.array(k, "frames", "world_rotations").f32.data(),
-          index.array(k, "frames", "segment_com_m").f32.data(),
-          index.array(k, "frames", "segment_com_velocity_mps").f32.data(),
-          index.array(k, "frames", "segment_angular_velocity_radps").f32.data(),
-          index.array(k, "frames", "local_rotations").f32.data()};
-}
 
 // Converts skeleton frame g into scratch (double) and returns its FrameRef.
 // Only the joints in `need` are converted (all when it is empty); the local
@@ -361,9 +778,12 @@ FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scr
 void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, double t,
               std::size_t g0, std::size_t g1, double* out, Scratch& sc,
               const std::optional<Eigen::Vector2d>& xz = std::nullopt,
-              const std::uint8_t* skip = nullptr) {
+              const std::uint8_t* skip = nullptr, const HScanTable* tile = nullptr) {
   const std::size_t n = g1 - g0;
   if (n == 0) return;
+  // A whole block in world mode: scan its tile (same values, contiguous).
+  const HScanTable& table = tile != nullptr && !xz ? *tile : sd.table;
+  const std::size_t b0 = tile != nullptr && !xz ? 0 : g0;
   if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
     sc.fbuf.resize(n);
     if (q.kind == FrameKind::full) {
@@ -372,12 +792,14 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
         sc.shifted_scan = q.scan;
         const double dx = (*xz)[0] - q.root_m[0], dz = (*xz)[1] - q.root_m[2];
         for (std::size_t b = 0; b < sc.shifted_scan.segment_count; ++b) {
-          sc.shifted_scan.constants[b * HScanQuery::kConstants + 0] = static_cast<float>(q.state.coms_m[static_cast<std::size_t>(sd.model.segments[b])][0] + dx);
-          sc.shifted_scan.constants[b * HScanQuery::kConstants + 2] = static_cast<float>(q.state.coms_m[static_cast<std::size_t>(sd.model.segments[b])][2] + dz);
+          sc.shifted_scan.constants[b * HScanQuery::kConstants + 0] = static_cast<float>(
+              q.state.coms_m[static_cast<std::size_t>(sd.model.segments[b])][0] + dx);
+          sc.shifted_scan.constants[b * HScanQuery::kConstants + 2] = static_cast<float>(
+              q.state.coms_m[static_cast<std::size_t>(sd.model.segments[b])][2] + dz);
         }
         sq = &sc.shifted_scan;
       }
-      scan_approximate_energy(sd.table, *sq, g0, g1, sc.fbuf.data());
+      scan_approximate_energy(table, *sq, b0, b0 + n, sc.fbuf.data());
     } else {
       const HScanRootQuery* rq = &q.root_scan;
       if (xz) {
@@ -386,7 +808,7 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
         if (q.given[2]) sc.shifted_root.position[2] = static_cast<float>((*xz)[1]);
         rq = &sc.shifted_root;
       }
-      scan_root_translation_energy(sd.table, *rq, g0, g1, sc.fbuf.data());
+      scan_root_translation_energy(table, *rq, b0, b0 + n, sc.fbuf.data());
     }
     for (std::size_t i = 0; i < n; ++i) out[i] = sc.fbuf[i];
     return;
@@ -398,7 +820,7 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
     if (q.given[2]) sc.shifted_partial.spec.root_position_m[2] = (*xz)[1];
     pq = &sc.shifted_partial;
   }
-  const FrameArrays fa = frame_arrays(index, sd.k);
+  const FrameArrays& fa = frame_arrays(index, sd);
   for (std::size_t i = 0; i < n; ++i) {
     if (skip != nullptr && skip[i]) continue;
     const FrameRef r = frame_ref(sd, fa, g0 + i, sc, q.need_joints, q.local_joints);
@@ -411,11 +833,11 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
 // joint rotations); docs/search.md "Partial queries" proves it.
 
 struct PartialBoundPlan {
-  bool whole = false;                // root position / heading given: every segment is static in Q_F
-  std::vector<std::size_t> segs;     // affected segments (model.segments index)
-  std::vector<double> rot_coef;      // per listed segment: 1/2 lambda_min / T^2 (slightly reduced)
-  std::vector<std::uint8_t> turns;   // per listed segment: rotated by the heading turn
-  std::vector<int> sub_slot;         // per listed segment: slot in sub_joints whose angle applies, -1
+  bool whole = false;               // root position / heading given: every segment is static in Q_F
+  std::vector<std::size_t> segs;    // affected segments (model.segments index)
+  std::vector<double> rot_coef;     // per listed segment: 1/2 lambda_min / T^2 (slightly reduced)
+  std::vector<std::uint8_t> turns;  // per listed segment: rotated by the heading turn
+  std::vector<int> sub_slot;  // per listed segment: slot in sub_joints whose angle applies, -1
   bool heading = false;
   double psi_q = 0.0;
   // Joint-rotation subtrees (not whole-body): composite rotations per slot.
@@ -449,7 +871,8 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
       const int par = model.parents[j];
       p.sub_parent_slot.push_back(par >= 0 ? slot[static_cast<std::size_t>(par)] : -1);
       const int gi = pq.given_rotation[j];
-      p.sub_given.push_back(gi >= 0 ? &pq.spec.joint_rotations[static_cast<std::size_t>(gi)].second : nullptr);
+      p.sub_given.push_back(gi >= 0 ? &pq.spec.joint_rotations[static_cast<std::size_t>(gi)].second
+                                    : nullptr);
     }
   }
   for (std::size_t s = 0; s < sd.segments; ++s) {
@@ -473,7 +896,8 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
 // two non-zero quaternions: with d = |<x, y>| / (|x| |y|) = cos(theta / 2),
 // cos t >= 1 - t^2 / 2 gives theta >= 2 sqrt(2 (1 - d)) (no acos per frame).
 double quat_angle_lower(const Eigen::Quaterniond& x, const Eigen::Quaterniond& y) {
-  const double d = std::abs(x.coeffs().dot(y.coeffs())) / std::sqrt(x.coeffs().squaredNorm() * y.coeffs().squaredNorm());
+  const double d = std::abs(x.coeffs().dot(y.coeffs())) /
+                   std::sqrt(x.coeffs().squaredNorm() * y.coeffs().squaredNorm());
   return 2.0 * std::sqrt(2.0 * std::max(0.0, 1.0 - d));
 }
 
@@ -490,8 +914,8 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
     for (std::size_t t = 0; t < p.sub_joints.size(); ++t) {
       const float* l = fa.lrot + (g * nj + static_cast<std::size_t>(p.sub_joints[t])) * 4;
       // Not normalised: quat_angle_lower divides by the norms (which multiply).
-      const Eigen::Quaterniond lf(static_cast<double>(l[0]), static_cast<double>(l[1]), static_cast<double>(l[2]),
-                                  static_cast<double>(l[3]));
+      const Eigen::Quaterniond lf(static_cast<double>(l[0]), static_cast<double>(l[1]),
+                                  static_cast<double>(l[2]), static_cast<double>(l[3]));
       const Eigen::Quaterniond& lq = p.sub_given[t] ? *p.sub_given[t] : lf;
       const int ps = p.sub_parent_slot[t];
       if (ps < 0) {
@@ -515,7 +939,8 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
       kt += static_cast<double>(tb.field(s, 3)[g]);
       const double kr = tb.field(s, 8)[g];
       double theta = 0.0;
-      if (p.turns[i]) theta = turn;
+      if (p.turns[i])
+        theta = turn;
       else if (p.sub_slot[i] >= 0) {
         const auto t = static_cast<std::size_t>(p.sub_slot[i]);
         theta = quat_angle_lower(sc.mq[t], sc.mf[t]);
@@ -530,7 +955,8 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
       // through the root, then shifted on the given axes.
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       for (std::size_t s = 0; s < sd.segments; ++s)
-        for (std::size_t a = 0; a < 3; ++a) c[static_cast<Eigen::Index>(a)] += sd.masses[s] * static_cast<double>(tb.field(s, a)[g]);
+        for (std::size_t a = 0; a < 3; ++a)
+          c[static_cast<Eigen::Index>(a)] += sd.masses[s] * static_cast<double>(tb.field(s, a)[g]);
       c /= p.mass;
       const Eigen::Vector3d root_f(tb.root_positions[g], tb.root_positions[tb.stride + g],
                                    tb.root_positions[2 * tb.stride + g]);
@@ -542,9 +968,12 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
       }
       Eigen::Vector3d cq = root_f + v;
       for (std::size_t a = 0; a < 3; ++a)
-        if (p.given[a]) cq[static_cast<Eigen::Index>(a)] += p.root_q[static_cast<Eigen::Index>(a)] - root_f[static_cast<Eigen::Index>(a)];
+        if (p.given[a])
+          cq[static_cast<Eigen::Index>(a)] +=
+              p.root_q[static_cast<Eigen::Index>(a)] - root_f[static_cast<Eigen::Index>(a)];
       const Eigen::Vector3d d = cq - c;
-      trans = std::max(kt, p.mass * d.squaredNorm() * p.half_inv_t2) + p.mass * p.gravity * std::abs(d.y());
+      trans = std::max(kt, p.mass * d.squaredNorm() * p.half_inv_t2) +
+              p.mass * p.gravity * std::abs(d.y());
     }
     out[g - g0] = trans + rot;
   }
@@ -600,6 +1029,15 @@ class TopR {
   std::atomic<double> tau_{kInf};
 };
 
+// h values of one query frame already computed for another pair of the same
+// query (world mode: a(.) of Q^h+1 in pair h+1 equals b(.) in pair h, h being
+// symmetric). Frames of a clip are written by the thread evaluating that
+// clip; pairs run one after another.
+struct FrameCache {
+  std::unique_ptr<double[]> values;
+  std::vector<std::uint8_t> done;  // per skeleton frame
+};
+
 struct PairContext {
   const SearchEngine::Impl* eng;
   const SkelData* sd;
@@ -613,6 +1051,12 @@ struct PairContext {
   // Per skeleton frame lower bounds of a / b for partial query frames (world mode), or null.
   const double* frame_lb_a = nullptr;
   const double* frame_lb_b = nullptr;
+  // Box-bound forms of qa / qb (world mode).
+  const BoundQuery* ba = nullptr;
+  const BoundQuery* bb = nullptr;
+  // Values shared with the neighbouring pair (world mode), or null.
+  FrameCache* cache_a = nullptr;
+  FrameCache* cache_b = nullptr;
 };
 
 struct ClipCounters {
@@ -626,7 +1070,7 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
                      ClipCounters& cnt, Entry& out) {
   const SkelData& sd = *c.sd;
   const std::size_t k = ci.frame_count;
-  const std::size_t nb = (k + 15) / 16;
+  const std::size_t nb = (k + kBlock - 1) / kBlock;
   sc.a.assign(k, kInf);
   sc.b.assign(k, kInf);
   sc.skip_a.assign(k, 0);
@@ -635,26 +1079,26 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
   if (prune) {
     sc.la.resize(k);
     sc.lb.resize(k);
-    const std::size_t s3 = sd.segments * 3;
+    const std::size_t w = kBoundFields * sd.padded;
     const bool box_a = c.qa->kind != FrameKind::partial, box_b = c.qb->kind != FrameKind::partial;
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t row = ci.block_start + bl;
-      const float* cmin = sd.block_com_min.data() + row * s3;
-      const float* cmax = sd.block_com_max.data() + row * s3;
-      const float* rmin = sd.block_root_min.data() + row * 3;
-      const float* rmax = sd.block_root_max.data() + row * 3;
-      const double xa = box_a ? box_lower_bound(*c.qa, sd, c.t, cmin, cmax, rmin, rmax) : 0.0;
-      const double xb = box_b ? box_lower_bound(*c.qb, sd, c.t, cmin, cmax, rmin, rmax) : 0.0;
-      const std::size_t f1 = std::min(k, bl * 16 + 16);
-      for (std::size_t f = bl * 16; f < f1; ++f) {
+      const float* bnd = sd.block_bounds.data() + row * w;
+      const float* root = sd.block_root.data() + row * 6;
+      const double xa = box_a ? static_cast<double>(box_bound(*c.ba, bnd, root)) : 0.0;
+      const double xb = box_b ? static_cast<double>(box_bound(*c.bb, bnd, root)) : 0.0;
+      const std::size_t f1 = std::min(k, bl * kBlock + kBlock);
+      for (std::size_t f = bl * kBlock; f < f1; ++f) {
         sc.la[f] = xa;
         sc.lb[f] = xb;
       }
     }
     if (c.frame_lb_a != nullptr)
-      for (std::size_t f = 0; f < k; ++f) sc.la[f] = std::max(sc.la[f], c.frame_lb_a[ci.frame_start + f]);
+      for (std::size_t f = 0; f < k; ++f)
+        sc.la[f] = std::max(sc.la[f], c.frame_lb_a[ci.frame_start + f]);
     if (c.frame_lb_b != nullptr)
-      for (std::size_t f = 0; f < k; ++f) sc.lb[f] = std::max(sc.lb[f], c.frame_lb_b[ci.frame_start + f]);
+      for (std::size_t f = 0; f < k; ++f)
+        sc.lb[f] = std::max(sc.lb[f], c.frame_lb_b[ci.frame_start + f]);
     // s is needed only if la(s) + min_{e>s} lb(e) can reach tau; e only if
     // lb(e) + min_{s<e} la(s) can.
     double clip_lb = kInf, suffix = kInf;
@@ -677,9 +1121,12 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
   }
   // Full and root-only query frames are scanned in whole 16-frame chunks
   // (the same chunks in every mode: bit-identical values); partial ones per frame.
-  auto side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& skip, double* dst) {
+  auto side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& skip, double* dst,
+                  FrameCache* cache) {
+    double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
+    std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
     for (std::size_t bl = 0; bl < nb; ++bl) {
-      const std::size_t f0 = bl * 16, f1 = std::min(k, f0 + 16);
+      const std::size_t f0 = bl * kBlock, f1 = std::min(k, f0 + kBlock);
       std::size_t need = 0;
       for (std::size_t f = f0; f < f1; ++f) need += skip[f] == 0;
       if (need == 0) {
@@ -687,22 +1134,87 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
         continue;
       }
       if (q.kind == FrameKind::partial) {
-        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
-                 std::nullopt, skip.data() + f0);
-        cnt.evaluated += need;
+        std::size_t fresh = need;
+        if (cd != nullptr) {
+          // Frames the other pair computed: copy; mark them skipped for evaluate().
+          for (std::size_t f = f0; f < f1; ++f)
+            if (skip[f] == 0 && cd[f]) {
+              dst[f] = cv[f];
+              skip[f] = 2;
+              --fresh;
+            }
+        }
+        if (fresh > 0)
+          evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0,
+                   sc, std::nullopt, skip.data() + f0);
+        if (cd != nullptr)
+          for (std::size_t f = f0; f < f1; ++f)
+            if (skip[f] == 0) {
+              cv[f] = dst[f];
+              cd[f] = 1;
+            }
+        cnt.evaluated += fresh;
         cnt.pruned += (f1 - f0) - need;
+      } else if (cd != nullptr && cd[f0]) {
+        std::copy(cv + f0, cv + f1, dst + f0);
       } else {
-        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc);
+        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
+                 std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
         cnt.evaluated += f1 - f0;
+        if (cd != nullptr) {
+          std::copy(dst + f0, dst + f1, cv + f0);
+          std::fill(cd + f0, cd + f1, std::uint8_t{1});
+        }
       }
     }
   };
-  side(*c.qa, sc.skip_a, sc.a.data());
-  side(*c.qb, sc.skip_b, sc.b.data());
-  const std::span<const double> prefix = c.eng->index->clip_energy_prefix(ci.clip);
+  if (!prune) {
+    side(*c.qa, sc.skip_a, sc.a.data(), c.cache_a);
+    side(*c.qb, sc.skip_b, sc.b.data(), c.cache_b);
+  } else {
+    // The side with fewer blocks to scan first; then the other side is
+    // decided again with its true values in place of the bounds: a frame of
+    // the first side that was not computed can be in no pair scoring <= tau,
+    // so it counts as +inf (docs/search.md "Frame pruning").
+    auto blocks_needed = [&](const std::vector<std::uint8_t>& skip) {
+      std::size_t count = 0;
+      for (std::size_t bl = 0; bl < nb; ++bl)
+        for (std::size_t f = bl * kBlock; f < std::min(k, bl * kBlock + kBlock); ++f)
+          if (skip[f] == 0) {
+            ++count;
+            break;
+          }
+      return count;
+    };
+    if (blocks_needed(sc.skip_a) <= blocks_needed(sc.skip_b)) {
+      side(*c.qa, sc.skip_a, sc.a.data(), c.cache_a);
+      double prefix_min = kInf;
+      for (std::size_t f = 0; f < k; ++f) {
+        if (sc.skip_b[f] == 0) sc.skip_b[f] = safe(sc.lb[f] + prefix_min) > tau;
+        prefix_min = std::min(prefix_min, sc.a[f]);
+      }
+      side(*c.qb, sc.skip_b, sc.b.data(), c.cache_b);
+    } else {
+      side(*c.qb, sc.skip_b, sc.b.data(), c.cache_b);
+      double suffix = kInf;
+      for (std::size_t f = k; f-- > 0;) {
+        if (sc.skip_a[f] == 0) sc.skip_a[f] = safe(sc.la[f] + suffix) > tau;
+        suffix = std::min(suffix, sc.b[f]);
+      }
+      side(*c.qa, sc.skip_a, sc.a.data(), c.cache_a);
+    }
+  }
+  const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
   ClipBest best;
-  if (!best_partial_motion(sc.a.data(), sc.b.data(), prefix.data(), k, c.lambda, best)) return false;
-  out = {best.score, ci.clip, best.s, best.e, sc.a[best.s], sc.b[best.e], prefix[best.e] - prefix[best.s]};
+  if (!best_partial_motion(sc.a.data(), sc.b.data(), prefix.data(), k, c.lambda, best))
+    return false;
+  out = {best.score,
+         ci.clip,
+         best.s,
+         best.e,
+         sc.a[best.s],
+         sc.b[best.e],
+         prefix[best.e] - prefix[best.s]};
   return true;
 }
 
@@ -714,21 +1226,23 @@ bool eval_clip_relative(const PairContext& c, const ClipInfo& ci, double tau, Sc
   const std::size_t k = ci.frame_count;
   if (k < 2) return false;
   const double dt = c.eng->index->clips()[ci.clip].frame_time_s;
-  const std::size_t l = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(c.max_length_s / dt)));
+  const std::size_t l =
+      std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(c.max_length_s / dt)));
   const bool prune = c.mode != SearchMode::brute;
   const float* root = sd.table.root_positions.data();
   const std::size_t stride = sd.table.stride;
   auto anchor = [&](std::size_t f, const Eigen::Vector2d& off) {
     const std::size_t g = ci.frame_start + f;
-    return Eigen::Vector2d(static_cast<double>(root[g]) + off[0], static_cast<double>(root[2 * stride + g]) + off[1]);
+    return Eigen::Vector2d(static_cast<double>(root[g]) + off[0],
+                           static_cast<double>(root[2 * stride + g]) + off[1]);
   };
   std::uint64_t total = 0;
   for (std::size_t s = 0; s + 1 < k; ++s) total += 1 + std::min(l, k - 1 - s);
   sc.a.assign(k, kInf);
   double min_a = kInf;
   for (std::size_t s = 0; s + 1 < k; ++s) {
-    evaluate(*c.qa, sd, *c.eng->index, c.t, ci.frame_start + s, ci.frame_start + s + 1, sc.a.data() + s, sc,
-             anchor(s, c.offset_a));
+    evaluate(*c.qa, sd, *c.eng->index, c.t, ci.frame_start + s, ci.frame_start + s + 1,
+             sc.a.data() + s, sc, anchor(s, c.offset_a));
     min_a = std::min(min_a, sc.a[s]);
   }
   cnt.evaluated += k - 1;
@@ -737,7 +1251,7 @@ bool eval_clip_relative(const PairContext& c, const ClipInfo& ci, double tau, Sc
     cnt.pruned += total - (k - 1);
     return false;
   }
-  const std::span<const double> prefix = c.eng->index->clip_energy_prefix(ci.clip);
+  const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
   ClipBest best;
   bool have = false;
   sc.b.resize(l);
@@ -747,11 +1261,12 @@ bool eval_clip_relative(const PairContext& c, const ClipInfo& ci, double tau, Sc
       cnt.pruned += e1 - s;
       continue;
     }
-    evaluate(*c.qb, sd, *c.eng->index, c.t, ci.frame_start + s + 1, ci.frame_start + e1 + 1, sc.b.data(), sc,
-             anchor(s, c.offset_b));
+    evaluate(*c.qb, sd, *c.eng->index, c.t, ci.frame_start + s + 1, ci.frame_start + e1 + 1,
+             sc.b.data(), sc, anchor(s, c.offset_b));
     cnt.evaluated += e1 - s;
     for (std::size_t e = s + 1; e <= e1; ++e) {
-      const double score = (sc.b[e - s - 1] + c.lambda * prefix[e]) + (sc.a[s] - c.lambda * prefix[s]);
+      const double score =
+          (sc.b[e - s - 1] + c.lambda * prefix[e]) + (sc.a[s] - c.lambda * prefix[s]);
       if (better(score, e, s, best, have)) {
         best = {score, s, e};
         out.b = sc.b[e - s - 1];
@@ -771,10 +1286,27 @@ bool eval_clip_relative(const PairContext& c, const ClipInfo& ci, double tau, Sc
 
 namespace {
 
+constexpr std::size_t kCharacterCacheEntries = 4;
+
+// Everything of a character that the energy depends on (not its name).
+std::string character_key(const Character& c) {
+  std::string out = fmt::format("{:.17g}|{}", c.total_mass_kg, c.sex == Sex::male ? "m" : "f");
+  for (const auto& [k, v] : c.class_mass_kg)
+    out += fmt::format("|cm{}={:.17g}", static_cast<int>(k), v);
+  for (const auto& [k, v] : c.class_mass_scale)
+    out += fmt::format("|cs{}={:.17g}", static_cast<int>(k), v);
+  for (const auto& [k, v] : c.joint_mass_kg) out += fmt::format("|jm{}={:.17g}", k, v);
+  for (const auto& [k, v] : c.class_length_scale)
+    out += fmt::format("|cl{}={:.17g}", static_cast<int>(k), v);
+  for (const auto& [k, v] : c.joint_length_scale) out += fmt::format("|jl{}={:.17g}", k, v);
+  return out;
+}
+
 bool same_character(const Character& x, const Character& y) {
-  return x.total_mass_kg == y.total_mass_kg && x.sex == y.sex && x.class_mass_kg == y.class_mass_kg &&
-         x.class_mass_scale == y.class_mass_scale && x.joint_mass_kg == y.joint_mass_kg &&
-         x.class_length_scale == y.class_length_scale && x.joint_length_scale == y.joint_length_scale;
+  return x.total_mass_kg == y.total_mass_kg && x.sex == y.sex &&
+         x.class_mass_kg == y.class_mass_kg && x.class_mass_scale == y.class_mass_scale &&
+         x.joint_mass_kg == y.joint_mass_kg && x.class_length_scale == y.class_length_scale &&
+         x.joint_length_scale == y.joint_length_scale;
 }
 
 struct PairRun {
@@ -788,31 +1320,57 @@ struct QueryRunner {
   const SearchEngine::Impl& eng;
   const Query& q;
   const SearchOptions& opt;
-  // resolved[k][i]: query frame i on skeleton k.
+  // The tables of the query's character (the index's or a query character's).
+  const std::vector<std::unique_ptr<SkelData>>& skels;
+  // resolved[k][i]: query frame i on skeleton k; bounds[k][i] its box-bound form.
   std::vector<std::vector<ResolvedFrame>> resolved;
+  std::vector<std::vector<BoundQuery>> bounds;
+  // cache[k][i]: values of query frame i shared by pairs i-1 and i (world
+  // mode, interior frames of queries with 3 or more frames); empty otherwise.
+  std::vector<std::vector<FrameCache>> cache;
   tbb::enumerable_thread_specific<Scratch> scratch;
+
+  void prepare_caches() {
+    cache.clear();
+    for (std::size_t k = 0; k < skels.size(); ++k) {
+      cache.emplace_back();
+      cache.back().resize(q.frames.size());
+    }
+    if (q.relative) return;
+    for (std::size_t k = 0; k < skels.size(); ++k)
+      for (std::size_t i = 1; i + 1 < q.frames.size(); ++i) {
+        const std::size_t n = skels[k]->sk->frame_count;
+        cache[k][i].values.reset(new double[n]);
+        cache[k][i].done.assign(n, 0);
+      }
+  }
+  FrameCache* cache_of(std::size_t k, std::size_t i) {
+    return cache.empty() || !cache[k][i].values ? nullptr : &cache[k][i];
+  }
   // frame_lb[k][i]: per skeleton frame lower bound of h(query frame i -> F)
   // for partial query frames (exact mode, world), computed once per query
   // frame and shared by its two pairs; empty otherwise.
   std::vector<std::vector<std::vector<double>>> frame_lb;
 
   void compute_frame_bounds() {
-    frame_lb.assign(eng.skels.size(), std::vector<std::vector<double>>(q.frames.size()));
-    for (std::size_t k = 0; k < eng.skels.size(); ++k) {
-      const SkelData& sd = *eng.skels[k];
+    frame_lb.assign(skels.size(), std::vector<std::vector<double>>(q.frames.size()));
+    for (std::size_t k = 0; k < skels.size(); ++k) {
+      const SkelData& sd = *skels[k];
       const std::size_t n = sd.sk->frame_count;
       for (std::size_t i = 0; i < q.frames.size(); ++i) {
         if (resolved[k][i].kind != FrameKind::partial || n == 0) continue;
-        const PartialBoundPlan plan = make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
-        const FrameArrays fa = frame_arrays(*eng.index, sd.k);
+        const PartialBoundPlan plan =
+            make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
+        const FrameArrays& fa = frame_arrays(*eng.index, sd);
         std::vector<double>& out = frame_lb[k][i];
         out.resize(n);
         auto chunk = [&](std::size_t g0, std::size_t g1) {
           partial_frame_bounds(plan, sd, fa, g0, g1, out.data() + g0, scratch.local());
         };
         if (opt.parallel_clips)
-          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
-                            [&](const tbb::blocked_range<std::size_t>& rg) { chunk(rg.begin(), rg.end()); });
+          tbb::parallel_for(
+              tbb::blocked_range<std::size_t>(0, n, 4096),
+              [&](const tbb::blocked_range<std::size_t>& rg) { chunk(rg.begin(), rg.end()); });
         else
           chunk(0, n);
       }
@@ -828,15 +1386,31 @@ struct QueryRunner {
     if (q.filter.empty()) return true;
     const IndexClip& c = eng.index->clips()[clip];
     const std::string name = std::filesystem::path(c.path).filename().string();
-    const std::string content = eng.content_key >= 0 ? c.labels[static_cast<std::size_t>(eng.content_key)] : "";
-    const std::string style = eng.style_key >= 0 ? c.labels[static_cast<std::size_t>(eng.style_key)] : "";
+    const std::string content =
+        eng.content_key >= 0 ? c.labels[static_cast<std::size_t>(eng.content_key)] : "";
+    const std::string style =
+        eng.style_key >= 0 ? c.labels[static_cast<std::size_t>(eng.style_key)] : "";
     return q.filter.accepts(name, content, style);
   }
 
-  PairContext context(std::size_t k, std::size_t h, SearchMode mode) const {
-    PairContext c{&eng, eng.skels[k].get(), &resolved[k][h], &resolved[k][h + 1], q.transition_time_s,
-                  q.path_weight, q.relative, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), mode,
-                  opt.max_length_s, nullptr, nullptr};
+  PairContext context(std::size_t k, std::size_t h, SearchMode mode) {
+    PairContext c{&eng,
+                  skels[k].get(),
+                  &resolved[k][h],
+                  &resolved[k][h + 1],
+                  q.transition_time_s,
+                  q.path_weight,
+                  q.relative,
+                  Eigen::Vector2d::Zero(),
+                  Eigen::Vector2d::Zero(),
+                  mode,
+                  opt.max_length_s,
+                  nullptr,
+                  nullptr,
+                  &bounds[k][h],
+                  &bounds[k][h + 1],
+                  cache_of(k, h),
+                  cache_of(k, h + 1)};
     if (mode == SearchMode::exact && !q.relative) {
       c.frame_lb_a = frame_bounds_of(k, h);
       c.frame_lb_b = frame_bounds_of(k, h + 1);
@@ -845,7 +1419,8 @@ struct QueryRunner {
       // Hand-written frames: given x/z are the offsets. BVH frames: offsets
       // from the pair's first query frame when it is a BVH frame, else 0.
       auto offset = [&](const ResolvedFrame& f) {
-        if (!f.from_bvh) return Eigen::Vector2d(f.given[0] ? f.root_m[0] : 0.0, f.given[2] ? f.root_m[2] : 0.0);
+        if (!f.from_bvh)
+          return Eigen::Vector2d(f.given[0] ? f.root_m[0] : 0.0, f.given[2] ? f.root_m[2] : 0.0);
         const ResolvedFrame& first = *c.qa;
         if (!first.from_bvh) return Eigen::Vector2d::Zero().eval();
         return Eigen::Vector2d(f.root_m[0] - first.root_m[0], f.root_m[2] - first.root_m[2]);
@@ -857,21 +1432,24 @@ struct QueryRunner {
   }
 
   // Candidate clips (skeleton, row) of pair h for approx mode; nullopt = all.
-  std::optional<std::vector<std::pair<std::size_t, std::size_t>>> approx_candidates(std::size_t h) const {
+  std::optional<std::vector<std::pair<std::size_t, std::size_t>>> approx_candidates(
+      std::size_t h) const {
     std::vector<std::pair<std::size_t, std::size_t>> out;
-    for (std::size_t k = 0; k < eng.skels.size(); ++k) {
+    for (std::size_t k = 0; k < skels.size(); ++k) {
       const ResolvedFrame& qa = resolved[k][h];
       const ResolvedFrame& qb = resolved[k][h + 1];
-      if (qa.kind != FrameKind::full || qb.kind != FrameKind::full || q.relative) return std::nullopt;
+      if (qa.kind != FrameKind::full || qb.kind != FrameKind::full || q.relative)
+        return std::nullopt;
     }
-    for (std::size_t k = 0; k < eng.skels.size(); ++k) {
-      const SkelData& sd = *eng.skels[k];
+    for (std::size_t k = 0; k < skels.size(); ++k) {
+      const SkelData& sd = *skels[k];
       const std::size_t n = sd.sk->frame_count, dim = sd.segments * 3;
       if (n == 0) continue;
       std::call_once(sd.flann_once, [&] {
         sd.flann = std::make_unique<search_detail::KnnIndex>(sd.kd, n, dim, opt.approx_trees);
       });
-      const std::size_t knn = std::min<std::size_t>(n, static_cast<std::size_t>(opt.approx_neighbours_per_result) * q.top);
+      const std::size_t knn = std::min<std::size_t>(
+          n, static_cast<std::size_t>(opt.approx_neighbours_per_result) * q.top);
       std::set<std::size_t> rows;
       std::vector<std::size_t> idx;
       for (const ResolvedFrame* f : {&resolved[k][h], &resolved[k][h + 1]}) {
@@ -891,82 +1469,132 @@ struct QueryRunner {
     const SearchMode eval_mode = mode == SearchMode::approx ? SearchMode::exact : mode;
     if (approx) {
       for (auto [k, r] : *approx)
-        if (passes(eng.skels[k]->clips[r].clip)) cands.emplace_back(k, r);
-      for (std::size_t k = 0; k < eng.skels.size(); ++k)
-        for (const ClipInfo& ci : eng.skels[k]->clips)
+        if (passes(skels[k]->clips[r].clip)) cands.emplace_back(k, r);
+      for (std::size_t k = 0; k < skels.size(); ++k)
+        for (const ClipInfo& ci : skels[k]->clips)
           if (passes(ci.clip)) ++pr.stats.clips;
       pr.stats.clips_pruned += pr.stats.clips - cands.size();
     } else {
-      for (std::size_t k = 0; k < eng.skels.size(); ++k)
-        for (std::size_t r = 0; r < eng.skels[k]->clips.size(); ++r)
-          if (passes(eng.skels[k]->clips[r].clip)) cands.emplace_back(k, r);
+      for (std::size_t k = 0; k < skels.size(); ++k)
+        for (std::size_t r = 0; r < skels[k]->clips.size(); ++r)
+          if (passes(skels[k]->clips[r].clip)) cands.emplace_back(k, r);
       pr.stats.clips = cands.size();
     }
-    // Clip-level bounds order the work: likely winners first lower tau early.
-    std::vector<double> lb(cands.size(), 0.0);
-    if (eval_mode == SearchMode::exact && !q.relative) {
-      for (std::size_t i = 0; i < cands.size(); ++i) {
-        const auto [k, r] = cands[i];
-        const SkelData& sd = *eng.skels[k];
-        const std::size_t s3 = sd.segments * 3;
-        const float* cmin = sd.clip_com_min.data() + r * s3;
-        const float* cmax = sd.clip_com_max.data() + r * s3;
-        const float* rmin = sd.clip_root_min.data() + r * 3;
-        const float* rmax = sd.clip_root_max.data() + r * 3;
-        const double xa = box_lower_bound(resolved[k][h], sd, q.transition_time_s, cmin, cmax, rmin, rmax);
-        const double xb = box_lower_bound(resolved[k][h + 1], sd, q.transition_time_s, cmin, cmax, rmin, rmax);
-        lb[i] = xa + xb;
-        const double* fa = frame_bounds_of(k, h);
-        const double* fb = frame_bounds_of(k, h + 1);
-        if (fa == nullptr && fb == nullptr) continue;
-        // min over s < e of (max(xa, fa[s]) + max(xb, fb[e])).
-        const ClipInfo& ci = sd.clips[r];
-        double best = kInf, suffix = kInf;
-        for (std::size_t f = ci.frame_count; f-- > 0;) {
-          const std::size_t g = ci.frame_start + f;
-          best = std::min(best, (fa ? std::max(xa, fa[g]) : xa) + suffix);
-          suffix = std::min(suffix, fb ? std::max(xb, fb[g]) : xb);
-        }
-        lb[i] = std::max(lb[i], best);
+    // Work in groups of kGroup consecutive clip rows of a skeleton (similar
+    // clips are adjacent: files sorted by name). A group's bound (its union
+    // box) orders the groups and prunes whole groups; inside a group, clip
+    // bounds order and prune the clips. Likely winners come first, so tau
+    // falls fast; the answer does not depend on the order.
+    const bool bounded = eval_mode == SearchMode::exact && !q.relative;
+    struct Work {
+      double lb;
+      std::size_t clip;
+      std::size_t k, r;
+    };
+    struct Group {
+      double lb;
+      std::size_t first, count;  // range of `cands`
+    };
+    std::vector<Group> groups;
+    for (std::size_t i = 0; i < cands.size();) {
+      const auto [k, r] = cands[i];
+      std::size_t j = i + 1;
+      while (j < cands.size() && cands[j].first == k && cands[j].second / kGroup == r / kGroup) ++j;
+      double glb = 0.0;
+      if (bounded) {
+        const SkelData& sd = *skels[k];
+        const std::size_t g = r / kGroup;
+        const float* bnd = sd.group_bounds.data() + g * kBoundFields * sd.padded;
+        const float* root = sd.group_root.data() + g * 6;
+        glb = static_cast<double>(box_bound(bounds[k][h], bnd, root)) +
+              static_cast<double>(box_bound(bounds[k][h + 1], bnd, root));
       }
+      groups.push_back({glb, i, j - i});
+      i = j;
     }
-    std::vector<std::size_t> order(cands.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-      if (lb[x] != lb[y]) return lb[x] < lb[y];
-      return eng.skels[cands[x].first]->clips[cands[x].second].clip <
-             eng.skels[cands[y].first]->clips[cands[y].second].clip;
+    std::sort(groups.begin(), groups.end(), [&](const Group& x, const Group& y) {
+      if (x.lb != y.lb) return x.lb < y.lb;
+      return x.first < y.first;
     });
+    // Clip bound: boxes, and the per-frame bounds of partial query frames:
+    // min over s < e of (max(xa, fa[s]) + max(xb, fb[e])).
+    auto clip_bound = [&](std::size_t k, std::size_t r) {
+      const SkelData& sd = *skels[k];
+      const float* bnd = sd.clip_bounds.data() + r * kBoundFields * sd.padded;
+      const float* root = sd.clip_root.data() + r * 6;
+      const double xa = box_bound(bounds[k][h], bnd, root);
+      const double xb = box_bound(bounds[k][h + 1], bnd, root);
+      const double* fa = frame_bounds_of(k, h);
+      const double* fb = frame_bounds_of(k, h + 1);
+      if (fa == nullptr && fb == nullptr) return xa + xb;
+      const ClipInfo& ci = sd.clips[r];
+      double best = kInf, suffix = kInf;
+      for (std::size_t f = ci.frame_count; f-- > 0;) {
+        const std::size_t g = ci.frame_start + f;
+        best = std::min(best, (fa ? std::max(xa, fa[g]) : xa) + suffix);
+        suffix = std::min(suffix, fb ? std::max(xb, fb[g]) : xb);
+      }
+      return std::max(xa + xb, best);
+    };
     TopR top(q.top);
     std::atomic<std::uint64_t> evaluated{0}, pruned{0}, clips_pruned{0};
     std::vector<PairContext> contexts;
-    for (std::size_t k = 0; k < eng.skels.size(); ++k) contexts.push_back(context(k, h, eval_mode));
-    auto body = [&](std::size_t i) {
-      const auto [k, r] = cands[order[i]];
-      const ClipInfo& ci = eng.skels[k]->clips[r];
-      const double tau = top.tau();
-      ClipCounters cnt;
-      if (eval_mode == SearchMode::exact && safe(lb[order[i]]) > tau) {
-        cnt.clip_pruned = true;
-        cnt.pruned = q.relative ? 0 : 2 * ci.frame_count;
+    for (std::size_t k = 0; k < skels.size(); ++k) contexts.push_back(context(k, h, eval_mode));
+    auto run_group = [&](const Group& grp, std::vector<Work>& work) {
+      std::uint64_t ev = 0, pf = 0, pc = 0;
+      auto prune_all = [&](std::size_t from) {
+        for (std::size_t j = from; j < work.size(); ++j) {
+          pf += q.relative ? 0 : 2 * skels[work[j].k]->clips[work[j].r].frame_count;
+          ++pc;
+        }
+      };
+      work.clear();
+      for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
+        work.push_back({0.0, skels[cands[i].first]->clips[cands[i].second].clip, cands[i].first,
+                        cands[i].second});
+      if (bounded && safe(grp.lb) > top.tau()) {
+        prune_all(0);
       } else {
-        Entry e{};
-        Scratch& sc = scratch.local();
-        const bool ok = q.relative ? eval_clip_relative(contexts[k], ci, tau, sc, cnt, e)
-                                   : eval_clip_world(contexts[k], ci, tau, sc, cnt, e);
-        if (ok) top.insert(e);
+        if (bounded)
+          for (Work& w : work) w.lb = clip_bound(w.k, w.r);
+        std::sort(work.begin(), work.end(), [](const Work& x, const Work& y) {
+          if (x.lb != y.lb) return x.lb < y.lb;
+          return x.clip < y.clip;
+        });
+        for (std::size_t i = 0; i < work.size(); ++i) {
+          const ClipInfo& ci = skels[work[i].k]->clips[work[i].r];
+          const double tau = top.tau();
+          if (bounded && safe(work[i].lb) > tau) {
+            // The rest of the group has bounds >= this one and tau only decreases.
+            prune_all(i);
+            break;
+          }
+          ClipCounters cnt;
+          Entry e{};
+          Scratch& sc = scratch.local();
+          const bool ok = q.relative ? eval_clip_relative(contexts[work[i].k], ci, tau, sc, cnt, e)
+                                     : eval_clip_world(contexts[work[i].k], ci, tau, sc, cnt, e);
+          if (ok) top.insert(e);
+          ev += cnt.evaluated;
+          pf += cnt.pruned;
+          pc += cnt.clip_pruned;
+        }
       }
-      evaluated += cnt.evaluated;
-      pruned += cnt.pruned;
-      if (cnt.clip_pruned) ++clips_pruned;
+      evaluated += ev;
+      pruned += pf;
+      clips_pruned += pc;
     };
-    if (opt.parallel_clips)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 8),
+    if (opt.parallel_clips) {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups.size(), 1),
                         [&](const tbb::blocked_range<std::size_t>& rg) {
-                          for (std::size_t i = rg.begin(); i != rg.end(); ++i) body(i);
+                          std::vector<Work> work;
+                          for (std::size_t i = rg.begin(); i != rg.end(); ++i)
+                            run_group(groups[i], work);
                         });
-    else
-      for (std::size_t i = 0; i < order.size(); ++i) body(i);
+    } else {
+      std::vector<Work> work;
+      for (const Group& grp : groups) run_group(grp, work);
+    }
     pr.top = top.take();
     pr.stats.frames_evaluated = evaluated;
     pr.stats.frames_pruned += pruned;
@@ -978,27 +1606,65 @@ struct QueryRunner {
 QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
   const auto t0 = std::chrono::steady_clock::now();
   const Impl& m = *impl_;
-  if (q.frames.size() < 2) throw InputError("query " + q.id, 0, "frames: at least 2 query frames are needed");
-  if (!(opt.max_length_s > 0.0)) throw std::invalid_argument("SearchOptions::max_length_s must be > 0");
+  if (q.frames.size() < 2)
+    throw InputError("query " + q.id, 0, "frames: at least 2 query frames are needed");
+  if (!(opt.max_length_s > 0.0))
+    throw std::invalid_argument("SearchOptions::max_length_s must be > 0");
+  // The query's character: the index's tables, or tables recomputed for it
+  // (built once per engine and character, shared by the queries using it).
+  std::shared_ptr<Impl::CharacterTables> tables;
   if (q.character) {
-    const Character ch = read_character_file(*q.character);
-    if (!m.character || !same_character(ch, *m.character))
-      throw InputError("query " + q.id, 0,
-                       fmt::format("character: {} differs from the index's character \"{}\"; this "
-                                   "build searches only with the index's character (rebuild the "
-                                   "index with mocap-index build --character)",
-                                   q.character->string(), m.index->info().character_name));
+    Character ch;
+    try {
+      ch = read_character_file(*q.character);
+    } catch (const InputError& e) {
+      throw InputError("query " + q.id, 0, std::string("character: ") + e.what());
+    }
+    if (!m.character || !same_character(ch, *m.character)) {
+      const std::string key = character_key(ch);
+      {
+        std::lock_guard lock(m.characters_mutex);
+        auto it = m.characters.find(key);
+        if (it == m.characters.end()) {
+          // Bounded: drop the others (queries running with them keep their tables alive).
+          if (m.characters.size() >= kCharacterCacheEntries) m.characters.clear();
+          it = m.characters.emplace(key, std::make_shared<Impl::CharacterTables>()).first;
+        }
+        tables = it->second;
+      }
+      // Isolated (see clip_prefix): the builder's parallel_for must not run
+      // another query's task that would wait on this flag.
+      std::call_once(tables->once, [&] {
+        tbb::this_task_arena::isolate([&] {
+          try {
+            for (std::uint32_t k = 0; k < m.index->skeletons().size(); ++k)
+              tables->skels.push_back(make_character_skel_data(*m.index, k, ch));
+          } catch (const std::exception& e) {
+            tables->skels.clear();
+            tables->error = e.what();
+          }
+        });
+      });
+      if (!tables->error.empty())
+        throw InputError("query " + q.id, 0,
+                         fmt::format("character {}: {}", q.character->string(), tables->error));
+    }
   }
-  QueryRunner run{m, q, opt, {}, {}, {}};
-  run.resolved.resize(m.skels.size());
-  for (std::size_t k = 0; k < m.skels.size(); ++k)
-    for (std::size_t i = 0; i < q.frames.size(); ++i)
-      run.resolved[k].push_back(search_detail::resolve_frame(q, i, *m.skels[k]->sk, m.skels[k]->model,
-                                                             q.transition_time_s, m.t_index, m.bvh_cache,
-                                                             m.index->info().unit_option));
-  for (std::size_t k = 0; k < m.skels.size(); ++k)
-    for (ResolvedFrame& f : run.resolved[k]) set_needed_joints(f, m.skels[k]->model);
-  if ((opt.mode == SearchMode::exact || opt.mode == SearchMode::approx) && !q.relative) run.compute_frame_bounds();
+  const auto& skels = tables ? tables->skels : m.skels;
+  QueryRunner run{m, q, opt, skels, {}, {}, {}, {}, {}};
+  run.resolved.resize(skels.size());
+  run.bounds.resize(skels.size());
+  for (std::size_t k = 0; k < skels.size(); ++k)
+    for (std::size_t i = 0; i < q.frames.size(); ++i) {
+      run.resolved[k].push_back(
+          search_detail::resolve_frame(q, i, *skels[k]->sk, skels[k]->model, q.transition_time_s,
+                                       m.t_index, m.bvh_cache, m.index->info().unit_option));
+      set_needed_joints(run.resolved[k].back(), skels[k]->model);
+      run.bounds[k].push_back(make_bound_query(run.resolved[k].back(), *skels[k]));
+    }
+  run.prepare_caches();
+  if ((opt.mode == SearchMode::exact || opt.mode == SearchMode::approx) && !q.relative)
+    run.compute_frame_bounds();
   QueryOutcome out;
   out.id = q.id;
   double recall_sum = 0.0;
@@ -1010,7 +1676,9 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
       for (const Entry& e : ex.top) exact_clips.insert(e.clip);
       std::size_t hit = 0;
       for (const Entry& e : pr.top) hit += exact_clips.count(e.clip);
-      recall_sum += exact_clips.empty() ? 1.0 : static_cast<double>(hit) / static_cast<double>(exact_clips.size());
+      recall_sum += exact_clips.empty()
+                        ? 1.0
+                        : static_cast<double>(hit) / static_cast<double>(exact_clips.size());
     }
     PairResults res;
     res.from = h;
@@ -1023,7 +1691,8 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
       const IndexClip& c = m.index->clips()[e.clip];
       r.clip = c.path;
       for (std::size_t key = 0; key < m.index->label_keys().size(); ++key)
-        if (!c.labels[key].empty()) r.labels.emplace_back(m.index->label_keys()[key], c.labels[key]);
+        if (!c.labels[key].empty())
+          r.labels.emplace_back(m.index->label_keys()[key], c.labels[key]);
       r.start_frame = e.s;
       r.end_frame = e.e;
       r.score_J = e.score;
@@ -1040,37 +1709,40 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
   }
   if (opt.mode == SearchMode::approx && opt.compute_recall)
     out.stats.recall = recall_sum / static_cast<double>(q.frames.size() - 1);
-  out.stats.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out.stats.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
 
-void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k, std::vector<double>& lower,
-                                std::vector<double>& h) const {
+void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
+                                std::vector<double>& lower, std::vector<double>& h) const {
   const Impl& m = *impl_;
-  if (k >= m.skels.size() || i >= q.frames.size()) throw std::invalid_argument("frame_bounds: no such skeleton or frame");
+  if (k >= m.skels.size() || i >= q.frames.size())
+    throw std::invalid_argument("frame_bounds: no such skeleton or frame");
   const SkelData& sd = *m.skels[k];
-  ResolvedFrame f = search_detail::resolve_frame(q, i, *sd.sk, sd.model, q.transition_time_s, m.t_index,
-                                                 m.bvh_cache, m.index->info().unit_option);
+  ResolvedFrame f =
+      search_detail::resolve_frame(q, i, *sd.sk, sd.model, q.transition_time_s, m.t_index,
+                                   m.bvh_cache, m.index->info().unit_option);
   set_needed_joints(f, sd.model);
-  const std::size_t n = sd.sk->frame_count, s3 = sd.segments * 3;
+  const std::size_t n = sd.sk->frame_count, w = kBoundFields * sd.padded;
   lower.assign(n, 0.0);
   h.assign(n, kInf);
   Scratch sc;
   if (f.kind == FrameKind::partial) {
     const PartialBoundPlan plan = make_partial_bound_plan(f, sd, q.transition_time_s);
-    partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd.k), 0, n, lower.data(), sc);
+    partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd), 0, n, lower.data(), sc);
   }
+  const BoundQuery bq = make_bound_query(f, sd);
   for (const ClipInfo& ci : sd.clips)
-    for (std::size_t bl = 0; bl * 16 < ci.frame_count; ++bl) {
+    for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
       const std::size_t row = ci.block_start + bl;
-      const double x = f.kind == FrameKind::partial
-                           ? 0.0
-                           : box_lower_bound(f, sd, q.transition_time_s, sd.block_com_min.data() + row * s3,
-                                             sd.block_com_max.data() + row * s3, sd.block_root_min.data() + row * 3,
-                                             sd.block_root_max.data() + row * 3);
-      const std::size_t g0 = ci.frame_start + bl * 16, g1 = ci.frame_start + std::min(ci.frame_count, bl * 16 + 16);
+      const double x =
+          box_bound(bq, sd.block_bounds.data() + row * w, sd.block_root.data() + row * 6);
+      const std::size_t g0 = ci.frame_start + bl * kBlock,
+                        g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
       for (std::size_t g = g0; g < g1; ++g) lower[g] = std::max(lower[g], x);
-      evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc);
+      evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc, std::nullopt,
+               nullptr, &sd.tiles[row]);
     }
 }
 
@@ -1096,8 +1768,10 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
       // Keep the id when the line is valid JSON with one.
       try {
         const auto j = nlohmann::json::parse(line);
-        if (j.is_object() && j.contains("id") && j["id"].is_string()) e.id = j["id"].get<std::string>();
-        if (j.is_object() && j.contains("id") && j["id"].is_number_integer()) e.id = std::to_string(j["id"].get<long long>());
+        if (j.is_object() && j.contains("id") && j["id"].is_string())
+          e.id = j["id"].get<std::string>();
+        if (j.is_object() && j.contains("id") && j["id"].is_number_integer())
+          e.id = std::to_string(j["id"].get<long long>());
       } catch (const nlohmann::json::exception&) {
       }
       e.error = err.what();
@@ -1123,9 +1797,9 @@ std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
   return {std::move(e)};
 }
 
-std::vector<QueryOutcome> run_query_batch(const SearchEngine& engine, const std::vector<BatchEntry>& batch,
-                                          const SearchOptions& options,
-                                          const std::function<void(std::size_t, std::size_t)>& progress) {
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const std::function<void(std::size_t, std::size_t)>& progress) {
   std::vector<QueryOutcome> out(batch.size());
   std::mutex progress_mutex;
   std::size_t done = 0;

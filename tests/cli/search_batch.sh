@@ -47,6 +47,7 @@ cat > "$T/bad.jsonl" <<Q
 {"id": "joint", "frames": [{"joints": {"Tail": {"quat": [1, 0, 0, 0]}}}, {"root_position": [0, null, 0]}]}
 {"id": "file", "frames": [{"bvh": "missing.bvh", "frame": 0}, {"root_position": [0, null, 0]}]}
 this is not json
+{"id": "character", "character": "no-such-character.json", "frames": [{"root_position": [0, null, 0]}, {"root_position": [1, null, 0]}]}
 Q
 set +e
 "$SEARCH" --index "$T/i.h5" --queries "$T/bad.jsonl" --out "$T/rb.jsonl" -q; rc=$?
@@ -55,12 +56,25 @@ set -e
 python3 - "$T" <<'PY'
 import json, sys
 lines = [json.loads(l) for l in open(sys.argv[1] + "/rb.jsonl")]
-assert len(lines) == 4
+assert len(lines) == 5
 assert "pairs" in lines[0] and "error" not in lines[0]
 assert lines[1]["id"] == "joint" and "unknown joint" in lines[1]["error"] and "Hips" in lines[1]["error"]
 assert lines[2]["id"] == "file" and "missing.bvh" in lines[2]["error"]
 assert "error" in lines[3] and set(lines[3]) == {"id", "error"}
+assert lines[4]["id"] == "character" and "no-such-character.json" in lines[4]["error"], lines[4]
 PY
+# A query character (tables recomputed for it, here on the Bandai Namco and
+# CMU skeletons): answered; the query's own frames still come first and
+# score about 0 (the database side is recomputed from the float32 poses).
+C=$(cd "$(dirname "$0")/../.." && pwd)/docs/examples/character-heavy-arms.json
+printf '{"id": "heavy", "character": "%s", "frames": [{"bvh": "%s", "frame": 10}, {"bvh": "%s", "frame": 40}], "top": 3}\n' "$C" "$W" "$W" > "$T/char.jsonl"
+"$SEARCH" --index "$T/i.h5" --queries "$T/char.jsonl" --threads 2 -q | python3 -c '
+import json, sys
+o = json.loads(sys.stdin.readline()); assert "error" not in o, o
+top = o["pairs"][0]["results"][0]
+assert top["clip"].endswith("dataset-1_walk_normal_001.bvh") and (top["start_frame"], top["end_frame"]) == (10, 40), top
+assert abs(top["h_in_J"]) < 1e-2 and abs(top["h_out_J"]) < 1e-2, top'
+
 # --query, modes, stdout.
 printf '{"id": "one", "frames": [{"bvh": "%s", "frame": 5}, {"bvh": "%s", "frame": 25}], "top": 3}\n' "$W" "$W" > "$T/one.json"
 "$SEARCH" --index "$T/i.h5" --query "$T/one.json" --mode approx -q | python3 -c '

@@ -24,20 +24,44 @@ using namespace mocap;
 
 namespace {
 
-fs::path golden_index() { return fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v1.h5"; }
+fs::path golden_index() {
+  return fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v1.h5";
+}
 
-Query parse(const std::string& text) { return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q"); }
+Query parse(const std::string& text) {
+  return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q");
+}
 
-// A set-1 index built once per test run with the mocap-index binary.
+// A set-1 index built with the mocap-index binary (with `character` when
+// not empty); empty path on failure.
+fs::path build_set1_index(const std::string& tag, const fs::path& character) {
+  const char* bin = std::getenv("MOCAP_BIN_DIR");
+  const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
+  const fs::path out = test::temp_dir(tag) / "set1.h5";
+  std::string cmd = "'" + exe.string() + "' build -q --out '" + out.string() + "' '" +
+                    (test::data_dir() / "bandai-namco-1/data").string() + "'";
+  if (!character.empty()) cmd += " --character '" + character.string() + "'";
+  cmd += " > /dev/null";
+  if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
+  return out;
+}
+
+// A set-1 index built once per test run.
 const fs::path& set1_index() {
+  static const fs::path path = build_set1_index("search-set1", {});
+  return path;
+}
+
+// A character that changes masses (total, sex, a class, a joint) and bone
+// lengths (upper arms, thighs), written once per test run.
+const fs::path& test_character() {
   static const fs::path path = [] {
-    const char* bin = std::getenv("MOCAP_BIN_DIR");
-    const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-    const fs::path out = test::temp_dir("search-set1") / "set1.h5";
-    const std::string cmd = "'" + exe.string() + "' build -q --out '" + out.string() + "' '" +
-                            (test::data_dir() / "bandai-namco-1/data").string() + "' > /dev/null";
-    if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
-    return out;
+    const fs::path p = test::temp_dir("search-character") / "char.json";
+    std::ofstream(p)
+        << R"({"version": 1, "name": "test-heavy-long", "total_mass_kg": 82, "sex": "female",
+      "segments": {"upper_arm": {"mass_kg": 4.0, "length_scale": 1.15}, "thigh": {"length_scale": 0.9}},
+      "joints": {"LeftHand": {"mass_kg": 1.5}}})";
+    return p;
   }();
   return path;
 }
@@ -51,7 +75,9 @@ std::size_t random_query_count() {
   const long n = std::strtol(v, nullptr, 10);
   return n > 0 ? static_cast<std::size_t>(n) : 220;
 }
-std::size_t small_query_count() { return std::max<std::size_t>(10, random_query_count() / 5); }
+std::size_t small_query_count() {
+  return std::max<std::size_t>(10, random_query_count() / 5);
+}
 
 void expect_same_results(const QueryOutcome& x, const QueryOutcome& y, const std::string& what) {
   ASSERT_FALSE(x.error) << what << ": " << *x.error;
@@ -105,7 +131,10 @@ TEST(QueryResolution, Errors) {
   SearchOptions opt;
   // Unknown joint: the message lists the valid names.
   try {
-    engine.run(parse(R"({"frames": [{"joints": {"Tail": {"quat": [1,0,0,0]}}}, {"root_position": [0, null, 0]}]})"), opt);
+    engine.run(
+        parse(
+            R"({"frames": [{"joints": {"Tail": {"quat": [1,0,0,0]}}}, {"root_position": [0, null, 0]}]})"),
+        opt);
     FAIL() << "expected an error";
   } catch (const InputError& e) {
     const std::string m = e.what();
@@ -115,22 +144,34 @@ TEST(QueryResolution, Errors) {
   }
   // Bad BVH path.
   try {
-    engine.run(parse(R"({"frames": [{"bvh": "no-such-file.bvh", "frame": 0}, {"root_position": [0, null, 0]}]})"), opt);
+    engine.run(
+        parse(
+            R"({"frames": [{"bvh": "no-such-file.bvh", "frame": 0}, {"root_position": [0, null, 0]}]})"),
+        opt);
     FAIL() << "expected an error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no-such-file.bvh"), std::string::npos) << e.what();
   }
   // Frame out of range.
   try {
-    engine.run(parse(R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 100000}, {"root_position": [0, null, 0]}]})"), opt);
+    engine.run(
+        parse(
+            R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 100000}, {"root_position": [0, null, 0]}]})"),
+        opt);
     FAIL() << "expected an error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
   }
   // Aliases resolve: the CMU name RightUpLeg and the Bandai Namco name
   // UpperLeg_R mean the same joint (the golden skeleton has legs, no arms).
-  const auto x = engine.run(parse(R"({"frames": [{"joints": {"RightUpLeg": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"), opt);
-  const auto y = engine.run(parse(R"({"frames": [{"joints": {"UpperLeg_R": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"), opt);
+  const auto x = engine.run(
+      parse(
+          R"({"frames": [{"joints": {"RightUpLeg": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"),
+      opt);
+  const auto y = engine.run(
+      parse(
+          R"({"frames": [{"joints": {"UpperLeg_R": {"euler_deg": [0,0,60], "order": "ZXY"}}}, {"root_position": [0, null, 0]}]})"),
+      opt);
   expect_same_results(x, y, "aliases");
   ASSERT_FALSE(x.pairs[0].results.empty());
 }
@@ -143,7 +184,10 @@ TEST(Search, TinyIndexRankingIsSane) {
   for (SearchMode mode : {SearchMode::brute, SearchMode::exact}) {
     SearchOptions opt;
     opt.mode = mode;
-    const auto r = engine.run(parse(R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}], "top": 2})"), opt);
+    const auto r = engine.run(
+        parse(
+            R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}], "top": 2})"),
+        opt);
     ASSERT_FALSE(r.error);
     ASSERT_FALSE(r.pairs[0].results.empty());
     const auto& best = r.pairs[0].results[0];
@@ -181,22 +225,29 @@ std::vector<Query> random_queries(const Index& index, std::size_t count) {
       if (kind <= 3) {
         one = "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(fr) + "}";
       } else if (kind <= 5) {
-        one = "{\"root_position\": [" + std::to_string(x) + ", " + (rng() % 2 ? "null" : "0.9") + ", " + std::to_string(z) + "]}";
+        one = "{\"root_position\": [" + std::to_string(x) + ", " + (rng() % 2 ? "null" : "0.9") +
+              ", " + std::to_string(z) + "]}";
       } else if (kind == 6) {
-        one = "{\"root_position\": [" + std::to_string(x) + ", null, " + std::to_string(z) + "], \"root_heading_deg\": " + std::to_string(rng() % 360) + "}";
+        one = "{\"root_position\": [" + std::to_string(x) + ", null, " + std::to_string(z) +
+              "], \"root_heading_deg\": " + std::to_string(rng() % 360) + "}";
       } else if (kind == 7) {
-        one = "{\"joints\": {\"RightForeArm\": {\"euler_deg\": [" + std::to_string(rng() % 90) + ", 0, 10], \"order\": \"ZXY\"}}}";
+        one = "{\"joints\": {\"RightForeArm\": {\"euler_deg\": [" + std::to_string(rng() % 90) +
+              ", 0, 10], \"order\": \"ZXY\"}}}";
       } else {
-        one = "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(fr) + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+        one = "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(fr) +
+              ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
       }
       frames += (f ? ", " : "") + one;
     }
     std::string extra;
-    if (i % 3 == 0) extra += ", \"filter\": {\"content\": [\"" + std::string(contents[rng() % 5]) + "\", \"walk\"]}";
+    if (i % 3 == 0)
+      extra +=
+          ", \"filter\": {\"content\": [\"" + std::string(contents[rng() % 5]) + "\", \"walk\"]}";
     if (i % 7 == 0) extra += ", \"path_weight\": 0.01";
     if (i % 11 == 5 && kind != 6 && kind != 9) extra += ", \"relative\": true";
     extra += ", \"top\": " + std::to_string(1 + rng() % 8);
-    out.push_back(parse("{\"id\": \"r" + std::to_string(i) + "\", \"frames\": [" + frames + "]" + extra + "}"));
+    out.push_back(parse("{\"id\": \"r" + std::to_string(i) + "\", \"frames\": [" + frames + "]" +
+                        extra + "}"));
   }
   return out;
 }
@@ -302,7 +353,8 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   const auto& clips = index.clips();
   auto frame_json = [&] {
     const std::size_t c = rng() % clips.size();
-    return "\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
+    return "\"bvh\": \"" + clips[c].path +
+           "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
   };
   auto deg = [&] { return std::to_string(static_cast<int>(rng() % 360) - 180); };
   const std::size_t count = std::max<std::size_t>(12, random_query_count() / 10);
@@ -311,16 +363,30 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   for (std::size_t i = 0; i < count; ++i) {
     std::string f;
     switch (i % 6) {
-      case 0: f = "{" + frame_json() + "}"; break;
-      case 1: f = "{\"root_position\": [" + std::to_string((rng() % 600) / 100.0 - 3.0) + ", null, 0.5]}"; break;
-      case 2: f = "{\"root_position\": [0.3, null, -1.0], \"root_heading_deg\": " + deg() + "}"; break;
-      case 3: f = "{\"joints\": {\"RightForeArm\": {\"euler_deg\": [" + deg() + ", " + deg() + ", 10], \"order\": \"ZXY\"}}}"; break;
-      case 4: f = "{" + frame_json() + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}"; break;
-      default: f = "{" + frame_json() + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}"; break;
+      case 0:
+        f = "{" + frame_json() + "}";
+        break;
+      case 1:
+        f = "{\"root_position\": [" + std::to_string((rng() % 600) / 100.0 - 3.0) + ", null, 0.5]}";
+        break;
+      case 2:
+        f = "{\"root_position\": [0.3, null, -1.0], \"root_heading_deg\": " + deg() + "}";
+        break;
+      case 3:
+        f = "{\"joints\": {\"RightForeArm\": {\"euler_deg\": [" + deg() + ", " + deg() +
+            ", 10], \"order\": \"ZXY\"}}}";
+        break;
+      case 4:
+        f = "{" + frame_json() + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
+        break;
+      default:
+        f = "{" + frame_json() + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+        break;
     }
     const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
-    const Query q = parse("{\"frames\": [" + f + ", {\"root_position\": [0, null, 0]}], \"transition_time\": " +
-                          std::to_string(t) + "}");
+    const Query q =
+        parse("{\"frames\": [" + f + ", {\"root_position\": [0, null, 0]}], \"transition_time\": " +
+              std::to_string(t) + "}");
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
       std::vector<double> lower, h;
       engine.frame_bounds(q, 0, k, lower, h);
@@ -328,7 +394,8 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
       for (std::size_t g = 0; g < h.size(); ++g) {
         ASSERT_TRUE(std::isfinite(h[g])) << i << " frame " << g;
         // The engine compares with LB (1 - 1e-4) - 1e-3 J; the bound must hold with that slack.
-        ASSERT_LE(lower[g] * (1.0 - 1e-4) - 1e-3, h[g]) << "query " << i << " (" << f << ") frame " << g;
+        ASSERT_LE(lower[g] * (1.0 - 1e-4) - 1e-3, h[g])
+            << "query " << i << " (" << f << ") frame " << g;
         ++checked;
         if (i % 6 >= 2) {
           partial_lb_sum += lower[g];
@@ -340,4 +407,110 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   EXPECT_GT(checked, 100000u);
   // Not a vacuous bound: on average it recovers a real share of h.
   EXPECT_GT(partial_lb_sum, 0.2 * partial_h_sum);
+}
+
+// A query character (tables recomputed from the stored poses) ranks and
+// scores like an index built with that character: same clips and frames,
+// scores equal to float rounding of the stored poses (ties within that
+// tolerance may swap). Exact equals brute with the character, bit for bit.
+TEST(Search, QueryCharacterEqualsIndexBuiltWithItSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const fs::path char_index = build_set1_index("search-set1-character", test_character());
+  ASSERT_FALSE(char_index.empty()) << "could not build the set-1 index with the test character";
+  const Index plain = Index::open(set1_index());
+  const Index built = Index::open(char_index);
+  ASSERT_EQ(plain.clips().size(), built.clips().size());
+  const SearchEngine with_query_char(plain), with_index_char(built);
+  const auto queries = random_queries(plain, small_query_count());
+  SearchOptions exact, brute;
+  exact.max_length_s = brute.max_length_s = 0.5;
+  brute.mode = SearchMode::brute;
+  std::size_t compared = 0;
+  for (const Query& q0 : queries) {
+    Query q = q0;
+    q.character = test_character();
+    const auto e = with_query_char.run(q, exact);
+    const auto b = with_query_char.run(q, brute);
+    expect_same_results(e, b, q.id + " (query character: exact vs brute)");
+    for (std::size_t p = 0; p < e.pairs.size(); ++p)
+      for (std::size_t r = 0; r < e.pairs[p].results.size(); ++r)
+        EXPECT_EQ(e.pairs[p].results[r].score_J, b.pairs[p].results[r].score_J) << q.id;
+    const auto ref = with_index_char.run(q0, exact);
+    ASSERT_FALSE(ref.error) << *ref.error;
+    ASSERT_EQ(e.pairs.size(), ref.pairs.size());
+    for (std::size_t p = 0; p < e.pairs.size(); ++p) {
+      const auto& x = e.pairs[p].results;
+      const auto& y = ref.pairs[p].results;
+      ASSERT_EQ(x.size(), y.size()) << q.id;
+      for (std::size_t r = 0; r < x.size(); ++r) {
+        const double tol = 1e-4 * std::max(1.0, std::abs(y[r].score_J));
+        EXPECT_NEAR(x[r].score_J, y[r].score_J, tol) << q.id << " pair " << p << " rank " << r + 1;
+        EXPECT_NEAR(x[r].path_cost_J, y[r].path_cost_J,
+                    1e-4 * std::max(1.0, std::abs(y[r].path_cost_J)))
+            << q.id;
+        const bool same = x[r].clip_index == y[r].clip_index &&
+                          x[r].start_frame == y[r].start_frame && x[r].end_frame == y[r].end_frame;
+        if (!same) {
+          // Only a near tie may swap: the other side has an entry with this score.
+          bool tie = false;
+          for (const auto& z : y)
+            tie = tie || (z.clip_index == x[r].clip_index &&
+                          std::abs(z.score_J - x[r].score_J) <= 2 * tol);
+          tie =
+              tie || (r + 1 == x.size());  // the last rank: a near tie with an entry just below it
+          EXPECT_TRUE(tie) << q.id << " pair " << p << " rank " << r + 1 << ": clip "
+                           << x[r].clip_index << " vs " << y[r].clip_index;
+        }
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 50u);
+}
+
+// A character equal to the index's (the default, written out) uses the
+// index's tables (identical results); an unreadable or invalid character
+// file fails that query only.
+TEST(Search, QueryCharacterErrorsAndDefault) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  const fs::path dir = test::temp_dir("search-character-errors");
+  std::ofstream(dir / "bad-version.json") << R"({"version": 2})";
+  std::ofstream(dir / "not-json.json") << "{ mass: heavy";
+  const fs::path examples = fs::path(MOCAP_SOURCE_DIR) / "docs/examples";
+  const std::string frames =
+      R"("frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}])";
+  std::vector<BatchEntry> batch;
+  auto add = [&](const std::string& id, const std::string& character) {
+    std::string text = "{\"id\": \"" + id + "\", " + frames;
+    if (!character.empty()) text += ", \"character\": \"" + character + "\"";
+    batch.push_back({id, parse(text + "}"), ""});
+  };
+  add("plain", "");
+  add("default", (examples / "character-default.json").string());
+  add("missing", (dir / "no-such-character.json").string());
+  add("version", (dir / "bad-version.json").string());
+  add("syntax", (dir / "not-json.json").string());
+  add("heavy", (examples / "character-heavy-arms.json").string());
+  const auto out = run_query_batch(engine, batch, SearchOptions{});
+  ASSERT_EQ(out.size(), batch.size());
+  ASSERT_FALSE(out[0].error) << *out[0].error;
+  expect_same_results(out[0], out[1], "default character");
+  for (std::size_t i : {2u, 3u, 4u}) {
+    ASSERT_TRUE(out[i].error.has_value()) << out[i].id;
+    EXPECT_NE(out[i].error->find("character"), std::string::npos) << *out[i].error;
+  }
+  EXPECT_NE(out[2].error->find("no-such-character.json"), std::string::npos) << *out[2].error;
+  ASSERT_FALSE(out[5].error) << *out[5].error;
+  // Heavier arms: the same frames of the same clip still score about 0
+  // (h(A, A) = 0; the database side is recomputed from float32 poses);
+  // brute agrees with exact.
+  ASSERT_FALSE(out[5].pairs[0].results.empty());
+  EXPECT_EQ(out[5].pairs[0].results[0].start_frame, 0u);
+  EXPECT_EQ(out[5].pairs[0].results[0].end_frame, 3u);
+  EXPECT_NEAR(out[5].pairs[0].results[0].score_J, 0.0, 1e-2);
+  SearchOptions brute;
+  brute.mode = SearchMode::brute;
+  expect_same_results(out[5], engine.run(*batch[5].query, brute), "heavy arms brute");
 }

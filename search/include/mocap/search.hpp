@@ -9,8 +9,8 @@
 //
 //   score = h(Q^h -> F^s) + h(F^e -> Q^h+1) + lambda * (P[e] - P[s])      (joules)
 //
-// (h: energy.hpp approximate energy for the index's character with the
-// query's transition time; P: the clip's own energy prefix sums; lambda:
+// (h: energy.hpp approximate energy for the query's character, by default
+// the index's, with the query's transition time; P: the clip's own energy prefix sums; lambda:
 // Query::path_weight), ranks clips by that score and keeps the `top` best.
 // Ties are broken by clip index, then end frame, then start frame, so the
 // answer is a function of the query and the index only: it is the same in
@@ -18,9 +18,9 @@
 //
 // Modes:
 //  - brute: every frame of every clip (the reference);
-//  - exact (default): the same answer, skipping clips and 16-frame blocks
-//    whose lower bounds (docs/search.md proves them) cannot beat the current
-//    r-th best score;
+//  - exact (default): the same answer, skipping groups of clips, clips and
+//    16-frame blocks whose lower bounds (docs/search.md proves them) cannot
+//    beat the current r-th best score;
 //  - approx: FLANN randomised kd-trees over the per-frame kd features pick
 //    candidate clips (bounded checks); only those are scored. Queries without
 //    a full query frame on both sides of a pair fall back to exact. The
@@ -118,9 +118,12 @@ struct QueryOutcome {
 };
 
 /// The engine: per-skeleton tables (h scan table transposed from the index,
-/// kd features, bounds in metres) built once; FLANN trees built on the first
-/// approx query of a skeleton. Holds a reference to `index`, which must
-/// outlive it.
+/// the same in 16-frame tiles, kd features, box bounds per group of clips,
+/// clip and 16-frame block, computed from the scan table) built once; FLANN
+/// trees built on the first approx query of a skeleton. A query naming a
+/// character other than the index's gets tables recomputed for it, built once
+/// per engine and character (at most 4 kept) and shared by the queries that
+/// name it. Holds a reference to `index`, which must outlive it.
 class SearchEngine {
  public:
   explicit SearchEngine(const Index& index);
@@ -131,7 +134,7 @@ class SearchEngine {
 
   /// Answers one query. Throws InputError for a query that does not fit the
   /// index (unknown joint: the message lists the valid names; unreadable BVH;
-  /// frame out of range; a character other than the index's).
+  /// frame out of range; an unreadable or invalid character file).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
 
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
