@@ -18,6 +18,8 @@ ROOT = os.path.dirname(HERE)
 def fmt(x, digits=3):
     if x is None:
         return "–"
+    if isinstance(x, float) and x.is_integer() and abs(x) < 1e6:
+        x = int(x)  # counts (queries, failures) merged over runs
     if isinstance(x, (int,)) and not isinstance(x, bool):
         return f"{x:,}"
     ax = abs(x)
@@ -349,6 +351,8 @@ def scaling_section(w, r, a):
     w("")
     w("Set 2 listed 1, 2, 4 and 8 times under different folder names (symlinks), indexed")
     w(f"with 2 threads; then {sc['queries']} queries ({sc['query_kind']}).")
+    w("One run per size (the index-build section above has the median of several runs")
+    w("at 1x), so single figures carry the machine's run-to-run noise.")
     w("")
     w("| scale | clips | frames | build wall s | frames/s | build peak RSS MB | index GB | search median ms | p99 ms | search open + load s | search peak RSS MB | clips pruned | frames pruned |")
     w("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
