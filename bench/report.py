@@ -18,7 +18,7 @@ ROOT = os.path.dirname(HERE)
 def fmt(x, digits=3):
     if x is None:
         return "–"
-    if isinstance(x, float) and x.is_integer() and abs(x) < 1e6:
+    if isinstance(x, float) and x.is_integer() and abs(x) < 1e4:
         x = int(x)  # counts (queries, failures) merged over runs
     if isinstance(x, (int,)) and not isinstance(x, bool):
         return f"{x:,}"

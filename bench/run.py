@@ -317,7 +317,8 @@ def main():
         sys.exit(f"bench/run.py: {work} has {free_gb:.1f} GB free, needs about {need_gb:.0f} GB")
 
     results = {"meta": {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-                        "command": " ".join(["scripts/bench"] + sys.argv[1:]),
+                        "command": os.environ.get("MOCAP_BENCH_COMMAND",
+                                                  " ".join(["bench/run.py"] + sys.argv[1:])),
                         "runs": a.runs, "data": a.data, "machine": machine()}}
     keys = {"ingest": "ingest", "energy": "energy", "index": "index_build", "search": "search",
             "synth": "synth", "scaling": "scaling"}
