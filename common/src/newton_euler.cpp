@@ -285,11 +285,25 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     // S - M r_G r_G^T off the diagonal; the |r|^2 1 parts from the traces.
     const Eigen::Matrix3d shifted = second_moment - mass * r_g * r_g.transpose();
     Eigen::Matrix3d i_g = shifted.trace() * Eigen::Matrix3d::Identity() - shifted;
+    // sum_j R P D (R P)^T, upper triangle in scalars: entry (a, b) = sum_k D_k rp(a, k) rp(b, k).
+    double s00 = 0.0, s01 = 0.0, s02 = 0.0, s11 = 0.0, s12 = 0.0, s22 = 0.0;
     for (int jj : model.segments) {
       const auto j = static_cast<std::size_t>(jj);
       const Eigen::Matrix3d& rp = d.principal_rotations[j];
-      i_g.noalias() += rp * model.principal_moments_kgm2[j].asDiagonal() * rp.transpose();
+      const Eigen::Vector3d& dm = model.principal_moments_kgm2[j];
+      for (int k = 0; k < 3; ++k) {
+        const double x = rp(0, k), y = rp(1, k), z = rp(2, k), dk = dm[k];
+        s00 += dk * x * x;
+        s01 += dk * x * y;
+        s02 += dk * x * z;
+        s11 += dk * y * y;
+        s12 += dk * y * z;
+        s22 += dk * z * z;
+      }
     }
+    Eigen::Matrix3d rot;
+    rot << s00, s01, s02, s01, s11, s12, s02, s12, s22;
+    i_g += rot;
     const double tr = i_g.trace();
     if (tr > 0.0) {
       const Eigen::Matrix3d reg = i_g + 1e-9 * tr * Eigen::Matrix3d::Identity();
@@ -414,7 +428,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
               p - (a.coms_m[j] + (a.rotations[j] * b.rotations[j].conjugate()) * (p - b.coms_m[j]));
         }
         const double normal = std::max(0.0, fc.y());
-        w_contact += mu * normal * std::hypot(slide.x(), slide.z());
+        w_contact += mu * normal * std::sqrt(slide.x() * slide.x() + slide.z() * slide.z());
       }
       double w_res = 0.0;
       if (root) {
