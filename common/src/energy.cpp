@@ -23,8 +23,7 @@ double EnergyTerms::total() const {
 namespace {
 
 void check_time(double t) {
-  if (!(t > 0.0) || !std::isfinite(t))
-    throw std::invalid_argument("transition time must be a positive number of seconds");
+  detail::check_transition_time(t);
 }
 
 // 1/2 w^T (R I R^T) w = 1/2 (R^T w)^T I (R^T w): rotational kinetic energy of
@@ -90,16 +89,14 @@ void check_state(const DynamicsModel& model, const StateView& s) {
 
 }  // namespace
 
-double approximate_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
-                          double transition_time_s, EnergyTerms* terms) {
-  return detail::approximate_energy_given_rotations(model, a, b, transition_time_s, nullptr, terms);
+void detail::check_transition_time(double t) {
+  if (!(t > 0.0) || !std::isfinite(t))
+    throw std::invalid_argument("transition time must be a positive number of seconds");
 }
 
 MOCAP_MULTIVERSION_V3
-double detail::approximate_energy_given_rotations(const DynamicsModel& model, const StateView& a,
-                                                  const StateView& b, double transition_time_s,
-                                                  const Eigen::Vector3d* rotation_steps,
-                                                  EnergyTerms* terms) {
+double approximate_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
+                          double transition_time_s, EnergyTerms* terms) {
   check_time(transition_time_s);
   check_state(model, a);
   check_state(model, b);
@@ -109,10 +106,8 @@ double detail::approximate_energy_given_rotations(const DynamicsModel& model, co
   for (int jj : model.segments) {
     const auto j = static_cast<std::size_t>(jj);
     double hs = 0.0, hj = 0.0;
-    const Eigen::Vector3d step = rotation_steps != nullptr
-                                     ? rotation_steps[j]
-                                     : rotation_step(a.rotations[j], b.rotations[j]);
-    segment_h(model, j, side(a, j), side(b, j), step, inv_t, hs, hj);
+    segment_h(model, j, side(a, j), side(b, j), rotation_step(a.rotations[j], b.rotations[j]),
+              inv_t, hs, hj);
     total += hs + hj;
     if (terms != nullptr) {
       terms->segment_J[j] = hs;

@@ -354,8 +354,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   const std::size_t n = model.joint_count();
   if (da.joint_forces_N.size() != n || db.joint_forces_N.size() != n)
     throw std::invalid_argument("inverse dynamics results do not match the character model");
-  if (!(transition_time_s > 0.0) || !std::isfinite(transition_time_s))
-    throw std::invalid_argument("transition time must be a positive number of seconds");
+  detail::check_transition_time(transition_time_s);
   ws.rotation_steps.resize(n);
   for (std::size_t j = 0; j < n; ++j)
     ws.rotation_steps[j] = rotation_step(a.rotations[j], b.rotations[j]);

@@ -269,6 +269,31 @@ TEST(Contact, SlidingFootCostsFriction) {
   EXPECT_GT(g, approximate_energy(t.model, a.view(), b.view(), 0.5) + 0.8 * normal * 0.03 - 1e-9);
 }
 
+TEST(Contact, ResidualImpulseCoefficientMatchesCompositeInertiaReference) {
+  // inverse_dynamics forms I_G in its one pass (moments about a reference
+  // point, shifted to the COM); composite_inertia sums it directly.
+  const auto t = test::make_test_body();
+  std::mt19937 rng(9);
+  NewtonEulerData data;
+  int with_torque = 0;
+  for (int i = 0; i < 200; ++i) {
+    BodyState s = test::random_state(t, rng);
+    if (i % 4 == 0) s = standing(t, Eigen::Vector3d(0.3 * i, 0.02 * (i % 7), -0.1 * i));
+    inverse_dynamics(t.model, s.view(), data);
+    const double mass = t.model.total_mass_kg;
+    double e = data.residual_force_N.squaredNorm() / mass;
+    const double negligible = 1e-9 * mass * kG;
+    if (data.residual_torque_Nm.squaredNorm() > negligible * negligible) {
+      ++with_torque;
+      const Eigen::Matrix3d i_g = composite_inertia(t.model, s.view(), data.com_m);
+      const Eigen::Matrix3d reg = i_g + 1e-9 * i_g.trace() * Eigen::Matrix3d::Identity();
+      e += data.residual_torque_Nm.dot(reg.ldlt().solve(data.residual_torque_Nm));
+    }
+    EXPECT_NEAR(data.residual_impulse_coefficient_Jps2, e, 1e-9 * (1.0 + e)) << i;
+  }
+  EXPECT_GT(with_torque, 100);
+}
+
 // ---------------------------------------------------------------- g
 
 TEST(FullEnergy, AtLeastHAndTermsAddUp) {

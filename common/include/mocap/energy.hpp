@@ -73,13 +73,9 @@ double approximate_energy(const DynamicsModel& model, const StateView& a, const 
                           double transition_time_s, EnergyTerms* terms = nullptr);
 
 namespace detail {
-/// approximate_energy with the per-joint rotation vectors log(R_j(B) R_j(A)^T)
-/// already computed (rotation_steps, joint_count long; null = compute them).
-/// full_energy shares them with its joint-work terms.
-double approximate_energy_given_rotations(const DynamicsModel& model, const StateView& a,
-                                          const StateView& b, double transition_time_s,
-                                          const Eigen::Vector3d* rotation_steps,
-                                          EnergyTerms* terms);
+/// Throws std::invalid_argument unless 0 < t < infinity (seconds): the check
+/// of every energy that takes a transition time (h, g, bounds, features).
+void check_transition_time(double t);
 }  // namespace detail
 
 // ---------------------------------------------------------------------------
