@@ -146,11 +146,11 @@ struct IndexBuildOptions {
 struct IndexBuildStages {
   double plan_s = 0.0;      ///< collect inputs, stat, open the previous index (serial)
   double read_s = 0.0;      ///< read the files into memory (workers)
-  double parse_s = 0.0;     ///< BVH parsing and unit detection (workers)
+  double parse_s = 0.0;     ///< content hash, BVH parsing and unit detection (workers)
   double dynamics_s = 0.0;  ///< skeleton, per-frame dynamics, bounds, kd features (workers)
   double write_s = 0.0;     ///< the writer stage: HDF5 appends and reused-clip copies (serial)
-  double finalize_s =
-      0.0;  ///< clip tables, sealing (whole-file hash), check, fsync, rename (serial)
+  /// Clip tables, sealing (whole-file hash), check, fsync, rename (serial).
+  double finalize_s = 0.0;
 };
 
 struct IndexBuildSummary {
