@@ -22,6 +22,7 @@ Stages (each prints one progress line to stderr):
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import re
@@ -241,8 +242,9 @@ def scaling_queries(set2, work, count):
 
 
 def percentile(v, p):
+    """Nearest-rank percentile, the definition bench/search_bench.sh uses."""
     v = sorted(v)
-    return v[min(len(v) - 1, int(round(p / 100.0 * (len(v) - 1))))]
+    return v[min(len(v) - 1, max(0, math.ceil(p / 100.0 * len(v)) - 1))]
 
 
 def scaling_stage(a, set2, work):
