@@ -3,9 +3,11 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 
+#include "lanes.hpp"
 #include "mocap/error.hpp"
 #include "multiversion.hpp"
 
@@ -263,37 +265,89 @@ void sequence_state(const DynamicsModel& model, const PoseView* prev, PoseView c
 namespace {
 
 // The streaming pass of compute_clip_dynamics for frames 0 .. last-1 (FMA
-// clone where the CPU has it).
+// clone where the CPU has it), four joints of a frame at a time (lanes.hpp;
+// the last group's extra lanes repeat its first joint and are not stored).
+// The quaternion log is log_unit_quaternion's series, lane-wise; larger
+// rotations take the scalar path, and bitwise equal rotations give exactly 0.
+// GCC 12 reports a false maybe-uninitialized on the lane-wise construction
+// of q0 / q1 in the x86-64-v3 clone.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 MOCAP_MULTIVERSION_V3
 void dynamics_kernel(std::size_t n, std::size_t last, double inv_dt,
                      const Eigen::Vector3d* joint_positions_m, const Eigen::Quaterniond* rotations,
                      const Eigen::Vector3d* com_local, Eigen::Vector3d* c, Eigen::Vector3d* v,
                      Eigen::Vector3d* a, Eigen::Vector3d* w, Eigen::Vector3d* al) {
+  using lanes::v4d;
   for (std::size_t f = 0; f < last; ++f) {
     const std::size_t b = f * n, b1 = b + n;
-    for (std::size_t j = 0; j < n; ++j) {
-      c[b1 + j] = joint_positions_m[b1 + j] + rotations[b1 + j] * com_local[j];
-      const Eigen::Vector3d hv = (c[b1 + j] - c[b + j]) * inv_dt;
-      const Eigen::Vector3d hw =
-          log_unit_quaternion(rotations[b1 + j] * rotations[b + j].conjugate()) * inv_dt;
-      if (f == 0) {
-        v[j] = hv;
-        w[j] = hw;
-      } else {
-        // v[b + j] holds h_{f-1} (stored below at the previous frame).
-        const Eigen::Vector3d hv0 = v[b + j], hw0 = w[b + j];
-        v[b + j] = 0.5 * (hv0 + hv);
-        w[b + j] = 0.5 * (hw0 + hw);
-        a[b + j] = (hv - hv0) * inv_dt;
-        al[b + j] = (hw - hw0) * inv_dt;
+    for (std::size_t j0 = 0; j0 < n; j0 += 4) {
+      const std::size_t count = std::min<std::size_t>(4, n - j0);
+      const std::size_t k0 = j0, k1 = count > 1 ? j0 + 1 : j0, k2 = count > 2 ? j0 + 2 : j0,
+                        k3 = count > 3 ? j0 + 3 : j0;
+#define MOCAP_LANES(arr, base, part) \
+  v4d{arr[base + k0].part(), arr[base + k1].part(), arr[base + k2].part(), arr[base + k3].part()}
+      lanes::Quat4 q0, q1;
+      q0.w = MOCAP_LANES(rotations, b, w);
+      q0.x = MOCAP_LANES(rotations, b, x);
+      q0.y = MOCAP_LANES(rotations, b, y);
+      q0.z = MOCAP_LANES(rotations, b, z);
+      q1.w = MOCAP_LANES(rotations, b1, w);
+      q1.x = MOCAP_LANES(rotations, b1, x);
+      q1.y = MOCAP_LANES(rotations, b1, y);
+      q1.z = MOCAP_LANES(rotations, b1, z);
+      // c1 = x1 + R(q1) c^: t = 2 u x c^, c^ + w t + u x t (u = q1's vector part).
+      const v4d lx = MOCAP_LANES(com_local, 0, x), ly = MOCAP_LANES(com_local, 0, y),
+                lz = MOCAP_LANES(com_local, 0, z);
+      const v4d tx = 2.0 * (q1.y * lz - q1.z * ly), ty = 2.0 * (q1.z * lx - q1.x * lz),
+                tz = 2.0 * (q1.x * ly - q1.y * lx);
+      const v4d c1x =
+          MOCAP_LANES(joint_positions_m, b1, x) + (lx + q1.w * tx + (q1.y * tz - q1.z * ty));
+      const v4d c1y =
+          MOCAP_LANES(joint_positions_m, b1, y) + (ly + q1.w * ty + (q1.z * tx - q1.x * tz));
+      const v4d c1z =
+          MOCAP_LANES(joint_positions_m, b1, z) + (lz + q1.w * tz + (q1.x * ty - q1.y * tx));
+      const v4d hvx = (c1x - MOCAP_LANES(c, b, x)) * inv_dt;
+      const v4d hvy = (c1y - MOCAP_LANES(c, b, y)) * inv_dt;
+      const v4d hvz = (c1z - MOCAP_LANES(c, b, z)) * inv_dt;
+      lanes::Quat4 q;
+      lanes::mul_conj(q1, q0, q);
+      v4d rx, ry, rz;
+      lanes::v4i series;
+      lanes::log_small(q, rx, ry, rz, series);
+      lanes::v4i same;
+      lanes::same(q0, q1, same);
+      for (std::size_t l = 0; l < count; ++l) {
+        Eigen::Vector3d r(rx[l], ry[l], rz[l]);
+        if (same[l])
+          r.setZero();
+        else if (!series[l])
+          r = log_unit_quaternion(Eigen::Quaterniond(q.w[l], q.x[l], q.y[l], q.z[l]));
+        const std::size_t j = j0 + l;
+        const Eigen::Vector3d hv(hvx[l], hvy[l], hvz[l]);
+        const Eigen::Vector3d hw = r * inv_dt;
+        c[b1 + j] = Eigen::Vector3d(c1x[l], c1y[l], c1z[l]);
+        if (f == 0) {
+          v[j] = hv;
+          w[j] = hw;
+        } else {
+          // v[b + j] holds h_{f-1} (stored below at the previous frame).
+          const Eigen::Vector3d hv0 = v[b + j], hw0 = w[b + j];
+          v[b + j] = 0.5 * (hv0 + hv);
+          w[b + j] = 0.5 * (hw0 + hw);
+          a[b + j] = (hv - hv0) * inv_dt;
+          al[b + j] = (hw - hw0) * inv_dt;
+        }
+        // Park h_f in frame f+1's slots until frame f+1 is processed (the last
+        // frame keeps it: its one-sided rate).
+        v[b1 + j] = hv;
+        w[b1 + j] = hw;
       }
-      // Park h_f in frame f+1's slots until frame f+1 is processed (the last
-      // frame keeps it: its one-sided rate).
-      v[b1 + j] = hv;
-      w[b1 + j] = hw;
+#undef MOCAP_LANES
     }
   }
 }
+#pragma GCC diagnostic pop
 
 }  // namespace
 
@@ -310,8 +364,16 @@ void compute_clip_dynamics(const DynamicsModel& model, std::size_t frame_count, 
   out.frame_count = frame_count;
   out.joint_count = n;
   out.frame_time_s = frame_time_s;
-  out.joint_positions_m.assign(joint_positions_m, joint_positions_m + total);
-  out.rotations.assign(rotations, rotations + total);
+  // Eigen's fixed-size types are plain arrays of doubles: copy them as bytes
+  // (vector::assign would copy element by element, a fifth of this function).
+  out.joint_positions_m.resize(total);
+  out.rotations.resize(total);
+  if (total > 0) {
+    std::memcpy(static_cast<void*>(out.joint_positions_m.data()), joint_positions_m,
+                total * sizeof(Eigen::Vector3d));
+    std::memcpy(static_cast<void*>(out.rotations.data()), rotations,
+                total * sizeof(Eigen::Quaterniond));
+  }
   out.coms_m.resize(total);
   out.com_velocities_mps.resize(total);
   out.com_accelerations_mps2.resize(total);

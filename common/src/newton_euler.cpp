@@ -1,9 +1,11 @@
 #include "mocap/newton_euler.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
+#include "lanes.hpp"
 #include "multiversion.hpp"
 
 namespace mocap {
@@ -28,43 +30,7 @@ void NewtonEulerData::resize(std::size_t n) {
 
 namespace {
 
-// A rotation matrix held in nine scalars (row-major names). Eigen's
-// toRotationMatrix() builds the matrix in memory with wide stores that the
-// following narrow loads cannot forward from (a ~15-cycle stall per segment
-// on x86); nine named scalars stay in registers.
-struct Rotation3 {
-  double m00, m01, m02, m10, m11, m12, m20, m21, m22;
-  explicit Rotation3(const Eigen::Quaterniond& q) {
-    const double w = q.w(), x = q.x(), y = q.y(), z = q.z();
-    const double tx = 2.0 * x, ty = 2.0 * y, tz = 2.0 * z;
-    const double twx = tx * w, twy = ty * w, twz = tz * w;
-    const double txx = tx * x, txy = ty * x, txz = tz * x;
-    const double tyy = ty * y, tyz = tz * y, tzz = tz * z;
-    m00 = 1.0 - (tyy + tzz);
-    m01 = txy - twz;
-    m02 = txz + twy;
-    m10 = txy + twz;
-    m11 = 1.0 - (txx + tzz);
-    m12 = tyz - twx;
-    m20 = txz - twy;
-    m21 = tyz + twx;
-    m22 = 1.0 - (txx + tyy);
-  }
-  Eigen::Vector3d operator*(const Eigen::Vector3d& v) const {
-    return {m00 * v.x() + m01 * v.y() + m02 * v.z(), m10 * v.x() + m11 * v.y() + m12 * v.z(),
-            m20 * v.x() + m21 * v.y() + m22 * v.z()};
-  }
-  /// R^T v
-  Eigen::Vector3d transpose_times(const Eigen::Vector3d& v) const {
-    return {m00 * v.x() + m10 * v.y() + m20 * v.z(), m01 * v.x() + m11 * v.y() + m21 * v.z(),
-            m02 * v.x() + m12 * v.y() + m22 * v.z()};
-  }
-  Eigen::Matrix3d matrix() const {
-    Eigen::Matrix3d r;
-    r << m00, m01, m02, m10, m11, m12, m20, m21, m22;
-    return r;
-  }
-};
+using lanes::v4d;
 
 }  // namespace
 
@@ -131,8 +97,36 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     throw std::invalid_argument(
         "state does not match the character model (joint count or missing rates)");
   d.resize(n);
+  // Every array through a local pointer: the stores below (uint8_t in_contact
+  // is a character type and may alias anything) would otherwise make the
+  // compiler reload each std::vector's data pointer on every access.
+  Eigen::Vector3d* const __restrict jf = d.joint_forces_N.data();
+  Eigen::Vector3d* const __restrict jt = d.joint_torques_Nm.data();
+  Eigen::Vector3d* const __restrict cf = d.contact_forces_N.data();
+  Eigen::Vector3d* const __restrict cp = d.contact_points_m.data();
+  Eigen::Vector3d* const __restrict ct = d.contact_torques_Nm.data();
+  std::uint8_t* const __restrict inc = d.in_contact.data();
+  Eigen::Matrix3d* const __restrict prot = d.principal_rotations.data();
+  double* const __restrict erot = d.rotational_energies_J.data();
+  double* const __restrict etr = d.translational_energies_J.data();
+  Eigen::Vector3d* const __restrict rf = d.required_forces_N.data();
+  Eigen::Vector3d* const __restrict rt = d.required_torques_Nm.data();
+  const Eigen::Vector3d* const xs = s.joint_positions_m;
+  const Eigen::Quaterniond* const qs = s.rotations;
+  const Eigen::Vector3d* const cs = s.coms_m;
+  const Eigen::Vector3d* const vs = s.com_velocities_mps;
+  const Eigen::Vector3d* const acs = s.com_accelerations_mps2;
+  const Eigen::Vector3d* const ws = s.angular_velocities_radps;
+  const Eigen::Vector3d* const als = s.angular_accelerations_radps2;
+  const double* const mass_of = model.masses_kg.data();
+  const Eigen::Quaterniond* const pf = model.principal_frames.data();
+  const Eigen::Vector3d* const pm = model.principal_moments_kgm2.data();
+  const Eigen::Vector3d* const tips = model.tips_local_m.data();
+  const std::uint8_t* const tipc = model.tip_contacts.data();
+  const std::uint8_t* const term = model.is_term_joint.data();
+  const std::uint8_t* const broot = model.is_body_root.data();
+  const int* const par = model.parents.data();
   const EnergyParams& prm = model.params;
-  const Eigen::Vector3d gravity = model.gravity();
 
   // 1. Requirements and whole-body totals, in one pass. Euler's equation in
   // the segment's principal frame (rotation R P, I_local = P diag(D) P^T,
@@ -143,61 +137,175 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
   //   M_req = sum tau_j + sum (c_j - o) x F_j - (c_G - o) x F_req,
   //   I_G = sum R P D (R P)^T + S - M (|r_G|^2 1 - r_G r_G^T),
   //   S = sum m_j (|r_j|^2 1 - r_j r_j^T),  r = c - o.
+  // Contact arrays are zero wherever in_contact is 0 (resize() starts them at
+  // zero and every call restores it), so only the previous call's contacts
+  // need clearing; f_j, n_j start at zero (pass 3 accumulates the children's).
   for (std::size_t j = 0; j < n; ++j) {
-    if (!(model.masses_kg[j] > 0.0)) {  // massless joints keep zero requirements
-      d.required_forces_N[j].setZero();
-      d.required_torques_Nm[j].setZero();
-      d.principal_rotations[j].setIdentity();
-      d.rotational_energies_J[j] = 0.0;
-      d.translational_energies_J[j] = 0.0;
+    if (inc[j]) {
+      cf[j].setZero();
+      ct[j].setZero();
+      cp[j].setZero();
+      inc[j] = 0;
     }
-    d.contact_forces_N[j].setZero();
-    d.contact_torques_Nm[j].setZero();
-    d.contact_points_m[j].setZero();
-    d.in_contact[j] = 0;
-    d.joint_forces_N[j].setZero();
-    d.joint_torques_Nm[j].setZero();
+    jf[j].setZero();
+    jt[j].setZero();
+    if (!(mass_of[j] > 0.0)) {
+      rf[j].setZero();
+      rt[j].setZero();
+      prot[j].setIdentity();
+      erot[j] = 0.0;
+      etr[j] = 0.0;
+    }
   }
   const Eigen::Vector3d origin =
-      model.segments.empty()
-          ? Eigen::Vector3d::Zero()
-          : Eigen::Vector3d(s.coms_m[static_cast<std::size_t>(model.segments[0])]);
-  double mass = 0.0;
-  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // sum m r
-  Eigen::Vector3d f_req = Eigen::Vector3d::Zero(), m_req_o = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d second_moment = Eigen::Matrix3d::Zero();  // sum m r r^T
-  for (int jj : model.segments) {
-    const auto j = static_cast<std::size_t>(jj);
-    const double m = model.masses_kg[j];
-    const Rotation3 rp(s.rotations[j] * model.principal_frames[j]);
-    const Eigen::Vector3d& dm = model.principal_moments_kgm2[j];
-    const Eigen::Vector3d wp = rp.transpose_times(s.angular_velocities_radps[j]);
-    const Eigen::Vector3d alp = rp.transpose_times(s.angular_accelerations_radps2[j]);
-    const Eigen::Vector3d iw = dm.cwiseProduct(wp);
-    const Eigen::Vector3d fj = m * (s.com_accelerations_mps2[j] - gravity);
-    const Eigen::Vector3d tj = rp * Eigen::Vector3d(dm.cwiseProduct(alp) + wp.cross(iw));
-    d.required_forces_N[j] = fj;
-    d.required_torques_Nm[j] = tj;
-    const Eigen::Vector3d r = s.coms_m[j] - origin;
-    mass += m;
-    first_moment += m * r;
-    f_req += fj;
-    m_req_o += tj + r.cross(fj);
-    d.principal_rotations[j] = rp.matrix();
-    d.rotational_energies_J[j] = 0.5 * wp.dot(iw);
-    d.translational_energies_J[j] = 0.5 * m * s.com_velocities_mps[j].squaredNorm();
-    // Symmetric: only the upper triangle is accumulated here.
-    const Eigen::Vector3d mr = m * r;
-    second_moment(0, 0) += mr.x() * r.x();
-    second_moment(0, 1) += mr.x() * r.y();
-    second_moment(0, 2) += mr.x() * r.z();
-    second_moment(1, 1) += mr.y() * r.y();
-    second_moment(1, 2) += mr.y() * r.z();
-    second_moment(2, 2) += mr.z() * r.z();
+      model.segments.empty() ? Eigen::Vector3d::Zero()
+                             : Eigen::Vector3d(cs[static_cast<std::size_t>(model.segments[0])]);
+  // Four segments at a time in the lanes of a 4-double vector (AVX2 in the
+  // x86-64-v3 clone, two SSE2 halves in the baseline one); the last group is
+  // padded with a copy of its first segment whose mass and moments are zeroed,
+  // so the padding adds exactly nothing. Sums are kept per lane and added in
+  // lane order at the end (deterministic).
+  const std::size_t nseg = model.segments.size();
+  const int* const seg = model.segments.data();
+  const double ox = origin.x(), oy = origin.y(), oz = origin.z();
+  const double g_up = prm.gravity_mps2;  // a - gravity = (a_x, a_y + g, a_z)
+  v4d s_mass{}, s_fm0{}, s_fm1{}, s_fm2{}, s_f0{}, s_f1{}, s_f2{}, s_m0{}, s_m1{}, s_m2{};
+  v4d s_s00{}, s_s01{}, s_s02{}, s_s11{}, s_s12{}, s_s22{};  // sum m r r^T (upper)
+  v4d s_i00{}, s_i01{}, s_i02{}, s_i11{}, s_i12{}, s_i22{};  // sum R P D (R P)^T (upper)
+  for (std::size_t k0 = 0; k0 < nseg; k0 += 4) {
+    const std::size_t i0 = static_cast<std::size_t>(seg[k0]);
+    const std::size_t i1 = k0 + 1 < nseg ? static_cast<std::size_t>(seg[k0 + 1]) : i0;
+    const std::size_t i2 = k0 + 2 < nseg ? static_cast<std::size_t>(seg[k0 + 2]) : i0;
+    const std::size_t i3 = k0 + 3 < nseg ? static_cast<std::size_t>(seg[k0 + 3]) : i0;
+    const v4d live{1.0, k0 + 1 < nseg ? 1.0 : 0.0, k0 + 2 < nseg ? 1.0 : 0.0,
+                   k0 + 3 < nseg ? 1.0 : 0.0};
+    const v4d qw{qs[i0].w(), qs[i1].w(), qs[i2].w(), qs[i3].w()};
+    const v4d qx{qs[i0].x(), qs[i1].x(), qs[i2].x(), qs[i3].x()};
+    const v4d qy{qs[i0].y(), qs[i1].y(), qs[i2].y(), qs[i3].y()};
+    const v4d qz{qs[i0].z(), qs[i1].z(), qs[i2].z(), qs[i3].z()};
+    const v4d pw{pf[i0].w(), pf[i1].w(), pf[i2].w(), pf[i3].w()};
+    const v4d px{pf[i0].x(), pf[i1].x(), pf[i2].x(), pf[i3].x()};
+    const v4d py{pf[i0].y(), pf[i1].y(), pf[i2].y(), pf[i3].y()};
+    const v4d pz{pf[i0].z(), pf[i1].z(), pf[i2].z(), pf[i3].z()};
+    const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
+    const v4d d0 = live * v4d{pm[i0].x(), pm[i1].x(), pm[i2].x(), pm[i3].x()};
+    const v4d d1 = live * v4d{pm[i0].y(), pm[i1].y(), pm[i2].y(), pm[i3].y()};
+    const v4d d2 = live * v4d{pm[i0].z(), pm[i1].z(), pm[i2].z(), pm[i3].z()};
+    const v4d wx = v4d{ws[i0].x(), ws[i1].x(), ws[i2].x(), ws[i3].x()};
+    const v4d wy = v4d{ws[i0].y(), ws[i1].y(), ws[i2].y(), ws[i3].y()};
+    const v4d wz = v4d{ws[i0].z(), ws[i1].z(), ws[i2].z(), ws[i3].z()};
+    const v4d lx = v4d{als[i0].x(), als[i1].x(), als[i2].x(), als[i3].x()};
+    const v4d ly = v4d{als[i0].y(), als[i1].y(), als[i2].y(), als[i3].y()};
+    const v4d lz = v4d{als[i0].z(), als[i1].z(), als[i2].z(), als[i3].z()};
+    const v4d ax = v4d{acs[i0].x(), acs[i1].x(), acs[i2].x(), acs[i3].x()};
+    const v4d ay = v4d{acs[i0].y(), acs[i1].y(), acs[i2].y(), acs[i3].y()};
+    const v4d az = v4d{acs[i0].z(), acs[i1].z(), acs[i2].z(), acs[i3].z()};
+    const v4d cx{cs[i0].x(), cs[i1].x(), cs[i2].x(), cs[i3].x()};
+    const v4d cy{cs[i0].y(), cs[i1].y(), cs[i2].y(), cs[i3].y()};
+    const v4d cz{cs[i0].z(), cs[i1].z(), cs[i2].z(), cs[i3].z()};
+    const v4d rx = cx - ox, ry = cy - oy, rz = cz - oz;
+    const v4d vx = v4d{vs[i0].x(), vs[i1].x(), vs[i2].x(), vs[i3].x()};
+    const v4d vy = v4d{vs[i0].y(), vs[i1].y(), vs[i2].y(), vs[i3].y()};
+    const v4d vz = v4d{vs[i0].z(), vs[i1].z(), vs[i2].z(), vs[i3].z()};
+    // R P as a quaternion (Hamilton product q p), then its matrix in nine
+    // registers (no Eigen matrix in memory: its wide stores would stall the
+    // narrow loads that follow).
+    const v4d w = qw * pw - qx * px - qy * py - qz * pz;
+    const v4d x = qw * px + qx * pw + qy * pz - qz * py;
+    const v4d y = qw * py + qy * pw + qz * px - qx * pz;
+    const v4d z = qw * pz + qz * pw + qx * py - qy * px;
+    const v4d tx = 2.0 * x, ty = 2.0 * y, tz = 2.0 * z;
+    const v4d twx = tx * w, twy = ty * w, twz = tz * w;
+    const v4d txx = tx * x, txy = ty * x, txz = tz * x;
+    const v4d tyy = ty * y, tyz = tz * y, tzz = tz * z;
+    const v4d m00 = 1.0 - (tyy + tzz), m01 = txy - twz, m02 = txz + twy;
+    const v4d m10 = txy + twz, m11 = 1.0 - (txx + tzz), m12 = tyz - twx;
+    const v4d m20 = txz - twy, m21 = tyz + twx, m22 = 1.0 - (txx + tyy);
+    // w_p = (R P)^T w, al_p = (R P)^T al; tau = R P (D al_p + w_p x D w_p).
+    const v4d wp0 = m00 * wx + m10 * wy + m20 * wz;
+    const v4d wp1 = m01 * wx + m11 * wy + m21 * wz;
+    const v4d wp2 = m02 * wx + m12 * wy + m22 * wz;
+    const v4d al0 = m00 * lx + m10 * ly + m20 * lz;
+    const v4d al1 = m01 * lx + m11 * ly + m21 * lz;
+    const v4d al2 = m02 * lx + m12 * ly + m22 * lz;
+    const v4d iw0 = d0 * wp0, iw1 = d1 * wp1, iw2 = d2 * wp2;
+    const v4d e0 = d0 * al0 + (wp1 * iw2 - wp2 * iw1);
+    const v4d e1 = d1 * al1 + (wp2 * iw0 - wp0 * iw2);
+    const v4d e2 = d2 * al2 + (wp0 * iw1 - wp1 * iw0);
+    const v4d t0 = m00 * e0 + m01 * e1 + m02 * e2;
+    const v4d t1 = m10 * e0 + m11 * e1 + m12 * e2;
+    const v4d t2 = m20 * e0 + m21 * e1 + m22 * e2;
+    const v4d f0 = m * ax, f1 = m * (ay + g_up), f2 = m * az;
+    const v4d erot_l = 0.5 * (wp0 * iw0 + wp1 * iw1 + wp2 * iw2);
+    const v4d etr_l = 0.5 * m * (vx * vx + vy * vy + vz * vz);
+    s_mass += m;
+    const v4d mrx = m * rx, mry = m * ry, mrz = m * rz;
+    s_fm0 += mrx;
+    s_fm1 += mry;
+    s_fm2 += mrz;
+    s_f0 += f0;
+    s_f1 += f1;
+    s_f2 += f2;
+    s_m0 += t0 + (ry * f2 - rz * f1);
+    s_m1 += t1 + (rz * f0 - rx * f2);
+    s_m2 += t2 + (rx * f1 - ry * f0);
+    s_s00 += mrx * rx;
+    s_s01 += mrx * ry;
+    s_s02 += mrx * rz;
+    s_s11 += mry * ry;
+    s_s12 += mry * rz;
+    s_s22 += mrz * rz;
+    // entry (a, b) of R P D (R P)^T = sum_k D_k rp(a, k) rp(b, k)
+    s_i00 += d0 * m00 * m00 + d1 * m01 * m01 + d2 * m02 * m02;
+    s_i01 += d0 * m00 * m10 + d1 * m01 * m11 + d2 * m02 * m12;
+    s_i02 += d0 * m00 * m20 + d1 * m01 * m21 + d2 * m02 * m22;
+    s_i11 += d0 * m10 * m10 + d1 * m11 * m11 + d2 * m12 * m12;
+    s_i12 += d0 * m10 * m20 + d1 * m11 * m21 + d2 * m12 * m22;
+    s_i22 += d0 * m20 * m20 + d1 * m21 * m21 + d2 * m22 * m22;
+    const std::size_t count = std::min<std::size_t>(4, nseg - k0);
+    const std::size_t idx[4] = {i0, i1, i2, i3};
+    for (std::size_t l = 0; l < count; ++l) {
+      const std::size_t j = idx[l];
+      rf[j] = Eigen::Vector3d(f0[l], f1[l], f2[l]);
+      rt[j] = Eigen::Vector3d(t0[l], t1[l], t2[l]);
+      Eigen::Matrix3d& r = prot[j];
+      r(0, 0) = m00[l];
+      r(0, 1) = m01[l];
+      r(0, 2) = m02[l];
+      r(1, 0) = m10[l];
+      r(1, 1) = m11[l];
+      r(1, 2) = m12[l];
+      r(2, 0) = m20[l];
+      r(2, 1) = m21[l];
+      r(2, 2) = m22[l];
+      erot[j] = erot_l[l];
+      etr[j] = etr_l[l];
+    }
   }
-  second_moment(1, 0) = second_moment(0, 1);
-  second_moment(2, 0) = second_moment(0, 2);
-  second_moment(2, 1) = second_moment(1, 2);
+  const auto lane_sum = [](const v4d& v) { return ((v[0] + v[1]) + v[2]) + v[3]; };
+  const double mass = lane_sum(s_mass);
+  const Eigen::Vector3d first_moment(lane_sum(s_fm0), lane_sum(s_fm1), lane_sum(s_fm2));
+  const Eigen::Vector3d f_req(lane_sum(s_f0), lane_sum(s_f1), lane_sum(s_f2));
+  const Eigen::Vector3d m_req_o(lane_sum(s_m0), lane_sum(s_m1), lane_sum(s_m2));
+  Eigen::Matrix3d second_moment;  // sum m r r^T
+  second_moment(0, 0) = lane_sum(s_s00);
+  second_moment(0, 1) = lane_sum(s_s01);
+  second_moment(0, 2) = lane_sum(s_s02);
+  second_moment(1, 1) = lane_sum(s_s11);
+  second_moment(1, 2) = lane_sum(s_s12);
+  second_moment(2, 2) = lane_sum(s_s22);
+  Eigen::Matrix3d rotational_inertia;  // sum R P D (R P)^T
+  rotational_inertia(0, 0) = lane_sum(s_i00);
+  rotational_inertia(0, 1) = lane_sum(s_i01);
+  rotational_inertia(0, 2) = lane_sum(s_i02);
+  rotational_inertia(1, 1) = lane_sum(s_i11);
+  rotational_inertia(1, 2) = lane_sum(s_i12);
+  rotational_inertia(2, 2) = lane_sum(s_i22);
+  for (Eigen::Matrix3d* mat : {&second_moment, &rotational_inertia}) {
+    (*mat)(1, 0) = (*mat)(0, 1);
+    (*mat)(2, 0) = (*mat)(0, 2);
+    (*mat)(2, 1) = (*mat)(1, 2);
+  }
   const Eigen::Vector3d r_g =
       mass > 0.0 ? Eigen::Vector3d(first_moment / mass) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d com = origin + r_g;
@@ -208,18 +316,17 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
   std::size_t contacts = 0;
   for (int jj : model.segments) {
     const auto j = static_cast<std::size_t>(jj);
-    const Eigen::Vector3d& x = s.joint_positions_m[j];
+    const Eigen::Vector3d& x = xs[j];
     // Far above the ground even at the tip's reach: no contact (skips the rotation).
     const double above = x.y() - prm.ground_height_m - prm.contact_height_m;
-    if (above > 0.0 && above * above > model.tips_local_m[j].squaredNorm()) continue;
-    const Eigen::Vector3d tip = x + s.rotations[j] * model.tips_local_m[j];
-    const Eigen::Vector3d& p = (model.tip_contacts[j] && tip.y() < x.y()) ? tip : x;
+    if (above > 0.0 && above * above > tips[j].squaredNorm()) continue;
+    const Eigen::Vector3d tip = x + qs[j] * tips[j];
+    const Eigen::Vector3d& p = (tipc[j] && tip.y() < x.y()) ? tip : x;
     if (p.y() - prm.ground_height_m > prm.contact_height_m) continue;
-    const Eigen::Vector3d vp =
-        s.com_velocities_mps[j] + s.angular_velocities_radps[j].cross(p - s.coms_m[j]);
+    const Eigen::Vector3d vp = vs[j] + ws[j].cross(p - cs[j]);
     if (vp.norm() > prm.contact_speed_mps) continue;
-    d.in_contact[j] = 1;
-    d.contact_points_m[j] = p;
+    inc[j] = 1;
+    cp[j] = p;
     ++contacts;
   }
   d.contact_count = contacts;
@@ -234,9 +341,9 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     Eigen::Vector3d m_points = Eigen::Vector3d::Zero();
     for (int jj : model.segments) {
       const auto j = static_cast<std::size_t>(jj);
-      if (!d.in_contact[j]) continue;
-      d.contact_forces_N[j] = fk;
-      m_points += (d.contact_points_m[j] - com).cross(fk);
+      if (!inc[j]) continue;
+      cf[j] = fk;
+      m_points += (cp[j] - com).cross(fk);
     }
     Eigen::Vector3d m_free = m_req - m_points;
     const double m_max = fn * prm.contact_patch_radius_m;
@@ -244,34 +351,34 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     if (m_norm > m_max) m_free *= m_max / m_norm;
     for (int jj : model.segments) {
       const auto j = static_cast<std::size_t>(jj);
-      if (d.in_contact[j]) d.contact_torques_Nm[j] = share * m_free;
+      if (!inc[j]) continue;
+      ct[j] = share * m_free;
     }
   }
 
-  // 3. Leaves -> root (children have larger indices and are done first; their
-  // contributions already sit in joint_forces_N / joint_torques_Nm[j]).
+  // 3. Leaves -> root (children have larger indices and are done first;
+  // f_j, n_j already hold the segment's own and its contacts' parts).
   Eigen::Vector3d f_res = Eigen::Vector3d::Zero(), m_res = Eigen::Vector3d::Zero();
   for (std::size_t j = n; j-- > 0;) {
-    if (!model.is_term_joint[j]) continue;
-    const Eigen::Vector3d& x = s.joint_positions_m[j];
-    const Eigen::Vector3d& fj = d.required_forces_N[j];
-    const Eigen::Vector3d& fc = d.contact_forces_N[j];
-    const Eigen::Vector3d f = fj - fc + d.joint_forces_N[j];
-    Eigen::Vector3d t = d.required_torques_Nm[j] + (s.coms_m[j] - x).cross(fj) -
-                        d.contact_torques_Nm[j] + d.joint_torques_Nm[j];
-    if (d.in_contact[j]) t -= (d.contact_points_m[j] - x).cross(fc);
-    d.joint_forces_N[j] = f;
-    d.joint_torques_Nm[j] = t;
-    if (model.is_body_root[j]) {
+    if (!term[j]) continue;
+    const Eigen::Vector3d& x = xs[j];
+    const Eigen::Vector3d& fj = rf[j];
+    const Eigen::Vector3d& fc = cf[j];
+    const Eigen::Vector3d f = fj - fc + jf[j];
+    Eigen::Vector3d t = rt[j] + (cs[j] - x).cross(fj) - ct[j] + jt[j];
+    if (inc[j]) t -= (cp[j] - x).cross(fc);
+    jf[j] = f;
+    jt[j] = t;
+    if (broot[j]) {
       f_res += f;
       m_res += t + (x - com).cross(f);
       continue;
     }
-    const int p = model.parents[j];
+    const int p = par[j];
     if (p >= 0) {
       const auto pp = static_cast<std::size_t>(p);
-      d.joint_forces_N[pp] += f;
-      d.joint_torques_Nm[pp] += t + (x - s.joint_positions_m[pp]).cross(f);
+      jf[pp] += f;
+      jt[pp] += t + (x - xs[pp]).cross(f);
     }
   }
   d.residual_force_N = f_res;
@@ -285,25 +392,7 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     // S - M r_G r_G^T off the diagonal; the |r|^2 1 parts from the traces.
     const Eigen::Matrix3d shifted = second_moment - mass * r_g * r_g.transpose();
     Eigen::Matrix3d i_g = shifted.trace() * Eigen::Matrix3d::Identity() - shifted;
-    // sum_j R P D (R P)^T, upper triangle in scalars: entry (a, b) = sum_k D_k rp(a, k) rp(b, k).
-    double s00 = 0.0, s01 = 0.0, s02 = 0.0, s11 = 0.0, s12 = 0.0, s22 = 0.0;
-    for (int jj : model.segments) {
-      const auto j = static_cast<std::size_t>(jj);
-      const Eigen::Matrix3d& rp = d.principal_rotations[j];
-      const Eigen::Vector3d& dm = model.principal_moments_kgm2[j];
-      for (int k = 0; k < 3; ++k) {
-        const double x = rp(0, k), y = rp(1, k), z = rp(2, k), dk = dm[k];
-        s00 += dk * x * x;
-        s01 += dk * x * y;
-        s02 += dk * x * z;
-        s11 += dk * y * y;
-        s12 += dk * y * z;
-        s22 += dk * z * z;
-      }
-    }
-    Eigen::Matrix3d rot;
-    rot << s00, s01, s02, s01, s11, s12, s02, s12, s22;
-    i_g += rot;
+    i_g += rotational_inertia;
     const double tr = i_g.trace();
     if (tr > 0.0) {
       const Eigen::Matrix3d reg = i_g + 1e-9 * tr * Eigen::Matrix3d::Identity();
@@ -346,7 +435,11 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
 }
 
 // g = h + work of adjacent, contact and residual forces and of joint torques
-// over the step (trapezoid rule); formulas in the header.
+// over the step (trapezoid rule); formulas in the header. GCC 12 reports a
+// false maybe-uninitialized on the lane-wise construction of the quaternions
+// in the x86-64-v3 clone.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 MOCAP_MULTIVERSION_V3
 double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
                    double transition_time_s, const NewtonEulerData& da, const NewtonEulerData& db,
@@ -356,33 +449,115 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     throw std::invalid_argument("inverse dynamics results do not match the character model");
   detail::check_transition_time(transition_time_s);
   ws.rotation_steps.resize(n);
-  for (std::size_t j = 0; j < n; ++j)
-    ws.rotation_steps[j] = rotation_step(a.rotations[j], b.rotations[j]);
-  // The h part (energy.hpp), with the rotational kinetic energies taken from
-  // the inverse dynamics (principal axes: 1/2 sum D_k w_k^2). Equal to
-  // approximate_energy(a, b) up to round-off (1e-15 relative).
+  Eigen::Vector3d* const __restrict steps = ws.rotation_steps.data();
+  const Eigen::Quaterniond* const qa = a.rotations;
+  const Eigen::Quaterniond* const qb = b.rotations;
+  // Rotation steps log(q_B q_A^-1) of every joint, four at a time: the same
+  // series as rotation_step() (x = |v| / w < 1/8, atan(x) / x to x^18), the
+  // rare larger steps through rotation_vector(). Bitwise equal rotations give
+  // exactly zero (selected, so whatever the compiler fuses).
+  for (std::size_t j0 = 0; j0 < n; j0 += 4) {
+    const std::size_t i0 = j0, i1 = std::min(j0 + 1, n - 1), i2 = std::min(j0 + 2, n - 1),
+                      i3 = std::min(j0 + 3, n - 1);
+    const lanes::Quat4 from{v4d{qa[i0].w(), qa[i1].w(), qa[i2].w(), qa[i3].w()},
+                            v4d{qa[i0].x(), qa[i1].x(), qa[i2].x(), qa[i3].x()},
+                            v4d{qa[i0].y(), qa[i1].y(), qa[i2].y(), qa[i3].y()},
+                            v4d{qa[i0].z(), qa[i1].z(), qa[i2].z(), qa[i3].z()}};
+    const lanes::Quat4 to{v4d{qb[i0].w(), qb[i1].w(), qb[i2].w(), qb[i3].w()},
+                          v4d{qb[i0].x(), qb[i1].x(), qb[i2].x(), qb[i3].x()},
+                          v4d{qb[i0].y(), qb[i1].y(), qb[i2].y(), qb[i3].y()},
+                          v4d{qb[i0].z(), qb[i1].z(), qb[i2].z(), qb[i3].z()}};
+    lanes::Quat4 q;
+    lanes::mul_conj(to, from, q);
+    v4d x, y, z;
+    lanes::v4i series;
+    lanes::log_small(q, x, y, z, series);
+    lanes::v4i same;
+    lanes::same(from, to, same);
+    const std::size_t count = std::min<std::size_t>(4, n - j0);
+    for (std::size_t l = 0; l < count; ++l) {
+      if (same[l])
+        steps[j0 + l].setZero();
+      else if (series[l])
+        steps[j0 + l] = Eigen::Vector3d(x[l], y[l], z[l]);
+      else
+        steps[j0 + l] = rotation_vector(Eigen::Quaterniond(q.w[l], q.x[l], q.y[l], q.z[l]));
+    }
+  }
+  // The h part (energy.hpp), with the kinetic energies taken from the inverse
+  // dynamics (rotational: principal axes, 1/2 sum D_k w_k^2), four segments at
+  // a time (padding lanes as in inverse_dynamics: massless, discarded). Equal
+  // to approximate_energy(a, b) up to round-off (1e-15 relative).
   const double inv_t = 1.0 / transition_time_s;
   ws.h.reset(n);
-  double h_total = 0.0;
-  for (int jj : model.segments) {
-    const auto j = static_cast<std::size_t>(jj);
-    const double m = model.masses_kg[j];
-    const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
-    const double grav = std::abs(m * model.params.gravity_mps2 * dc.y());
-    const double k_u = 0.5 * m * dc.squaredNorm() * inv_t * inv_t;
-    const double h_seg = grav + transition_kinetic_change(da.translational_energies_J[j], k_u,
-                                                          db.translational_energies_J[j]);
-    // w^ in A's principal axes (the transition's rotational KE uses A's frame).
-    const Eigen::Vector3d w_hat =
-        da.principal_rotations[j].transpose() * (ws.rotation_steps[j] * inv_t);
-    const double h_joint = transition_kinetic_change(
-        da.rotational_energies_J[j],
-        0.5 * w_hat.dot(model.principal_moments_kgm2[j].cwiseProduct(w_hat)),
-        db.rotational_energies_J[j]);
-    ws.h.segment_J[j] = h_seg;
-    ws.h.joint_J[j] = h_joint;
-    h_total += h_seg + h_joint;
+  double* const __restrict h_seg_out = ws.h.segment_J.data();
+  double* const __restrict h_joint_out = ws.h.joint_J.data();
+  const std::size_t nseg = model.segments.size();
+  const int* const seg = model.segments.data();
+  const Eigen::Vector3d* const ca = a.coms_m;
+  const Eigen::Vector3d* const cb = b.coms_m;
+  const double* const mass_of = model.masses_kg.data();
+  const Eigen::Vector3d* const pm = model.principal_moments_kgm2.data();
+  const Eigen::Matrix3d* const prot_a = da.principal_rotations.data();
+  const double* const eta = da.translational_energies_J.data();
+  const double* const etb = db.translational_energies_J.data();
+  const double* const era = da.rotational_energies_J.data();
+  const double* const erb = db.rotational_energies_J.data();
+  const double g_acc = model.params.gravity_mps2;
+  v4d h_sum{};
+  for (std::size_t k0 = 0; k0 < nseg; k0 += 4) {
+    const std::size_t i0 = static_cast<std::size_t>(seg[k0]);
+    const std::size_t i1 = k0 + 1 < nseg ? static_cast<std::size_t>(seg[k0 + 1]) : i0;
+    const std::size_t i2 = k0 + 2 < nseg ? static_cast<std::size_t>(seg[k0 + 2]) : i0;
+    const std::size_t i3 = k0 + 3 < nseg ? static_cast<std::size_t>(seg[k0 + 3]) : i0;
+    const v4d live{1.0, k0 + 1 < nseg ? 1.0 : 0.0, k0 + 2 < nseg ? 1.0 : 0.0,
+                   k0 + 3 < nseg ? 1.0 : 0.0};
+    const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
+    const v4d dcx = v4d{cb[i0].x(), cb[i1].x(), cb[i2].x(), cb[i3].x()} -
+                    v4d{ca[i0].x(), ca[i1].x(), ca[i2].x(), ca[i3].x()};
+    const v4d dcy = v4d{cb[i0].y(), cb[i1].y(), cb[i2].y(), cb[i3].y()} -
+                    v4d{ca[i0].y(), ca[i1].y(), ca[i2].y(), ca[i3].y()};
+    const v4d dcz = v4d{cb[i0].z(), cb[i1].z(), cb[i2].z(), cb[i3].z()} -
+                    v4d{ca[i0].z(), ca[i1].z(), ca[i2].z(), ca[i3].z()};
+    const v4d grav_signed = m * g_acc * dcy;
+    const v4d grav = grav_signed < 0.0 ? -grav_signed : grav_signed;
+    const v4d k_u = 0.5 * m * (dcx * dcx + dcy * dcy + dcz * dcz) * inv_t * inv_t;
+    const v4d ka = live * v4d{eta[i0], eta[i1], eta[i2], eta[i3]};
+    const v4d kb = live * v4d{etb[i0], etb[i1], etb[i2], etb[i3]};
+    // transition_kinetic_change, lane-wise
+    const v4d dk = kb - ka;
+    const v4d adk = dk < 0.0 ? -dk : dk;
+    const v4d through = 2.0 * k_u - ka - kb;
+    const v4d h_seg = grav + (adk > through ? adk : through);
+    // w^ in A's principal axes: (R P)_A^T dphi / T.
+    const v4d sx = inv_t * v4d{steps[i0].x(), steps[i1].x(), steps[i2].x(), steps[i3].x()};
+    const v4d sy = inv_t * v4d{steps[i0].y(), steps[i1].y(), steps[i2].y(), steps[i3].y()};
+    const v4d sz = inv_t * v4d{steps[i0].z(), steps[i1].z(), steps[i2].z(), steps[i3].z()};
+    v4d k_w{};
+    for (int k = 0; k < 3; ++k) {  // column k of R P: principal axis k
+      const v4d px{prot_a[i0](0, k), prot_a[i1](0, k), prot_a[i2](0, k), prot_a[i3](0, k)};
+      const v4d py{prot_a[i0](1, k), prot_a[i1](1, k), prot_a[i2](1, k), prot_a[i3](1, k)};
+      const v4d pz{prot_a[i0](2, k), prot_a[i1](2, k), prot_a[i2](2, k), prot_a[i3](2, k)};
+      const v4d dk_m = live * v4d{pm[i0][k], pm[i1][k], pm[i2][k], pm[i3][k]};
+      const v4d wk = px * sx + py * sy + pz * sz;
+      k_w += dk_m * wk * wk;
+    }
+    k_w *= 0.5;
+    const v4d ra = live * v4d{era[i0], era[i1], era[i2], era[i3]};
+    const v4d rb = live * v4d{erb[i0], erb[i1], erb[i2], erb[i3]};
+    const v4d dr = rb - ra;
+    const v4d adr = dr < 0.0 ? -dr : dr;
+    const v4d through_r = 2.0 * k_w - ra - rb;
+    const v4d h_joint = adr > through_r ? adr : through_r;
+    h_sum += h_seg + h_joint;
+    const std::size_t idx[4] = {i0, i1, i2, i3};
+    const std::size_t count = std::min<std::size_t>(4, nseg - k0);
+    for (std::size_t l = 0; l < count; ++l) {
+      h_seg_out[idx[l]] = h_seg[l];
+      h_joint_out[idx[l]] = h_joint[l];
+    }
   }
+  const double h_total = ((h_sum[0] + h_sum[1]) + h_sum[2]) + h_sum[3];
   if (terms != nullptr) {
     terms->h = ws.h;
     terms->g.reset(n);
@@ -395,7 +570,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   double extra = 0.0;
   for (int jj : model.term_joints) {
     const auto j = static_cast<std::size_t>(jj);
-    const Eigen::Vector3d& dphi = ws.rotation_steps[j];
+    const Eigen::Vector3d& dphi = steps[j];
     double g_seg = 0.0;
     if (model.masses_kg[j] > 0.0) {
       const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
@@ -451,7 +626,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     if (!model.is_body_root[j]) {
       const int p = model.parents[j];
       const Eigen::Vector3d rel =
-          p >= 0 ? Eigen::Vector3d(dphi - ws.rotation_steps[static_cast<std::size_t>(p)]) : dphi;
+          p >= 0 ? Eigen::Vector3d(dphi - steps[static_cast<std::size_t>(p)]) : dphi;
       g_joint = std::abs(0.5 * (da.joint_torques_Nm[j] + db.joint_torques_Nm[j]).dot(rel));
       if (terms != nullptr) terms->joint_work_J[j] = g_joint;
     }
@@ -472,6 +647,8 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   }
   return h_total + extra + impulse;
 }
+
+#pragma GCC diagnostic pop
 
 std::vector<double> clip_step_energies(const DynamicsModel& model, const ClipDynamics& clip) {
   std::vector<double> steps;

@@ -360,6 +360,54 @@ TEST(EnergyProperties, VectorisedScanAgreesWithReference) {
   }
 }
 
+// The four-lane paths (common/src/lanes.hpp) against their scalar references,
+// on real clips and on steps large enough to leave the series (rotation_vector
+// through atan2): the clip kernel's rates against sequence_state, full_energy's
+// rotation steps against rotation_step, its h part against approximate_energy.
+TEST(EnergyProperties, LaneWisePathsAgreeWithScalarReferences) {
+  MOCAP_REQUIRE_DATA();
+  std::mt19937 rng(21);
+  for (const Clip& c : bn_clips()) {
+    const std::size_t n = c.motion.joint_count();
+    for (std::size_t f = 1; f + 1 < c.dyn.frame_count; f += 7) {
+      const PoseView prev{&c.motion.world_positions_m[(f - 1) * n],
+                          &c.motion.world_rotations[(f - 1) * n]};
+      const PoseView cur{&c.motion.world_positions_m[f * n], &c.motion.world_rotations[f * n]};
+      const PoseView next{&c.motion.world_positions_m[(f + 1) * n],
+                          &c.motion.world_rotations[(f + 1) * n]};
+      BodyState s;
+      sequence_state(c.model, &prev, cur, &next, c.motion.frame_time_s, s);
+      const StateView d = c.dyn.state(f);
+      for (std::size_t j = 0; j < n; ++j) {
+        const double v = 1.0 + s.angular_velocities_radps[j].norm();
+        ASSERT_LT((s.com_velocities_mps[j] - d.com_velocities_mps[j]).norm(), 1e-9) << c.name;
+        ASSERT_LT((s.angular_velocities_radps[j] - d.angular_velocities_radps[j]).norm(), 1e-12 * v)
+            << c.name << " frame " << f << " joint " << j;
+        ASSERT_LT((s.angular_accelerations_radps2[j] - d.angular_accelerations_radps2[j]).norm(),
+                  1e-9 * (1.0 + s.angular_accelerations_radps2[j].norm()))
+            << c.name;
+      }
+    }
+    // Steps of every size: random frame pairs (most leave the series), and equal states.
+    NewtonEulerWorkspace ws;
+    FullEnergyTerms terms;
+    for (int k = 0; k < 40; ++k) {
+      const StateView a = c.dyn.state(rng() % c.dyn.frame_count);
+      const StateView b = k % 8 == 0 ? a : c.dyn.state(rng() % c.dyn.frame_count);
+      full_energy(c.model, a, b, 0.2, ws, &terms);
+      for (std::size_t j = 0; j < n; ++j) {
+        const Eigen::Vector3d ref = rotation_step(a.rotations[j], b.rotations[j]);
+        if (k % 8 == 0) {
+          ASSERT_EQ(ws.rotation_steps[j], Eigen::Vector3d::Zero());
+        }
+        ASSERT_LT((ws.rotation_steps[j] - ref).norm(), 1e-13 * (1.0 + ref.norm())) << c.name;
+      }
+      const double h = approximate_energy(c.model, a, b, 0.2);
+      ASSERT_NEAR(terms.h.total(), h, 1e-12 * (1.0 + h)) << c.name;
+    }
+  }
+}
+
 // ------------------------------------------------------------ 7. kd-tree bound
 
 TEST(EnergyProperties, KdFeatureBoundNeverPrunesATopFrame) {

@@ -75,6 +75,8 @@ struct NewtonEulerData {
   /// n_j: torque on segment j from its parent about x_j, N m. At a body root: the residual torque.
   std::vector<Eigen::Vector3d> joint_torques_Nm;
   /// Ground reaction on segment j (0 when not in contact), applied at contact_points_m[j].
+  /// The three contact arrays are zero wherever in_contact is 0 (inverse_dynamics
+  /// relies on it to clear only the previous call's contacts: do not write them).
   std::vector<Eigen::Vector3d> contact_forces_N;
   std::vector<Eigen::Vector3d> contact_points_m;
   /// Free contact moment on segment j, N m.

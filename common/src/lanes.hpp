@@ -1,0 +1,63 @@
+#pragma once
+// Four-lane double vectors for the hot loops of the energy model (GCC / Clang
+// vector extension): one AVX2 register in the x86-64-v3 clones of
+// multiversion.hpp, two SSE2 registers in the baseline ones. The loops keep
+// four joints or segments in the four lanes, gathered from and scattered to
+// the per-joint Eigen arrays. Helpers take and give vectors by reference (no
+// vector-ABI dependence between the clones); they are inlined.
+#include <cstdint>
+
+namespace mocap::lanes {
+
+typedef double v4d __attribute__((vector_size(32)));
+typedef std::int64_t v4i __attribute__((vector_size(32)));  // lane masks (0 or -1)
+
+/// Four quaternions, lane-wise components.
+struct Quat4 {
+  v4d w, x, y, z;
+};
+
+/// q = b * conj(a) (Hamilton product), lane-wise: the rotation from a to b.
+inline void mul_conj(const Quat4& b, const Quat4& a, Quat4& q) {
+  q.w = b.w * a.w + b.x * a.x + b.y * a.y + b.z * a.z;
+  q.x = a.w * b.x - b.w * a.x - (b.y * a.z - b.z * a.y);
+  q.y = a.w * b.y - b.w * a.y - (b.z * a.x - b.x * a.z);
+  q.z = a.w * b.z - b.w * a.z - (b.x * a.y - b.y * a.x);
+}
+
+/// log of unit quaternions as rotation vectors (angle x axis), lane-wise, for
+/// the small rotations of one capture frame: q is first flipped to w >= 0 (the
+/// short way round, in place), then for x = |v| / w < 1/8 (angle < 14 degrees)
+/// log(q) = 2 v / w * atan(x) / x with the series of atan(x) / x to x^18
+/// (truncation < 1e-19), the series of rotation_vector(), here evaluated in
+/// Estrin's order with one division (a short dependency chain; equal to
+/// rotation_vector() to round-off). Lanes where `series` is 0 (false) need
+/// rotation_vector(q) instead (q as flipped here).
+inline void log_small(Quat4& q, v4d& rx, v4d& ry, v4d& rz, v4i& series) {
+  const v4d sign = q.w < 0.0 ? v4d{} - 1.0 : v4d{} + 1.0;
+  q.w *= sign;
+  q.x *= sign;
+  q.y *= sign;
+  q.z *= sign;
+  const v4d s2 = q.x * q.x + q.y * q.y + q.z * q.z;
+  const v4d inv_w = 1.0 / q.w;
+  const v4d y = s2 * (inv_w * inv_w);  // x^2
+  const v4d y2 = y * y, y4 = y2 * y2, y8 = y4 * y4;
+  // sum_k (-1)^k y^k / (2k + 1), k = 0 .. 9, in pairs
+  const v4d p01 = 1.0 + y * (-1.0 / 3.0), p23 = 1.0 / 5.0 + y * (-1.0 / 7.0);
+  const v4d p45 = 1.0 / 9.0 + y * (-1.0 / 11.0), p67 = 1.0 / 13.0 + y * (-1.0 / 15.0);
+  const v4d p89 = 1.0 / 17.0 + y * (-1.0 / 19.0);
+  const v4d p = (p01 + y2 * p23) + y4 * (p45 + y2 * p67) + y8 * p89;
+  const v4d scale = 2.0 * p * inv_w;
+  rx = q.x * scale;
+  ry = q.y * scale;
+  rz = q.z * scale;
+  series = s2 < 0.015625 * q.w * q.w;
+}
+
+/// equal = -1 in lanes where all four components of a and b are bitwise equal, else 0.
+inline void same(const Quat4& a, const Quat4& b, v4i& equal) {
+  equal = (a.w == b.w) & (a.x == b.x) & (a.y == b.y) & (a.z == b.z);
+}
+
+}  // namespace mocap::lanes
