@@ -37,8 +37,28 @@ nlohmann::json measures_json(const mocap::TransitionMeasures& m) {
           {"foot_sliding_m", m.foot_sliding_m},
           {"range_violations", m.range_violations},
           {"peak_angular_speed_radps", m.peak_angular_speed_radps},
-          {"step_energies_J", m.step_energies_J}};
+          {"step_energies_J", m.step_energies_J},
+          {"g_split_J",
+           {{"h", m.energy_split.h_J},
+            {"adjacent", m.energy_split.adjacent_J},
+            {"contact", m.energy_split.contact_J},
+            {"joint", m.energy_split.joint_J},
+            {"residual_work", m.energy_split.residual_work_J},
+            {"residual_impulse", m.energy_split.residual_impulse_J}}}};
 }
+
+// Sums of the g terms over gaps (one method).
+struct SplitSum {
+  double h = 0, adjacent = 0, contact = 0, joint = 0, residual_work = 0, residual_impulse = 0;
+  void add(const mocap::TransitionMeasures& m) {
+    h += m.energy_split.h_J;
+    adjacent += m.energy_split.adjacent_J;
+    contact += m.energy_split.contact_J;
+    joint += m.energy_split.joint_J;
+    residual_work += m.energy_split.residual_work_J;
+    residual_impulse += m.energy_split.residual_impulse_J;
+  }
+};
 
 }  // namespace
 
@@ -108,6 +128,7 @@ int main(int argc, char** argv) {
     std::size_t lower = 0, slide_ok = 0;
     double sum_a = 0, sum_s = 0, sum_i = 0, slide_a = 0, slide_s = 0, slide_i = 0;
     std::size_t viol_a = 0, viol_s = 0, viol_i = 0;
+    SplitSum split_a, split_s;
     std::printf("| # | from (frame) | to (frame) | frames | g A* (J) | g slerp (J) | g inert. (J) | A*/slerp | slide A* (m) | slide slerp (m) | viol. A*/slerp | peak ω A* (rad/s) | time A* (ms) |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (std::size_t gi = 0; gi < specs.size(); ++gi) {
@@ -169,6 +190,8 @@ int main(int argc, char** argv) {
       viol_a += ma.range_violations;
       viol_s += ms_.range_violations;
       viol_i += mi.range_violations;
+      split_a.add(ma);
+      split_s.add(ms_);
       std::printf("| %zu | %s (%zu) | %s (%zu) | %zu | %.1f | %.1f | %.1f | %.2f | %.3f | %.3f | %zu/%zu | %.1f | %.1f |\n",
                   gi + 1, file_name(cx.path).c_str(), a, file_name(cy.path).c_str(), b, ma.frames,
                   ma.energy_J, ms_.energy_J, mi.energy_J, ma.energy_J / ms_.energy_J, ma.foot_sliding_m,
@@ -200,6 +223,19 @@ int main(int argc, char** argv) {
     std::printf("A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time median %.1f ms, "
                 "max %.1f ms.\n",
                 median, sorted.back(), cpu_median, cpu_max);
+    const auto share = [&](double part, double sum) { return 100.0 * part / sum; };
+    const double ta = sum_a, ts = sum_s;
+    std::printf("g by term (mean per gap, J; %% of the method's g), A* / slerp: h %.1f / %.1f (%.0f%% / %.0f%%), "
+                "adjacent %.1f / %.1f (%.0f%% / %.0f%%), contact %.1f / %.1f (%.0f%% / %.0f%%), joint %.1f / %.1f "
+                "(%.0f%% / %.0f%%), residual work %.1f / %.1f (%.0f%% / %.0f%%), residual impulse %.1f / %.1f "
+                "(%.0f%% / %.0f%%).\n",
+                split_a.h / n, split_s.h / n, share(split_a.h, ta), share(split_s.h, ts), split_a.adjacent / n,
+                split_s.adjacent / n, share(split_a.adjacent, ta), share(split_s.adjacent, ts), split_a.contact / n,
+                split_s.contact / n, share(split_a.contact, ta), share(split_s.contact, ts), split_a.joint / n,
+                split_s.joint / n, share(split_a.joint, ta), share(split_s.joint, ts), split_a.residual_work / n,
+                split_s.residual_work / n, share(split_a.residual_work, ta), share(split_s.residual_work, ts),
+                split_a.residual_impulse / n, split_s.residual_impulse / n, share(split_a.residual_impulse, ta),
+                share(split_s.residual_impulse, ts));
     if (!json_path.empty()) {
       nlohmann::json out = {{"gaps", rows},
                             {"summary",

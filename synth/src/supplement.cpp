@@ -628,11 +628,19 @@ TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<S
   TransitionMeasures m;
   m.frames = frames.size();
   NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  TransitionMeasures::EnergySplit& split = m.energy_split;
   for (std::size_t k = 1; k + 2 < L; ++k) {
     const double g = full_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
-                                 ids[k + 1], ws);
+                                 ids[k + 1], ws, &terms);
     m.step_energies_J.push_back(g);
     m.energy_J += g;
+    split.h_J += terms.h.total();
+    split.adjacent_J += std::accumulate(terms.adjacent_work_J.begin(), terms.adjacent_work_J.end(), 0.0);
+    split.contact_J += std::accumulate(terms.contact_work_J.begin(), terms.contact_work_J.end(), 0.0);
+    split.joint_J += std::accumulate(terms.joint_work_J.begin(), terms.joint_work_J.end(), 0.0);
+    split.residual_work_J += terms.residual_work_J;
+    split.residual_impulse_J += terms.residual_impulse_J;
     m.approximate_energy_J += approximate_energy(sk.model, states[k].view(), states[k + 1].view(), dt);
     m.foot_sliding_m += step_foot_sliding(sk, world[k], world[k + 1], dt);
     for (std::size_t j = 0; j < n; ++j) {

@@ -251,6 +251,13 @@ TEST(SynthSupplement, BaselinesHitTheirDefinitions) {
     EXPECT_GE(m.energy_J, m.approximate_energy_J - 1e-9);
     EXPECT_GT(m.energy_J, 0.0);
     EXPECT_GT(m.peak_angular_speed_radps, 0.0);
+    // The split of g by term adds up to g; its h part is h.
+    const auto& t = m.energy_split;
+    for (double part : {t.h_J, t.adjacent_J, t.contact_J, t.joint_J, t.residual_work_J, t.residual_impulse_J})
+      EXPECT_GE(part, 0.0);
+    EXPECT_NEAR(t.h_J + t.adjacent_J + t.contact_J + t.joint_J + t.residual_work_J + t.residual_impulse_J,
+                m.energy_J, 1e-9 * m.energy_J);
+    EXPECT_NEAR(t.h_J, m.approximate_energy_J, 1e-9 * m.energy_J);
   }
 }
 

@@ -202,6 +202,20 @@ struct TransitionMeasures {
   double peak_angular_speed_radps = 0.0;
   /// g of each step (frames + 1 values), joules.
   std::vector<double> step_energies_J;
+  /// energy_J split by term (docs/energy.md, "g"), summed over the same
+  /// steps; the six add up to energy_J. h_J is the h part of g (equal to
+  /// approximate_energy_J up to round-off), adjacent_J the work of the
+  /// adjacent segments' forces, contact_J the ground reaction's (friction
+  /// included), joint_J the joint torques', residual_work_J and
+  /// residual_impulse_J the root residual's (what no contact supplies).
+  struct EnergySplit {
+    double h_J = 0.0;
+    double adjacent_J = 0.0;
+    double contact_J = 0.0;
+    double joint_J = 0.0;
+    double residual_work_J = 0.0;
+    double residual_impulse_J = 0.0;
+  } energy_split;
 };
 TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames);
 
