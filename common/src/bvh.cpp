@@ -145,6 +145,16 @@ class BvhParser {
   BvhParser(std::string_view text, const std::string& source)
       : p_(text.data()), end_(text.data() + text.size()), source_(source) {}
 
+  // Only frames [first, first + count) are read (parse_bvh_window): the frame
+  // lines before them are skipped to their newline unread, those after them
+  // are not looked at.
+  void set_window(std::size_t first, std::size_t count) {
+    window_ = true;
+    first_ = first;
+    count_ = count;
+  }
+  std::size_t declared_frames() const { return declared_; }
+
   RawClip parse() {
     RawClip clip;
     clip.source = source_;
@@ -442,6 +452,7 @@ class BvhParser {
       fail(time_line, "frame time must be a positive number of seconds, found " + show(time_text));
     clip.frame_time_s = frame_time;
     clip.frame_count = declared;
+    declared_ = declared;
 
     const std::size_t cc = clip.channel_count;
     // Rest of the "Frame Time" line must be empty.
@@ -460,13 +471,17 @@ class BvhParser {
     // bytes plus its newline, so the remaining text cannot hold more rows than this.
     const auto remaining = static_cast<std::size_t>(end_ - p_);
     const std::size_t max_rows = remaining / (2 * cc) + 1;
-    std::size_t capacity = std::min(declared, max_rows);
+    // Window: rows [first, last) of the file are kept, at row f - first.
+    const std::size_t first = window_ ? std::min(first_, declared) : 0;
+    const std::size_t last = window_ ? first + std::min(count_, declared - first) : declared;
+    std::size_t capacity = std::min(last - first, max_rows);
     clip.values.resize(capacity * cc);
 
     std::size_t f = 0;
     const char* p = p_;
     const char* const end = end_;
     std::size_t line = line_;
+    bool stopped = false;
     for (;;) {
       // Skip blank lines (and the newline ending the previous line).
       while (p < end && is_space(*p)) {
@@ -480,11 +495,21 @@ class BvhParser {
         fail(line, "more frame lines than 'Frames: " + std::to_string(declared) + "' (line " +
                        std::to_string(frames_line) + "): expected the end of the file");
       }
-      if (f == capacity) {  // cannot happen (see max_rows); stay safe anyway
-        capacity = std::min(declared, capacity * 2 + 1);
+      if (f < first) {  // window: a line before it, skipped unread
+        const void* nl = std::memchr(p, '\n', static_cast<std::size_t>(end - p));
+        p = nl != nullptr ? static_cast<const char*>(nl) : end;
+        ++f;
+        continue;
+      }
+      if (f == last) {  // window: the rest is not looked at
+        stopped = true;
+        break;
+      }
+      if (f - first == capacity) {  // cannot happen (see max_rows); stay safe anyway
+        capacity = std::min(last - first, capacity * 2 + 1);
         clip.values.resize(capacity * cc);
       }
-      double* out = clip.values.data() + f * cc;
+      double* out = clip.values.data() + (f - first) * cc;
       for (std::size_t c = 0; c < cc; ++c) {
         while (p < end && is_blank(*p)) ++p;
         if (p == end || *p == '\n')
@@ -511,14 +536,17 @@ class BvhParser {
     }
     p_ = p;
     line_ = line;
-    if (f != declared)
+    if (f != declared && !stopped)
       fail(line, "fewer frame lines (" + std::to_string(f) + ") than 'Frames: " + std::to_string(declared) +
                      "' (line " + std::to_string(frames_line) + "): expected more frames");
-    clip.values.resize(f * cc);
+    clip.frame_count = f - first;
+    clip.values.resize(clip.frame_count * cc);
   }
 
   const char* p_;
   const char* end_;
+  bool window_ = false;
+  std::size_t first_ = 0, count_ = 0, declared_ = 0;
   std::string source_;
   std::size_t line_ = 1;
   std::size_t token_line_ = 1;
@@ -579,6 +607,17 @@ class Writer {
 
 RawClip parse_bvh(std::string_view text, const std::string& source) {
   return BvhParser(text, source).parse();
+}
+
+BvhWindow parse_bvh_window(std::string_view text, const std::string& source, std::size_t first,
+                           std::size_t count) {
+  BvhParser parser(text, source);
+  parser.set_window(first, count);
+  BvhWindow out;
+  out.clip = parser.parse();
+  out.first_frame = std::min(first, parser.declared_frames());
+  out.file_frame_count = parser.declared_frames();
+  return out;
 }
 
 RawClip read_bvh_file(const std::filesystem::path& path) {

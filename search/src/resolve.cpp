@@ -3,11 +3,13 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 
 #include "mocap/body.hpp"
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
+#include "mocap/hdf5.hpp"
 #include "mocap/units.hpp"
 
 namespace mocap {
@@ -65,6 +67,29 @@ std::vector<int> map_joints(const Query& q, const std::string& path, const Index
 
 }  // namespace
 
+std::shared_ptr<const QueryBvhFile> QueryBvhCache::store(const std::string& key,
+                                                         std::shared_ptr<QueryBvhFile> entry) {
+  std::lock_guard lock(mutex_);
+  if (entries_.size() >= kBvhCacheEntries) entries_.clear();
+  entries_[key] = entry;
+  return entry;
+}
+
+namespace {
+
+// The whole file from its parsed text, as get() builds it.
+std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& unit_option) {
+  std::optional<LengthUnit> unit;
+  if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
+  const LengthUnit u = unit ? *unit : detect_unit(raw);
+  auto loaded = std::make_shared<QueryBvhFile>();
+  loaded->motion = clip_motion_from_raw(raw, unit_scale_m(u));
+  loaded->file_frame_count = loaded->motion.frame_count;
+  return loaded;
+}
+
+}  // namespace
+
 std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::path& path,
                                                const std::string& unit_option) {
   std::error_code ec;
@@ -77,18 +102,68 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::pa
     auto it = entries_.find(key);
     if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size) return it->second;
   }
-  const RawClip raw = read_bvh_file(path);
-  std::optional<LengthUnit> unit;
-  if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
-  const LengthUnit u = unit ? *unit : detect_unit(raw);
-  auto loaded = std::make_shared<QueryBvhFile>();
-  loaded->motion = clip_motion_from_raw(raw, unit_scale_m(u));
+  auto loaded = whole_file(read_bvh_file(path), unit_option);
   loaded->mtime = mtime;
   loaded->size = size;
+  return store(key, std::move(loaded));
+}
+
+void QueryBvhCache::use_index(const Index& index) {
   std::lock_guard lock(mutex_);
-  if (entries_.size() >= kBvhCacheEntries) entries_.clear();
-  entries_[key] = loaded;
-  return loaded;
+  known_.clear();
+  known_unit_option_ = index.info().unit_option;
+  for (const IndexClip& c : index.clips())
+    known_[c.path] = {c.size_bytes, c.content_hash, c.unit_scale_m};
+}
+
+std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesystem::path& path,
+                                                              const std::string& unit_option,
+                                                              std::size_t frame,
+                                                              std::size_t radius) {
+  if (known_.empty() || unit_option != known_unit_option_) return get(path, unit_option);
+  const auto it_known = known_.find(std::filesystem::absolute(path).lexically_normal().string());
+  if (it_known == known_.end()) return get(path, unit_option);
+  std::error_code ec;
+  const auto mtime = std::filesystem::last_write_time(path, ec);
+  const auto size = ec ? 0 : std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path.string(), 0, "cannot read the BVH file: " + ec.message());
+  if (size != it_known->second.size) return get(path, unit_option);
+  const std::string key = unit_option + "|" + path.string();
+  const std::string window_key = fmt::format("{}@{}/{}", key, frame, radius);
+  {
+    std::lock_guard lock(mutex_);
+    for (const std::string* k : {&key, &window_key}) {
+      auto it = entries_.find(*k);
+      if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size)
+        return it->second;
+    }
+  }
+  std::string text;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
+    text.resize(static_cast<std::size_t>(size));
+    in.read(text.data(), static_cast<std::streamsize>(size));
+    text.resize(static_cast<std::size_t>(in.gcount()));
+    if (in.bad()) throw InputError(path.string(), 0, "cannot read file");
+  }
+  std::shared_ptr<QueryBvhFile> loaded;
+  if (xxh64(text.data(), text.size()) == it_known->second.hash) {
+    // The indexer parsed these bytes: the window's lines are all that is needed.
+    const std::size_t first = frame >= radius ? frame - radius : 0;
+    const BvhWindow w = parse_bvh_window(text, path.string(), first, frame - first + radius + 1);
+    loaded = std::make_shared<QueryBvhFile>();
+    loaded->motion = clip_motion_from_raw(w.clip, it_known->second.unit_scale_m);
+    loaded->first_frame = w.first_frame;
+    loaded->file_frame_count = w.file_frame_count;
+    loaded->mtime = mtime;
+    loaded->size = size;
+    return store(window_key, std::move(loaded));
+  }
+  loaded = whole_file(parse_bvh(text, path.string()), unit_option);
+  loaded->mtime = mtime;
+  loaded->size = size;
+  return store(key, std::move(loaded));
 }
 
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
@@ -105,15 +180,16 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     out.from_bvh = true;
     std::shared_ptr<const QueryBvhFile> bvh;
     try {
-      bvh = cache.get(*spec.bvh, unit_option);
+      // The +-2 frame window below is all that is read of the file.
+      bvh = cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
     } catch (const InputError& e) {
       fail(q, path + ".bvh", e.what());
     }
     const ClipMotion& m = bvh->motion;
-    if (spec.bvh_frame >= m.frame_count)
+    if (spec.bvh_frame >= bvh->file_frame_count)
       fail(q, path + ".frame",
            fmt::format("frame {} out of range: {} has {} frames (0-based)", spec.bvh_frame,
-                       spec.bvh->string(), m.frame_count));
+                       spec.bvh->string(), bvh->file_frame_count));
     const std::vector<int> map = map_joints(q, path, sk, model, m.skeleton, *spec.bvh);
     // Pose of the file's frames around bvh_frame on the index skeleton: the
     // file's local rotations (identity for unmapped joints), the index
@@ -121,7 +197,9 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     // position channels. The +-2 frame window gives exactly the clip's
     // finite-difference rates at the frame (dynamics.hpp).
     const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
-    const std::size_t f1 = std::min(m.frame_count - 1, spec.bvh_frame + 2);
+    const std::size_t f1 = std::min(bvh->file_frame_count - 1, spec.bvh_frame + 2);
+    // Frame f of the file is row f - base of `m` (a window or the whole file).
+    const std::size_t base = bvh->first_frame;
     const std::size_t n = f1 - f0 + 1;
     const std::size_t fj = m.joint_count();
     std::vector<Eigen::Vector3d> positions(n * nj);
@@ -135,12 +213,12 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       for (std::size_t j = 0; j < nj; ++j) {
         const int fjnt = map[j];
         const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
-        local.rotations[j] = fjnt >= 0 ? m.local_rotations[f * fj + static_cast<std::size_t>(fjnt)]
+        local.rotations[j] = fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
                                        : Eigen::Quaterniond::Identity();
         const bool file_pos = fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
         local.translations_m[j] =
             (file_pos && skel.channels[j].has_position())
-                ? Eigen::Vector3d(m.local_translations_m[f * fj + static_cast<std::size_t>(fjnt)] * scale)
+                ? Eigen::Vector3d(m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] * scale)
                 : Eigen::Vector3d(skel.offsets_m[j] * scale);
       }
       if (f == spec.bvh_frame) locals_at_frame = local.rotations;

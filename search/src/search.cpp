@@ -138,6 +138,8 @@ struct FrameArrays {
 constexpr std::size_t kBoundFields = 10;  // cmin xyz, cmax xyz, KE min max, KE_rot min max
 constexpr std::size_t kBlock = 16;
 constexpr std::size_t kGroup = 16;  // clips per group (group bound tables)
+constexpr std::size_t kLanes = 16;  // clips per lane-major tile (box_bounds_lanes)
+static_assert(kGroup == kLanes, "a group's clip bounds are one lane-major tile");
 
 struct SkelData {
   std::uint32_t k = 0;
@@ -160,6 +162,11 @@ struct SkelData {
   std::vector<float> block_bounds, clip_bounds, block_root, clip_root;
   // The same for groups of kGroup consecutive clip rows (union of their clips).
   std::vector<float> group_bounds, group_root;
+  // The clip bound table again, lane-major for SIMD over a group's clips
+  // (box_bounds_lanes): tile g holds clip rows [kLanes g, kLanes g + kLanes)
+  // (group g) as [kBoundFields][segments][kLanes] floats, and their root
+  // boxes as [6][kLanes] (unused lanes are zero).
+  std::vector<float> clip_soa, clip_root_soa;
   const float* kd = nullptr;  // [N][S*3]
   std::vector<float> kd_own;  // a query character's kd features (kd points here)
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
@@ -315,6 +322,21 @@ void build_bound_tables(SkelData& sd) {
       }
     }
   });
+  // Lane-major copies (box_bounds_lanes).
+  auto lanes = [&](const std::vector<float>& rows, const std::vector<float>& roots, std::size_t count,
+                   std::vector<float>& out, std::vector<float>& out_root) {
+    const std::size_t tiles = (count + kLanes - 1) / kLanes, tw = kBoundFields * real * kLanes;
+    out.assign(tiles * tw, 0.0f);
+    out_root.assign(tiles * 6 * kLanes, 0.0f);
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t t = i / kLanes, l = i % kLanes;
+      for (std::size_t f = 0; f < kBoundFields; ++f)
+        for (std::size_t b = 0; b < real; ++b)
+          out[t * tw + (f * real + b) * kLanes + l] = rows[i * w + f * s + b];
+      for (std::size_t a = 0; a < 6; ++a) out_root[(t * 6 + a) * kLanes + l] = roots[i * 6 + a];
+    }
+  };
+  lanes(sd.clip_bounds, sd.clip_root, sd.clips.size(), sd.clip_soa, sd.clip_root_soa);
   const std::size_t groups = (sd.clips.size() + kGroup - 1) / kGroup;
   sd.group_bounds.assign(groups * w, 0.0f);
   sd.group_root.assign(groups * 6, 0.0f);
@@ -470,6 +492,81 @@ float box_bound(const BoundQuery& q, const float* __restrict row, const float* _
     return acc;
   }
   return 0.0f;
+}
+
+// Function multiversioning as in common/src/multiversion.hpp (an AVX-512 and
+// an AVX2 clone next to the baseline one, picked at load time).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    !defined(MOCAP_NO_TARGET_CLONES) && !defined(__SANITIZE_ADDRESS__)
+#define MOCAP_SEARCH_MULTIVERSION \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define MOCAP_SEARCH_MULTIVERSION
+#endif
+
+// box_bound for the kLanes boxes of one lane-major tile (SkelData::clip_soa)
+// at once, vectorised over the boxes: out[l] bounds h(Q -> F) for every
+// frame F of box l. The same terms as box_bound (summed in another
+// order: the caller's slack covers it); 0 for partial query frames.
+MOCAP_SEARCH_MULTIVERSION
+void box_bounds_lanes(const BoundQuery& q, const float* __restrict tile,
+                      const float* __restrict root, std::size_t segments, float* __restrict out) {
+  float acc[kLanes];
+  for (std::size_t l = 0; l < kLanes; ++l) acc[l] = 0.0f;
+  const std::size_t n = segments * kLanes;
+  if (q.kind == FrameKind::full) {
+    for (std::size_t b = 0; b < segments; ++b) {
+      const float ax = q.ax[b], ay = q.ay[b], az = q.az[b], ka = q.ka[b], kar = q.kar[b];
+      const float mg = q.mg[b], mh = q.mh[b];
+      const float* __restrict lx = tile + b * kLanes;
+      const float* __restrict ly = lx + n;
+      const float* __restrict lz = lx + 2 * n;
+      const float* __restrict hx = lx + 3 * n;
+      const float* __restrict hy = lx + 4 * n;
+      const float* __restrict hz = lx + 5 * n;
+      const float* __restrict klo = lx + 6 * n;
+      const float* __restrict khi = lx + 7 * n;
+      const float* __restrict rlo = lx + 8 * n;
+      const float* __restrict rhi = lx + 9 * n;
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        const float dx = std::max(std::max(lx[l] - ax, ax - hx[l]), 0.0f);
+        const float dy = std::max(std::max(ly[l] - ay, ay - hy[l]), 0.0f);
+        const float dz = std::max(std::max(lz[l] - az, az - hz[l]), 0.0f);
+        const float ku = mh * ((dx * dx + dy * dy) + dz * dz);
+        const float x = std::min(std::max(std::max(ku, ka), klo[l]), khi[l]);
+        const float phi = std::max(std::max(x - ka, ka - x), ((ku + ku) - ka) - x);
+        const float rot = std::max(std::max(rlo[l] - kar, kar - rhi[l]), 0.0f);
+        acc[l] += (mg * dy + phi) + rot;
+      }
+    }
+  } else if (q.kind == FrameKind::root_only) {
+    float d2[kLanes], dy[kLanes];
+    for (std::size_t l = 0; l < kLanes; ++l) d2[l] = dy[l] = 0.0f;
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (!q.given[a]) continue;
+      const float p = q.p[a];
+      const float* __restrict lo = root + a * kLanes;
+      const float* __restrict hi = root + (a + 3) * kLanes;
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        const float d = std::max(std::max(lo[l] - p, p - hi[l]), 0.0f);
+        d2[l] += d * d;
+        if (a == 1) dy[l] = d;
+      }
+    }
+    for (std::size_t l = 0; l < kLanes; ++l) acc[l] = q.total_mg * dy[l];
+    for (std::size_t b = 0; b < segments; ++b) {
+      const float m = q.m_inv_t2[b];
+      const float* __restrict klo = tile + 6 * n + b * kLanes;
+      const float* __restrict khi = tile + 7 * n + b * kLanes;
+      const float* __restrict rlo = tile + 8 * n + b * kLanes;
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        const float c = m * d2[l];
+        const float x = std::min(std::max(0.5f * c, klo[l]), khi[l]);
+        acc[l] += std::max(x, c - x) + rlo[l];
+      }
+    }
+  }
+  for (std::size_t l = 0; l < kLanes; ++l) out[l] = acc[l];
 }
 
 // A bound computed in float from float32 data is compared with scores
@@ -664,6 +761,8 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
     if (index.label_keys()[i] == "style") m.style_key = static_cast<int>(i);
   }
   m.character = index_character(index);
+  // Query frames from indexed, unchanged files: only their +-2 frame window is parsed.
+  m.bvh_cache.use_index(index);
   for (std::uint32_t k = 0; k < index.skeletons().size(); ++k) {
     auto sd = std::make_unique<SkelData>();
     init_skel_data(index, k, index.dynamics_model(k), *sd);
@@ -707,6 +806,12 @@ struct Scratch {
   std::vector<float> fbuf;
   std::vector<double> a, b, la, lb;
   std::vector<std::uint8_t> skip_a, skip_b;
+  // eval_clip_blocks: per block suffix / prefix minima, needed blocks.
+  std::vector<double> sb, pa;
+  std::vector<std::uint8_t> need_a, need_b;
+  // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
+  std::vector<float> clip_x;
+  std::vector<double> blk_a, blk_b;
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   // Database frames converted for partial_approximate_energy.
   std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
@@ -1218,6 +1323,157 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
   return true;
 }
 
+// World mode, exact, both query frames bounded by boxes only (full or
+// root-only, no per-frame bounds): eval_clip_world's decisions taken per
+// 16-frame block. lba / lbb are the box bounds of the clip's blocks (as
+// double); every bound of a frame is its block's, so a block's frames differ
+// only by which neighbours count as "s < e" (the first / last frame of a
+// block), and the block is scanned exactly when eval_clip_world scans its
+// chunk: same values, same counters, same answer, without per-frame passes.
+bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, const double* lba,
+                      const double* lbb, Scratch& sc, ClipCounters& cnt, Entry& out) {
+  const SkelData& sd = *c.sd;
+  const std::size_t k = ci.frame_count;
+  const std::size_t nb = (k + kBlock - 1) / kBlock;
+  auto first = [](std::size_t bl) { return bl * kBlock; };
+  auto frames = [&](std::size_t bl) { return std::min(k, bl * kBlock + kBlock) - bl * kBlock; };
+  // sb[b] = min_{g >= b} lbb[g] (sb[nb] = inf); pa[b + 1] = min_{g <= b} lba[g] (pa[0] = inf).
+  std::vector<double>& sb = sc.sb;
+  std::vector<double>& pa = sc.pa;
+  sb.resize(nb + 1);
+  pa.resize(nb + 1);
+  sb[nb] = kInf;
+  for (std::size_t bl = nb; bl-- > 0;) sb[bl] = std::min(sb[bl + 1], lbb[bl]);
+  pa[0] = kInf;
+  for (std::size_t bl = 0; bl < nb; ++bl) pa[bl + 1] = std::min(pa[bl], lba[bl]);
+  // Frame s of block b needs a(s) if lba[b] + min_{e > s} lb(e) can reach tau:
+  // sb[b] for all but the block's last frame, sb[b + 1] for it. Frame e
+  // needs b(e) if lbb[b] + min_{s < e} la(s) can: pa[b + 1], or pa[b] for
+  // the block's first frame.
+  std::vector<std::uint8_t>& need_a = sc.need_a;
+  std::vector<std::uint8_t>& need_b = sc.need_b;
+  need_a.assign(nb, 0);
+  need_b.assign(nb, 0);
+  double clip_lb = kInf;
+  std::size_t count_a = 0, count_b = 0;
+  for (std::size_t bl = 0; bl < nb; ++bl) {
+    const double xa = lba[bl] + (frames(bl) >= 2 ? sb[bl] : sb[bl + 1]);
+    clip_lb = std::min(clip_lb, xa);
+    need_a[bl] = !(safe(xa) > tau);
+    const double xb = lbb[bl] + (frames(bl) >= 2 ? pa[bl + 1] : pa[bl]);
+    need_b[bl] = !(safe(xb) > tau);
+    count_a += need_a[bl];
+    count_b += need_b[bl];
+  }
+  if (safe(clip_lb) > tau) {
+    cnt.clip_pruned = true;
+    cnt.pruned += 2 * k;
+    return false;
+  }
+  double* a = sc.a.data();
+  double* b = sc.b.data();
+  if (sc.a.size() < k) {
+    sc.a.resize(k);
+    sc.b.resize(k);
+    a = sc.a.data();
+    b = sc.b.data();
+  }
+  // Scans the needed blocks of one side (chunks shared with the other pair: copied).
+  auto side = [&](const ResolvedFrame& q, const std::vector<std::uint8_t>& need, double* dst,
+                  FrameCache* cache) {
+    double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
+    std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
+      if (!need[bl]) {
+        cnt.pruned += f1 - f0;
+      } else if (cd != nullptr && cd[f0]) {
+        std::copy(cv + f0, cv + f1, dst + f0);
+      } else {
+        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
+                 std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
+        cnt.evaluated += f1 - f0;
+        if (cd != nullptr) {
+          std::copy(dst + f0, dst + f1, cv + f0);
+          std::fill(cd + f0, cd + f1, std::uint8_t{1});
+        }
+      }
+    }
+  };
+  // The side with fewer blocks first; then the other side decided again with
+  // its true values (+inf where not computed) in place of its bounds, for the
+  // frames its bounds kept (docs/search.md "Frame pruning").
+  if (count_a <= count_b) {
+    side(*c.qa, need_a, a, c.cache_a);
+    double pm = kInf;  // min_{s < first frame of the block} of the computed a(s)
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t f0 = first(bl), n = frames(bl);
+      // min_{s < last frame of the block} of the computed a(s)
+      double pm_last = pm;
+      if (need_a[bl])
+        for (std::size_t f = f0; f + 1 < f0 + n; ++f) pm_last = std::min(pm_last, a[f]);
+      if (need_b[bl]) {
+        const bool first_frame = !(safe(lbb[bl] + pa[bl]) > tau) && !(safe(lbb[bl] + pm) > tau);
+        const bool rest = n >= 2 && !(safe(lbb[bl] + pa[bl + 1]) > tau) &&
+                          !(safe(lbb[bl] + pm_last) > tau);
+        need_b[bl] = first_frame || rest;
+      }
+      if (need_a[bl]) pm = std::min(pm_last, a[f0 + n - 1]);
+    }
+    side(*c.qb, need_b, b, c.cache_b);
+  } else {
+    side(*c.qb, need_b, b, c.cache_b);
+    double sm = kInf;  // min_{e > last frame of the block} of the computed b(e)
+    for (std::size_t bl = nb; bl-- > 0;) {
+      const std::size_t f0 = first(bl), n = frames(bl);
+      // min_{e > first frame of the block} of the computed b(e)
+      double sm_first = sm;
+      if (need_b[bl])
+        for (std::size_t f = f0 + 1; f < f0 + n; ++f) sm_first = std::min(sm_first, b[f]);
+      if (need_a[bl]) {
+        const bool last = !(safe(lba[bl] + sb[bl + 1]) > tau) && !(safe(lba[bl] + sm) > tau);
+        const bool rest = n >= 2 && !(safe(lba[bl] + sb[bl]) > tau) &&
+                          !(safe(lba[bl] + sm_first) > tau);
+        need_a[bl] = last || rest;
+      }
+      if (need_b[bl]) sm = std::min(sm_first, b[f0]);
+    }
+    side(*c.qa, need_a, a, c.cache_a);
+  }
+  // Running minimum (best_partial_motion) over the computed values, +inf
+  // elsewhere: blocks with neither side computed change nothing and are skipped.
+  const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
+  const double lambda = c.lambda;
+  bool have = false;
+  double run_min = kInf;
+  std::size_t run_s = 0;
+  ClipBest best;
+  for (std::size_t bl = 0; bl < nb; ++bl) {
+    if (!need_a[bl] && !need_b[bl]) continue;
+    const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
+    for (std::size_t f = f0; f < f1; ++f) {
+      // e = f with s < f, then s = f for the later e.
+      if (need_b[bl] && f > 0 && std::isfinite(b[f]) && std::isfinite(run_min)) {
+        const double score = (b[f] + lambda * prefix[f]) + run_min;
+        if (score < best.score || !have) {
+          best = {score, run_s, f};
+          have = true;
+        }
+      }
+      if (need_a[bl] && std::isfinite(a[f])) {
+        const double v = a[f] - lambda * prefix[f];
+        if (v < run_min) {
+          run_min = v;
+          run_s = f;
+        }
+      }
+    }
+  }
+  if (!have) return false;
+  out = {best.score, ci.clip, best.s, best.e, a[best.s], b[best.e], prefix[best.e] - prefix[best.s]};
+  return true;
+}
+
 // Relative mode: a(s) with Q^h placed on F^s, b(s, e) with Q^h+1 placed
 // relative to F^s; O(K L).
 bool eval_clip_relative(const PairContext& c, const ClipInfo& ci, double tau, Scratch& sc,
@@ -1518,12 +1774,9 @@ struct QueryRunner {
     });
     // Clip bound: boxes, and the per-frame bounds of partial query frames:
     // min over s < e of (max(xa, fa[s]) + max(xb, fb[e])).
-    auto clip_bound = [&](std::size_t k, std::size_t r) {
+    // xa, xb: the clip's box bounds (box_bounds_lanes over its group's tile).
+    auto clip_bound = [&](std::size_t k, std::size_t r, double xa, double xb) {
       const SkelData& sd = *skels[k];
-      const float* bnd = sd.clip_bounds.data() + r * kBoundFields * sd.padded;
-      const float* root = sd.clip_root.data() + r * 6;
-      const double xa = box_bound(bounds[k][h], bnd, root);
-      const double xb = box_bound(bounds[k][h + 1], bnd, root);
       const double* fa = frame_bounds_of(k, h);
       const double* fb = frame_bounds_of(k, h + 1);
       if (fa == nullptr && fb == nullptr) return xa + xb;
@@ -1555,12 +1808,45 @@ struct QueryRunner {
       if (bounded && safe(grp.lb) > top.tau()) {
         prune_all(0);
       } else {
-        if (bounded)
-          for (Work& w : work) w.lb = clip_bound(w.k, w.r);
+        Scratch& sc = scratch.local();
+        const std::size_t gk = cands[grp.first].first;
+        const SkelData& gsd = *skels[gk];
+        const std::size_t g = cands[grp.first].second / kGroup;
+        if (bounded) {
+          // The group's clip bounds: one lane-major tile per side.
+          const std::size_t tw = kBoundFields * gsd.segments * kLanes;
+          sc.clip_x.resize(2 * kLanes);
+          box_bounds_lanes(bounds[gk][h], gsd.clip_soa.data() + g * tw,
+                           gsd.clip_root_soa.data() + g * 6 * kLanes, gsd.segments, sc.clip_x.data());
+          box_bounds_lanes(bounds[gk][h + 1], gsd.clip_soa.data() + g * tw,
+                           gsd.clip_root_soa.data() + g * 6 * kLanes, gsd.segments,
+                           sc.clip_x.data() + kLanes);
+          for (Work& w : work)
+            w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
+        }
         std::sort(work.begin(), work.end(), [](const Work& x, const Work& y) {
           if (x.lb != y.lb) return x.lb < y.lb;
           return x.clip < y.clip;
         });
+        // Full or root-only query frames on both sides: block-level evaluation.
+        const bool blocks_only = bounded && !q.relative && bounds[gk][h].kind != FrameKind::partial &&
+                                 bounds[gk][h + 1].kind != FrameKind::partial &&
+                                 frame_bounds_of(gk, h) == nullptr &&
+                                 frame_bounds_of(gk, h + 1) == nullptr;
+        // The box bounds of a clip's 16-frame blocks, both query frames.
+        auto block_bounds_of = [&](const ClipInfo& ci) {
+          const std::size_t nb = (ci.frame_count + kBlock - 1) / kBlock;
+          const std::size_t w = kBoundFields * gsd.padded;
+          sc.blk_a.resize(nb);
+          sc.blk_b.resize(nb);
+          for (std::size_t bl = 0; bl < nb; ++bl) {
+            const std::size_t row = ci.block_start + bl;
+            const float* bnd = gsd.block_bounds.data() + row * w;
+            const float* root = gsd.block_root.data() + row * 6;
+            sc.blk_a[bl] = static_cast<double>(box_bound(bounds[gk][h], bnd, root));
+            sc.blk_b[bl] = static_cast<double>(box_bound(bounds[gk][h + 1], bnd, root));
+          }
+        };
         for (std::size_t i = 0; i < work.size(); ++i) {
           const ClipInfo& ci = skels[work[i].k]->clips[work[i].r];
           const double tau = top.tau();
@@ -1571,9 +1857,16 @@ struct QueryRunner {
           }
           ClipCounters cnt;
           Entry e{};
-          Scratch& sc = scratch.local();
-          const bool ok = q.relative ? eval_clip_relative(contexts[work[i].k], ci, tau, sc, cnt, e)
-                                     : eval_clip_world(contexts[work[i].k], ci, tau, sc, cnt, e);
+          bool ok = false;
+          if (q.relative) {
+            ok = eval_clip_relative(contexts[work[i].k], ci, tau, sc, cnt, e);
+          } else if (blocks_only) {
+            block_bounds_of(ci);
+            ok = eval_clip_blocks(contexts[work[i].k], ci, tau, sc.blk_a.data(), sc.blk_b.data(),
+                                  sc, cnt, e);
+          } else {
+            ok = eval_clip_world(contexts[work[i].k], ci, tau, sc, cnt, e);
+          }
           if (ok) top.insert(e);
           ev += cnt.evaluated;
           pf += cnt.pruned;

@@ -21,6 +21,8 @@
 namespace mocap {
 namespace {
 
+namespace fs = std::filesystem;
+
 // Parses `text` and expects an InputError at `line` whose message contains `word`.
 void expect_input_error(const std::string& text, std::size_t line, const std::string& word) {
   try {
@@ -614,6 +616,60 @@ TEST(BvhExport, CmuKeepsAllWorldPositions) {
   EXPECT_LT(written_m, 1e-6);
   std::printf("  largest world position change: exported %.3g m, written and read back %.3g m\n", exported_m,
               written_m);
+}
+
+// ---------------------------------------------------------------------------
+// Windows: parse_bvh_window gives exactly parse_bvh's rows for the window.
+// ---------------------------------------------------------------------------
+
+void expect_window_equals_full(const std::string& text, const RawClip& full) {
+  for (std::size_t first = 0; first <= full.frame_count + 1; ++first)
+    for (std::size_t count : {std::size_t{0}, std::size_t{1}, std::size_t{5}, full.frame_count + 3}) {
+      const BvhWindow w = parse_bvh_window(text, "w.bvh", first, count);
+      EXPECT_EQ(w.file_frame_count, full.frame_count);
+      EXPECT_EQ(w.first_frame, std::min(first, full.frame_count));
+      const std::size_t expect =
+          std::min(count, full.frame_count - std::min(first, full.frame_count));
+      ASSERT_EQ(w.clip.frame_count, expect) << first << " " << count;
+      ASSERT_EQ(w.clip.channel_count, full.channel_count);
+      ASSERT_EQ(w.clip.values.size(), expect * full.channel_count);
+      EXPECT_EQ(w.clip.frame_time_s, full.frame_time_s);
+      ASSERT_EQ(w.clip.joints.size(), full.joints.size());
+      for (std::size_t i = 0; i < w.clip.values.size(); ++i)
+        ASSERT_EQ(w.clip.values[i], full.values[w.first_frame * full.channel_count + i])
+            << "first " << first << " value " << i;
+    }
+}
+
+TEST(BvhWindow, EqualsWholeParseWithBlankLines) {
+  const std::string text = two_joints(
+      "Frames: 4\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n\n  \n1.5 2 3 4 5 6 7 8 9.25\n"
+      "\t-1 -2 -3 -4 -5 -6 -7 -8 -9\r\n\n1e-3 2 3 4 5 6 7 8 +9\n\n");
+  expect_window_equals_full(text, parse_bvh(text, "w.bvh"));
+  // Lines past the window are not read: a bad last line goes unnoticed.
+  const std::string bad = two_joints("Frames: 3\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n"
+                                     "1 2 3 4 5 6 7 8 9\nnot numbers\n");
+  EXPECT_EQ(parse_bvh_window(bad, "w.bvh", 0, 2).clip.frame_count, 2u);
+  EXPECT_THROW((void)parse_bvh_window(bad, "w.bvh", 1, 2), InputError);
+}
+
+TEST(BvhWindow, EqualsWholeParseOnRealFiles) {
+  MOCAP_REQUIRE_DATA();
+  for (const auto& rel : {"bandai-namco-1/data/dataset-1_walk_normal_001.bvh", "cmu/131_02.bvh"}) {
+    const fs::path path = test::data_dir() / rel;
+    std::ifstream in(path, std::ios::binary);
+    std::string text(static_cast<std::size_t>(fs::file_size(path)), '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    ASSERT_TRUE(in) << path;
+    const RawClip full = parse_bvh(text, path.string());
+    ASSERT_GT(full.frame_count, 10u);
+    for (std::size_t first : {std::size_t{0}, std::size_t{3}, full.frame_count / 2, full.frame_count - 2}) {
+      const BvhWindow w = parse_bvh_window(text, path.string(), first, 5);
+      ASSERT_EQ(w.clip.frame_count, std::min<std::size_t>(5, full.frame_count - first));
+      for (std::size_t i = 0; i < w.clip.values.size(); ++i)
+        ASSERT_EQ(w.clip.values[i], full.values[first * full.channel_count + i]) << rel;
+    }
+  }
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "mocap/error.hpp"
 #include "mocap/index.hpp"
 #include "mocap/query.hpp"
+#include "mocap/query_pose.hpp"
 #include "mocap/search.hpp"
 #include "test_support.hpp"
 
@@ -174,6 +175,75 @@ TEST(QueryResolution, Errors) {
       opt);
   expect_same_results(x, y, "aliases");
   ASSERT_FALSE(x.pairs[0].results.empty());
+}
+
+// Query frames from indexed, unchanged files are read through a +-2 frame
+// window of the file (QueryBvhCache::use_index, parse_bvh_window): the
+// resolved pose is bit for bit the one from parsing the whole file, at the
+// clip's ends too; a file the index does not hold is parsed whole.
+TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  QueryBvhCache windowed, whole;
+  windowed.use_index(index);
+  std::mt19937 rng(5);
+  std::size_t compared = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    const IndexClip& clip = index.clips()[rng() % index.clips().size()];
+    const std::size_t n = clip.frame_count;
+    for (std::size_t frame : {std::size_t{0}, std::size_t{1}, n / 2, n - 2, n - 1}) {
+      const Query q = parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": " +
+                            std::to_string(frame) + "}, {\"bvh\": \"" + clip.path +
+                            "\", \"frame\": " + std::to_string(frame) +
+                            ", \"only\": [\"root_heading\", \"RightForeArm\"]}]}");
+      const IndexSkeleton& sk = index.skeletons()[clip.skeleton];
+      const DynamicsModel model = index.dynamics_model(clip.skeleton);
+      const auto file = windowed.get_frames(clip.path, index.info().unit_option, frame, 2);
+      EXPECT_EQ(file->file_frame_count, n);
+      EXPECT_EQ(file->first_frame, frame >= 2 ? frame - 2 : 0);
+      EXPECT_LE(file->motion.frame_count, 5u);
+      for (std::size_t i = 0; i < 2; ++i) {
+        const ResolvedQueryPose x =
+            resolve_query_pose(q, i, sk, model, windowed, index.info().unit_option);
+        const ResolvedQueryPose y = resolve_query_pose(q, i, sk, model, whole, index.info().unit_option);
+        ASSERT_EQ(x.full, y.full);
+        ASSERT_EQ(x.local_rotations.size(), y.local_rotations.size());
+        for (std::size_t j = 0; j < x.local_rotations.size(); ++j)
+          ASSERT_EQ(x.local_rotations[j].coeffs(), y.local_rotations[j].coeffs());
+        ASSERT_EQ(x.given.joint_rotations.size(), y.given.joint_rotations.size());
+        for (std::size_t j = 0; j < x.given.joint_rotations.size(); ++j)
+          ASSERT_EQ(x.given.joint_rotations[j].second.coeffs(), y.given.joint_rotations[j].second.coeffs());
+        ASSERT_EQ(x.given.root_heading_rad, y.given.root_heading_rad);
+        ASSERT_EQ(x.given.root_position_m, y.given.root_position_m);
+        if (!x.full) continue;
+        for (std::size_t j = 0; j < x.state.joint_positions_m.size(); ++j) {
+          ASSERT_EQ(x.state.joint_positions_m[j], y.state.joint_positions_m[j]) << clip.path << " " << frame;
+          ASSERT_EQ(x.state.rotations[j].coeffs(), y.state.rotations[j].coeffs());
+          ASSERT_EQ(x.state.coms_m[j], y.state.coms_m[j]);
+          ASSERT_EQ(x.state.com_velocities_mps[j], y.state.com_velocities_mps[j]);
+          ASSERT_EQ(x.state.com_accelerations_mps2[j], y.state.com_accelerations_mps2[j]);
+          ASSERT_EQ(x.state.angular_velocities_radps[j], y.state.angular_velocities_radps[j]);
+          ASSERT_EQ(x.state.angular_accelerations_radps2[j], y.state.angular_accelerations_radps2[j]);
+        }
+        ++compared;
+      }
+    }
+    // Past the end: the same error either way.
+    const Query bad = parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": " +
+                            std::to_string(n) + "}, {\"root_position\": [0, null, 0]}]}");
+    EXPECT_THROW((void)resolve_query_pose(bad, 0, index.skeletons()[clip.skeleton],
+                                          index.dynamics_model(clip.skeleton), windowed,
+                                          index.info().unit_option),
+                 InputError);
+  }
+  EXPECT_GT(compared, 50u);
+  // A file the index does not hold (a copy elsewhere) is parsed whole.
+  const fs::path copy = test::temp_dir("search-window-copy") / "copy.bvh";
+  fs::copy_file(index.clips()[0].path, copy, fs::copy_options::overwrite_existing);
+  const auto c = windowed.get_frames(copy, index.info().unit_option, 5, 2);
+  EXPECT_EQ(c->first_frame, 0u);
+  EXPECT_EQ(c->motion.frame_count, index.clips()[0].frame_count);
 }
 
 TEST(Search, TinyIndexRankingIsSane) {

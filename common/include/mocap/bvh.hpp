@@ -25,6 +25,22 @@ namespace mocap {
 /// Parses BVH text. `source` names the text in error messages.
 RawClip parse_bvh(std::string_view text, const std::string& source);
 
+/// Frames [first_frame, first_frame + clip.frame_count) of a BVH text.
+struct BvhWindow {
+  RawClip clip;  // the header, and only the window's frames (clip.frame_count of them)
+  std::size_t first_frame = 0;
+  std::size_t file_frame_count = 0;  // "Frames:" of the text
+};
+
+/// Parses the hierarchy and the frames [first, first + count) (clamped to the
+/// file) of BVH text, with exactly parse_bvh's values for them. The frame
+/// lines before the window are skipped to their newline without being read
+/// and those after it are not looked at, so errors there go unnoticed: meant
+/// for text known to parse (e.g. a file whose bytes hash to an index's
+/// content hash). Errors in what it reads throw as parse_bvh does.
+BvhWindow parse_bvh_window(std::string_view text, const std::string& source, std::size_t first,
+                           std::size_t count);
+
 /// Reads and parses a file; unreadable files throw InputError(path, 0, reason).
 RawClip read_bvh_file(const std::filesystem::path& path);
 

@@ -23,11 +23,16 @@
 
 namespace mocap {
 
-/// A BVH file read for queries (file skeleton, local and world pose per frame).
+/// A BVH file read for queries (file skeleton, local and world pose per
+/// frame): all its frames, or a window of them (QueryBvhCache::get_frames).
 struct QueryBvhFile {
+  /// Frames [first_frame, first_frame + motion.frame_count) of the file.
   ClipMotion motion;
   std::filesystem::file_time_type mtime;
   std::uintmax_t size = 0;
+  std::size_t first_frame = 0;
+  /// Frames in the file.
+  std::size_t file_frame_count = 0;
 };
 
 /// Parsed BVH files shared by the queries of a batch (bounded, thread-safe;
@@ -39,9 +44,33 @@ class QueryBvhCache {
   std::shared_ptr<const QueryBvhFile> get(const std::filesystem::path& path,
                                           const std::string& unit_option);
 
+  /// Lets get_frames read only a window of the files `index` holds.
+  void use_index(const Index& index);
+
+  /// Frames [frame - radius, frame + radius] (clamped to the file) of the
+  /// file, with exactly get()'s values for them. When the file is a clip of
+  /// the index given to use_index (same lexically normal absolute path, same
+  /// size, its bytes hash to the clip's content XXH64) and `unit_option` is
+  /// the index's, the indexer has parsed these very bytes and detected their
+  /// unit: only the header and the window's frame lines are parsed
+  /// (parse_bvh_window) and the clip's unit is used. Otherwise it is get()
+  /// (every frame). A frame past the file's end gives an empty window
+  /// (file_frame_count says how many frames there are).
+  std::shared_ptr<const QueryBvhFile> get_frames(const std::filesystem::path& path,
+                                                 const std::string& unit_option,
+                                                 std::size_t frame, std::size_t radius);
+
  private:
+  struct KnownFile {
+    std::uint64_t size = 0, hash = 0;
+    double unit_scale_m = 1.0;
+  };
+  std::shared_ptr<const QueryBvhFile> store(const std::string& key,
+                                            std::shared_ptr<QueryBvhFile> entry);
   std::mutex mutex_;
   std::map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
+  std::map<std::string, KnownFile> known_;  // by path; set before concurrent use
+  std::string known_unit_option_;
 };
 
 /// Query frame i of a query on one index skeleton.
