@@ -269,10 +269,6 @@ namespace {
 // the last group's extra lanes repeat its first joint and are not stored).
 // The quaternion log is log_unit_quaternion's series, lane-wise; larger
 // rotations take the scalar path, and bitwise equal rotations give exactly 0.
-// GCC 12 reports a false maybe-uninitialized on the lane-wise construction
-// of q0 / q1 in the x86-64-v3 clone.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 MOCAP_MULTIVERSION_V3
 void dynamics_kernel(std::size_t n, std::size_t last, double inv_dt,
                      const Eigen::Vector3d* joint_positions_m, const Eigen::Quaterniond* rotations,
@@ -288,14 +284,8 @@ void dynamics_kernel(std::size_t n, std::size_t last, double inv_dt,
 #define MOCAP_LANES(arr, base, part) \
   v4d{arr[base + k0].part(), arr[base + k1].part(), arr[base + k2].part(), arr[base + k3].part()}
       lanes::Quat4 q0, q1;
-      q0.w = MOCAP_LANES(rotations, b, w);
-      q0.x = MOCAP_LANES(rotations, b, x);
-      q0.y = MOCAP_LANES(rotations, b, y);
-      q0.z = MOCAP_LANES(rotations, b, z);
-      q1.w = MOCAP_LANES(rotations, b1, w);
-      q1.x = MOCAP_LANES(rotations, b1, x);
-      q1.y = MOCAP_LANES(rotations, b1, y);
-      q1.z = MOCAP_LANES(rotations, b1, z);
+      lanes::load(rotations, {b + k0, b + k1, b + k2, b + k3}, q0);
+      lanes::load(rotations, {b1 + k0, b1 + k1, b1 + k2, b1 + k3}, q1);
       // c1 = x1 + R(q1) c^: t = 2 u x c^, c^ + w t + u x t (u = q1's vector part).
       const v4d lx = MOCAP_LANES(com_local, 0, x), ly = MOCAP_LANES(com_local, 0, y),
                 lz = MOCAP_LANES(com_local, 0, z);
@@ -347,7 +337,6 @@ void dynamics_kernel(std::size_t n, std::size_t last, double inv_dt,
     }
   }
 }
-#pragma GCC diagnostic pop
 
 }  // namespace
 

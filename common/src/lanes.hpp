@@ -5,6 +5,8 @@
 // four joints or segments in the four lanes, gathered from and scattered to
 // the per-joint Eigen arrays. Helpers take and give vectors by reference (no
 // vector-ABI dependence between the clones); they are inlined.
+#include <Eigen/Geometry>
+#include <cstddef>
 #include <cstdint>
 
 namespace mocap::lanes {
@@ -12,10 +14,39 @@ namespace mocap::lanes {
 typedef double v4d __attribute__((vector_size(32)));
 typedef std::int64_t v4i __attribute__((vector_size(32)));  // lane masks (0 or -1)
 
+// GCC 12 reports false maybe-uninitialized warnings on vectors built lane by
+// lane into a struct member (below, inlined into the x86-64-v3 clones).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
 /// Four quaternions, lane-wise components.
 struct Quat4 {
   v4d w, x, y, z;
 };
+
+/// The quaternions q[i[0]] .. q[i[3]], lane-wise.
+inline void load(const Eigen::Quaterniond* q, const std::size_t (&i)[4], Quat4& out) {
+  out.w = v4d{q[i[0]].w(), q[i[1]].w(), q[i[2]].w(), q[i[3]].w()};
+  out.x = v4d{q[i[0]].x(), q[i[1]].x(), q[i[2]].x(), q[i[3]].x()};
+  out.y = v4d{q[i[0]].y(), q[i[1]].y(), q[i[2]].y(), q[i[3]].y()};
+  out.z = v4d{q[i[0]].z(), q[i[1]].z(), q[i[2]].z(), q[i[3]].z()};
+}
+
+/// Four consecutive slots k0 .. k0+3 of an index list of `count` entries:
+/// the indices (slots past the end repeat the first one), how many are real,
+/// and live = 1 in the real lanes, 0 in the padding (multiply masses and
+/// moments by it and the padding adds exactly nothing).
+struct Group {
+  std::size_t idx[4];
+  std::size_t count;
+  v4d live;
+};
+inline void group(const int* list, std::size_t size, std::size_t k0, Group& g) {
+  g.count = size - k0 < 4 ? size - k0 : 4;
+  for (std::size_t l = 0; l < 4; ++l)
+    g.idx[l] = static_cast<std::size_t>(list[l < g.count ? k0 + l : k0]);
+  g.live = v4d{1.0, g.count > 1 ? 1.0 : 0.0, g.count > 2 ? 1.0 : 0.0, g.count > 3 ? 1.0 : 0.0};
+}
 
 /// q = b * conj(a) (Hamilton product), lane-wise: the rotation from a to b.
 inline void mul_conj(const Quat4& b, const Quat4& a, Quat4& q) {
@@ -59,5 +90,7 @@ inline void log_small(Quat4& q, v4d& rx, v4d& ry, v4d& rz, v4i& series) {
 inline void same(const Quat4& a, const Quat4& b, v4i& equal) {
   equal = (a.w == b.w) & (a.x == b.x) & (a.y == b.y) & (a.z == b.z);
 }
+
+#pragma GCC diagnostic pop
 
 }  // namespace mocap::lanes

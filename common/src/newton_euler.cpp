@@ -173,20 +173,15 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
   v4d s_s00{}, s_s01{}, s_s02{}, s_s11{}, s_s12{}, s_s22{};  // sum m r r^T (upper)
   v4d s_i00{}, s_i01{}, s_i02{}, s_i11{}, s_i12{}, s_i22{};  // sum R P D (R P)^T (upper)
   for (std::size_t k0 = 0; k0 < nseg; k0 += 4) {
-    const std::size_t i0 = static_cast<std::size_t>(seg[k0]);
-    const std::size_t i1 = k0 + 1 < nseg ? static_cast<std::size_t>(seg[k0 + 1]) : i0;
-    const std::size_t i2 = k0 + 2 < nseg ? static_cast<std::size_t>(seg[k0 + 2]) : i0;
-    const std::size_t i3 = k0 + 3 < nseg ? static_cast<std::size_t>(seg[k0 + 3]) : i0;
-    const v4d live{1.0, k0 + 1 < nseg ? 1.0 : 0.0, k0 + 2 < nseg ? 1.0 : 0.0,
-                   k0 + 3 < nseg ? 1.0 : 0.0};
-    const v4d qw{qs[i0].w(), qs[i1].w(), qs[i2].w(), qs[i3].w()};
-    const v4d qx{qs[i0].x(), qs[i1].x(), qs[i2].x(), qs[i3].x()};
-    const v4d qy{qs[i0].y(), qs[i1].y(), qs[i2].y(), qs[i3].y()};
-    const v4d qz{qs[i0].z(), qs[i1].z(), qs[i2].z(), qs[i3].z()};
-    const v4d pw{pf[i0].w(), pf[i1].w(), pf[i2].w(), pf[i3].w()};
-    const v4d px{pf[i0].x(), pf[i1].x(), pf[i2].x(), pf[i3].x()};
-    const v4d py{pf[i0].y(), pf[i1].y(), pf[i2].y(), pf[i3].y()};
-    const v4d pz{pf[i0].z(), pf[i1].z(), pf[i2].z(), pf[i3].z()};
+    lanes::Group grp;
+    lanes::group(seg, nseg, k0, grp);
+    const std::size_t i0 = grp.idx[0], i1 = grp.idx[1], i2 = grp.idx[2], i3 = grp.idx[3];
+    const v4d live = grp.live;
+    lanes::Quat4 qq, pp;
+    lanes::load(qs, grp.idx, qq);
+    lanes::load(pf, grp.idx, pp);
+    const v4d qw = qq.w, qx = qq.x, qy = qq.y, qz = qq.z;
+    const v4d pw = pp.w, px = pp.x, py = pp.y, pz = pp.z;
     const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
     const v4d d0 = live * v4d{pm[i0].x(), pm[i1].x(), pm[i2].x(), pm[i3].x()};
     const v4d d1 = live * v4d{pm[i0].y(), pm[i1].y(), pm[i2].y(), pm[i3].y()};
@@ -262,10 +257,8 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
     s_i11 += d0 * m10 * m10 + d1 * m11 * m11 + d2 * m12 * m12;
     s_i12 += d0 * m10 * m20 + d1 * m11 * m21 + d2 * m12 * m22;
     s_i22 += d0 * m20 * m20 + d1 * m21 * m21 + d2 * m22 * m22;
-    const std::size_t count = std::min<std::size_t>(4, nseg - k0);
-    const std::size_t idx[4] = {i0, i1, i2, i3};
-    for (std::size_t l = 0; l < count; ++l) {
-      const std::size_t j = idx[l];
+    for (std::size_t l = 0; l < grp.count; ++l) {
+      const std::size_t j = grp.idx[l];
       rf[j] = Eigen::Vector3d(f0[l], f1[l], f2[l]);
       rt[j] = Eigen::Vector3d(t0[l], t1[l], t2[l]);
       Eigen::Matrix3d& r = prot[j];
@@ -435,11 +428,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
 }
 
 // g = h + work of adjacent, contact and residual forces and of joint torques
-// over the step (trapezoid rule); formulas in the header. GCC 12 reports a
-// false maybe-uninitialized on the lane-wise construction of the quaternions
-// in the x86-64-v3 clone.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// over the step (trapezoid rule); formulas in the header.
 MOCAP_MULTIVERSION_V3
 double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
                    double transition_time_s, const NewtonEulerData& da, const NewtonEulerData& db,
@@ -457,16 +446,11 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   // rare larger steps through rotation_vector(). Bitwise equal rotations give
   // exactly zero (selected, so whatever the compiler fuses).
   for (std::size_t j0 = 0; j0 < n; j0 += 4) {
-    const std::size_t i0 = j0, i1 = std::min(j0 + 1, n - 1), i2 = std::min(j0 + 2, n - 1),
-                      i3 = std::min(j0 + 3, n - 1);
-    const lanes::Quat4 from{v4d{qa[i0].w(), qa[i1].w(), qa[i2].w(), qa[i3].w()},
-                            v4d{qa[i0].x(), qa[i1].x(), qa[i2].x(), qa[i3].x()},
-                            v4d{qa[i0].y(), qa[i1].y(), qa[i2].y(), qa[i3].y()},
-                            v4d{qa[i0].z(), qa[i1].z(), qa[i2].z(), qa[i3].z()}};
-    const lanes::Quat4 to{v4d{qb[i0].w(), qb[i1].w(), qb[i2].w(), qb[i3].w()},
-                          v4d{qb[i0].x(), qb[i1].x(), qb[i2].x(), qb[i3].x()},
-                          v4d{qb[i0].y(), qb[i1].y(), qb[i2].y(), qb[i3].y()},
-                          v4d{qb[i0].z(), qb[i1].z(), qb[i2].z(), qb[i3].z()}};
+    const std::size_t idx[4] = {j0, std::min(j0 + 1, n - 1), std::min(j0 + 2, n - 1),
+                                std::min(j0 + 3, n - 1)};
+    lanes::Quat4 from, to;
+    lanes::load(qa, idx, from);
+    lanes::load(qb, idx, to);
     lanes::Quat4 q;
     lanes::mul_conj(to, from, q);
     v4d x, y, z;
@@ -506,12 +490,10 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   const double g_acc = model.params.gravity_mps2;
   v4d h_sum{};
   for (std::size_t k0 = 0; k0 < nseg; k0 += 4) {
-    const std::size_t i0 = static_cast<std::size_t>(seg[k0]);
-    const std::size_t i1 = k0 + 1 < nseg ? static_cast<std::size_t>(seg[k0 + 1]) : i0;
-    const std::size_t i2 = k0 + 2 < nseg ? static_cast<std::size_t>(seg[k0 + 2]) : i0;
-    const std::size_t i3 = k0 + 3 < nseg ? static_cast<std::size_t>(seg[k0 + 3]) : i0;
-    const v4d live{1.0, k0 + 1 < nseg ? 1.0 : 0.0, k0 + 2 < nseg ? 1.0 : 0.0,
-                   k0 + 3 < nseg ? 1.0 : 0.0};
+    lanes::Group grp;
+    lanes::group(seg, nseg, k0, grp);
+    const std::size_t i0 = grp.idx[0], i1 = grp.idx[1], i2 = grp.idx[2], i3 = grp.idx[3];
+    const v4d live = grp.live;
     const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
     const v4d dcx = v4d{cb[i0].x(), cb[i1].x(), cb[i2].x(), cb[i3].x()} -
                     v4d{ca[i0].x(), ca[i1].x(), ca[i2].x(), ca[i3].x()};
@@ -550,11 +532,9 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     const v4d through_r = 2.0 * k_w - ra - rb;
     const v4d h_joint = adr > through_r ? adr : through_r;
     h_sum += h_seg + h_joint;
-    const std::size_t idx[4] = {i0, i1, i2, i3};
-    const std::size_t count = std::min<std::size_t>(4, nseg - k0);
-    for (std::size_t l = 0; l < count; ++l) {
-      h_seg_out[idx[l]] = h_seg[l];
-      h_joint_out[idx[l]] = h_joint[l];
+    for (std::size_t l = 0; l < grp.count; ++l) {
+      h_seg_out[grp.idx[l]] = h_seg[l];
+      h_joint_out[grp.idx[l]] = h_joint[l];
     }
   }
   const double h_total = ((h_sum[0] + h_sum[1]) + h_sum[2]) + h_sum[3];
@@ -647,8 +627,6 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   }
   return h_total + extra + impulse;
 }
-
-#pragma GCC diagnostic pop
 
 std::vector<double> clip_step_energies(const DynamicsModel& model, const ClipDynamics& clip) {
   std::vector<double> steps;

@@ -1169,6 +1169,27 @@ struct ClipCounters {
   bool clip_pruned = false;
 };
 
+// One whole chunk [f0, f1) of a clip (its block bl) for a full or root-only
+// query frame: copied when the query's other pair computed it (cv / cd: the
+// shared frame cache from the clip's first frame, null without one), else
+// evaluated with the block's tile, counted and cached.
+void scan_whole_chunk(const PairContext& c, const ClipInfo& ci, const ResolvedFrame& q,
+                      std::size_t bl, std::size_t f0, std::size_t f1, double* dst, double* cv,
+                      std::uint8_t* cd, Scratch& sc, ClipCounters& cnt) {
+  if (cd != nullptr && cd[f0]) {
+    std::copy(cv + f0, cv + f1, dst + f0);
+    return;
+  }
+  const SkelData& sd = *c.sd;
+  evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
+           std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
+  cnt.evaluated += f1 - f0;
+  if (cd != nullptr) {
+    std::copy(dst + f0, dst + f1, cv + f0);
+    std::fill(cd + f0, cd + f1, std::uint8_t{1});
+  }
+}
+
 // World mode: per-frame lower bounds (block boxes, partial-frame bounds),
 // a(s) and b(e) where they can matter, then the running minimum.
 bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scratch& sc,
@@ -1260,16 +1281,8 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
             }
         cnt.evaluated += fresh;
         cnt.pruned += (f1 - f0) - need;
-      } else if (cd != nullptr && cd[f0]) {
-        std::copy(cv + f0, cv + f1, dst + f0);
       } else {
-        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
-                 std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
-        cnt.evaluated += f1 - f0;
-        if (cd != nullptr) {
-          std::copy(dst + f0, dst + f1, cv + f0);
-          std::fill(cd + f0, cd + f1, std::uint8_t{1});
-        }
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cv, cd, sc, cnt);
       }
     }
   };
@@ -1387,16 +1400,8 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
       const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
       if (!need[bl]) {
         cnt.pruned += f1 - f0;
-      } else if (cd != nullptr && cd[f0]) {
-        std::copy(cv + f0, cv + f1, dst + f0);
       } else {
-        evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
-                 std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
-        cnt.evaluated += f1 - f0;
-        if (cd != nullptr) {
-          std::copy(dst + f0, dst + f1, cv + f0);
-          std::fill(cd + f0, cd + f1, std::uint8_t{1});
-        }
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cv, cd, sc, cnt);
       }
     }
   };
