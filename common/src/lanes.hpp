@@ -16,8 +16,10 @@ typedef std::int64_t v4i __attribute__((vector_size(32)));  // lane masks (0 or 
 
 // GCC 12 reports false maybe-uninitialized warnings on vectors built lane by
 // lane into a struct member (below, inlined into the x86-64-v3 clones).
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 /// Four quaternions, lane-wise components.
 struct Quat4 {
@@ -91,6 +93,8 @@ inline void same(const Quat4& a, const Quat4& b, v4i& equal) {
   equal = (a.w == b.w) & (a.x == b.x) & (a.y == b.y) & (a.z == b.z);
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 }  // namespace mocap::lanes
