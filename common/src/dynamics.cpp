@@ -301,12 +301,9 @@ void dynamics_kernel(std::size_t n, std::size_t last, double inv_dt,
       const v4d hvy = (c1y - MOCAP_LANES(c, b, y)) * inv_dt;
       const v4d hvz = (c1z - MOCAP_LANES(c, b, z)) * inv_dt;
       lanes::Quat4 q;
-      lanes::mul_conj(q1, q0, q);
       v4d rx, ry, rz;
-      lanes::v4i series;
-      lanes::log_small(q, rx, ry, rz, series);
-      lanes::v4i same;
-      lanes::same(q0, q1, same);
+      lanes::v4i series, same;
+      lanes::rotation_steps(q0, q1, q, rx, ry, rz, series, same);
       for (std::size_t l = 0; l < count; ++l) {
         Eigen::Vector3d r(rx[l], ry[l], rz[l]);
         if (same[l])

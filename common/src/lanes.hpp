@@ -93,6 +93,17 @@ inline void same(const Quat4& a, const Quat4& b, v4i& equal) {
   equal = (a.w == b.w) & (a.x == b.x) & (a.y == b.y) & (a.z == b.z);
 }
 
+/// The rotation vectors log(b conj(a)) from a to b, lane-wise: log_small of
+/// the product q (flipped to w >= 0; the lanes where `series` is 0 need
+/// rotation_vector(q)), and `equal` = -1 where a and b are bitwise equal
+/// (callers give exactly zero there).
+inline void rotation_steps(const Quat4& a, const Quat4& b, Quat4& q, v4d& rx, v4d& ry, v4d& rz,
+                           v4i& series, v4i& equal) {
+  mul_conj(b, a, q);
+  log_small(q, rx, ry, rz, series);
+  same(a, b, equal);
+}
+
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
 #endif

@@ -452,12 +452,9 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     lanes::load(qa, idx, from);
     lanes::load(qb, idx, to);
     lanes::Quat4 q;
-    lanes::mul_conj(to, from, q);
     v4d x, y, z;
-    lanes::v4i series;
-    lanes::log_small(q, x, y, z, series);
-    lanes::v4i same;
-    lanes::same(from, to, same);
+    lanes::v4i series, same;
+    lanes::rotation_steps(from, to, q, x, y, z, series, same);
     const std::size_t count = std::min<std::size_t>(4, n - j0);
     for (std::size_t l = 0; l < count; ++l) {
       if (same[l])
