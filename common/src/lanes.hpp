@@ -21,6 +21,11 @@ typedef std::int64_t v4i __attribute__((vector_size(32)));  // lane masks (0 or 
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
 
+/// v[0] + v[1] + v[2] + v[3], added in lane order (deterministic).
+inline double sum(const v4d& v) {
+  return ((v[0] + v[1]) + v[2]) + v[3];
+}
+
 /// Four quaternions, lane-wise components.
 struct Quat4 {
   v4d w, x, y, z;

@@ -275,30 +275,22 @@ void inverse_dynamics(const DynamicsModel& model, const StateView& s, NewtonEule
       etr[j] = etr_l[l];
     }
   }
-  const auto lane_sum = [](const v4d& v) { return ((v[0] + v[1]) + v[2]) + v[3]; };
-  const double mass = lane_sum(s_mass);
-  const Eigen::Vector3d first_moment(lane_sum(s_fm0), lane_sum(s_fm1), lane_sum(s_fm2));
-  const Eigen::Vector3d f_req(lane_sum(s_f0), lane_sum(s_f1), lane_sum(s_f2));
-  const Eigen::Vector3d m_req_o(lane_sum(s_m0), lane_sum(s_m1), lane_sum(s_m2));
-  Eigen::Matrix3d second_moment;  // sum m r r^T
-  second_moment(0, 0) = lane_sum(s_s00);
-  second_moment(0, 1) = lane_sum(s_s01);
-  second_moment(0, 2) = lane_sum(s_s02);
-  second_moment(1, 1) = lane_sum(s_s11);
-  second_moment(1, 2) = lane_sum(s_s12);
-  second_moment(2, 2) = lane_sum(s_s22);
-  Eigen::Matrix3d rotational_inertia;  // sum R P D (R P)^T
-  rotational_inertia(0, 0) = lane_sum(s_i00);
-  rotational_inertia(0, 1) = lane_sum(s_i01);
-  rotational_inertia(0, 2) = lane_sum(s_i02);
-  rotational_inertia(1, 1) = lane_sum(s_i11);
-  rotational_inertia(1, 2) = lane_sum(s_i12);
-  rotational_inertia(2, 2) = lane_sum(s_i22);
-  for (Eigen::Matrix3d* mat : {&second_moment, &rotational_inertia}) {
-    (*mat)(1, 0) = (*mat)(0, 1);
-    (*mat)(2, 0) = (*mat)(0, 2);
-    (*mat)(2, 1) = (*mat)(1, 2);
-  }
+  const double mass = lanes::sum(s_mass);
+  const Eigen::Vector3d first_moment(lanes::sum(s_fm0), lanes::sum(s_fm1), lanes::sum(s_fm2));
+  const Eigen::Vector3d f_req(lanes::sum(s_f0), lanes::sum(s_f1), lanes::sum(s_f2));
+  const Eigen::Vector3d m_req_o(lanes::sum(s_m0), lanes::sum(s_m1), lanes::sum(s_m2));
+  // The symmetric matrix of six upper-triangle lane sums.
+  const auto symmetric = [](const v4d& a00, const v4d& a01, const v4d& a02, const v4d& a11,
+                            const v4d& a12, const v4d& a22) {
+    const double x01 = lanes::sum(a01), x02 = lanes::sum(a02), x12 = lanes::sum(a12);
+    Eigen::Matrix3d m;
+    m << lanes::sum(a00), x01, x02, x01, lanes::sum(a11), x12, x02, x12, lanes::sum(a22);
+    return m;
+  };
+  const Eigen::Matrix3d second_moment =  // sum m r r^T
+      symmetric(s_s00, s_s01, s_s02, s_s11, s_s12, s_s22);
+  const Eigen::Matrix3d rotational_inertia =  // sum R P D (R P)^T
+      symmetric(s_i00, s_i01, s_i02, s_i11, s_i12, s_i22);
   const Eigen::Vector3d r_g =
       mass > 0.0 ? Eigen::Vector3d(first_moment / mass) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d com = origin + r_g;
@@ -534,7 +526,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
       h_joint_out[grp.idx[l]] = h_joint[l];
     }
   }
-  const double h_total = ((h_sum[0] + h_sum[1]) + h_sum[2]) + h_sum[3];
+  const double h_total = lanes::sum(h_sum);
   if (terms != nullptr) {
     terms->h = ws.h;
     terms->g.reset(n);
