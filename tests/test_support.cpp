@@ -1,8 +1,10 @@
 #include "test_support.hpp"
 
 #include <cstdlib>
+#include <mutex>
 #include <random>
 #include <system_error>
+#include <vector>
 
 namespace mocap::test {
 
@@ -13,11 +15,44 @@ std::filesystem::path data_dir() {
 
 bool have_data() { return std::filesystem::is_directory(data_dir() / "bandai-namco-1" / "data"); }
 
+namespace {
+
+// The folders temp_dir handed out, removed when the test binary exits
+// normally (static destruction). A crashed binary leaves its folders; set
+// MOCAP_KEEP_TEST_DIRS=1 to keep them on purpose (debugging).
+class TempDirs {
+ public:
+  void add(const std::filesystem::path& dir) {
+    std::lock_guard lock(mutex_);
+    dirs_.push_back(dir);
+  }
+  ~TempDirs() {
+    if (const char* keep = std::getenv("MOCAP_KEEP_TEST_DIRS"); keep && *keep && *keep != '0') return;
+    for (const auto& dir : dirs_) {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::filesystem::path> dirs_;
+};
+
+TempDirs& temp_dirs() {
+  static TempDirs dirs;
+  return dirs;
+}
+
+}  // namespace
+
 std::filesystem::path temp_dir(const std::string& tag) {
+  auto& registry = temp_dirs();  // constructed before, so destroyed after, any static using a folder
   std::random_device rd;
   auto dir = std::filesystem::temp_directory_path() /
              ("mocap-test-" + tag + "-" + std::to_string(rd()));
   std::filesystem::create_directories(dir);
+  registry.add(dir);
   return dir;
 }
 

@@ -9,7 +9,8 @@ namespace mocap::test {
 std::filesystem::path data_dir();
 /// True when data_dir() holds the Bandai Namco set 1 folder.
 bool have_data();
-/// A fresh empty folder under the system temp dir, removed at exit.
+/// A fresh empty folder under the system temp dir, removed when the binary
+/// exits normally (kept when MOCAP_KEEP_TEST_DIRS=1).
 std::filesystem::path temp_dir(const std::string& tag);
 /// Set 2 unpacked once per machine into a cache folder (tar --zstd), or an
 /// empty path when the archive or tar is unavailable.
