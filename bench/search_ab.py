@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""Interleaved A/B comparison of mocap-search builds on one query batch (stdlib only).
+
+    bench/search_ab.py [--runs N] [--mode exact|approx|brute] [--threads T]
+                       INDEX.h5 QUERIES.jsonl [NAME=VALUE,...,]BINARY ...
+
+Each BINARY (optionally preceded by environment settings NAME=VALUE, comma
+separated, e.g. `MOCAP_X=1,build/search/mocap-search`) answers the batch N
+times (default 3), the binaries taking turns, so a slow phase of a shared
+machine hits them alike. Per binary it prints the sum over queries of each
+query's fastest time (the least disturbed estimate) and of its median time
+(`stats.time_ms`, the query alone, not opening the index), the frames
+evaluated, the peak resident memory, and whether every binary returned the
+same rankings as the first. Exit status 1 when the rankings differ.
+"""
+import argparse, json, os, statistics, subprocess, sys, tempfile
+
+ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+ap.add_argument("--runs", type=int, default=3)
+ap.add_argument("--mode", default="exact")
+ap.add_argument("--threads", type=int, default=1)
+ap.add_argument("index")
+ap.add_argument("queries")
+ap.add_argument("specs", nargs="+", metavar="[NAME=VALUE,...,]BINARY")
+a = ap.parse_args()
+
+times = {s: {} for s in a.specs}
+evaluated, rss, rankings = {}, {}, {}
+with tempfile.TemporaryDirectory() as tmp:
+    out = os.path.join(tmp, "out.jsonl")
+    for _ in range(a.runs):
+        for s in a.specs:
+            *settings, exe = s.split(",")
+            env = dict(os.environ)
+            for kv in settings:
+                k, v = kv.split("=", 1)
+                env[k] = v
+            p = subprocess.run(["/usr/bin/time", "-f", "%M", exe, "--index", a.index, "-q",
+                                "--queries", a.queries, "--mode", a.mode, "--threads",
+                                str(a.threads), "--out", out], env=env, capture_output=True, text=True)
+            if p.returncode not in (0, 1):  # 1: some queries failed (reported on their lines)
+                sys.exit(f"{exe} failed ({p.returncode}): {p.stderr[-2000:]}")
+            rss[s] = int(p.stderr.strip().splitlines()[-1])
+            rows = [json.loads(line) for line in open(out)]
+            for r in rows:
+                if "stats" in r:
+                    times[s].setdefault(r["id"], []).append(r["stats"]["time_ms"])
+            evaluated[s] = sum(r["stats"]["frames_evaluated"] for r in rows if "stats" in r)
+            rankings[s] = [[(x["clip_index"], x["start_frame"], x["end_frame"]) for p in r.get("pairs", [])
+                            for x in p["results"]] for r in rows]
+same = all(rankings[s] == rankings[a.specs[0]] for s in a.specs)
+for s in a.specs:
+    t = times[s]
+    print(f"{s}: sum of fastest {sum(min(v) for v in t.values()):.0f} ms, "
+          f"sum of medians {sum(statistics.median(v) for v in t.values()):.0f} ms, "
+          f"frames evaluated {evaluated[s]}, peak RSS {rss[s] / 1024:.0f} MB")
+print(f"same rankings: {same}")
+sys.exit(0 if same else 1)
