@@ -401,20 +401,6 @@ HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
 
 namespace {
 
-// theta^2 / sin^2(theta/2) as a function of t = 1 - |w| = 1 - cos(theta/2) in
-// [0, 1]: 4 acos(1-t)^2 / (1 - (1-t)^2), degree-10 polynomial (interpolation
-// at Chebyshev nodes; max relative error 1.6e-8). For a unit quaternion
-// (w, v), log(q) = 2 acos(w) v / |v|, so |log q|_D^2 = rot_factor(1-|w|) v^T D v.
-inline float rot_poly(float t) {
-  constexpr float c[] = {4.000000061686637f,   2.666651769534008f,   1.511700742838962f,
-                         0.803679891497636f,   0.49665062823084916f, -0.09152589691698841f,
-                         0.9679826583910828f,  -1.4020223308477227f, 1.5628066920237862f,
-                         -0.9032807260483232f, 0.25696078661431665f};
-  float p = c[10];
-  for (int i = 9; i >= 0; --i) p = p * t + c[i];
-  return p;
-}
-
 // The scan kernel: for each segment, add its h terms for n consecutive frames
 // into acc (vectorised over frames; fields as in HScanTable). Formulas:
 //   d = c_B - c_A, K_u = m/(2T^2) |d|^2,  h_b = m g |d_y| + dK(K_A, K_u, K_B)
@@ -454,7 +440,7 @@ void scan_kernel(const float* __restrict values, std::size_t stride, std::size_t
       const float rz = aw * bz[i] + bw[i] * qz + qx * by[i] - qy * bx[i];
       float t = 1.0f - std::fabs(rw);
       t = t < 0.0f ? 0.0f : t;
-      const float kw = rot_poly(t) * (d0 * rx * rx + d1 * ry * ry + d2 * rz * rz);
+      const float kw = log_norm_factor(t) * (d0 * rx * rx + d1 * ry * ry + d2 * rz * rz);
       const float dkr = std::fabs(kbr[i] - kar);
       const float thr = 2.0f * kw - kar - kbr[i];
       acc[i] += trans + (dkr > thr ? dkr : thr);

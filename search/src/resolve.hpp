@@ -52,6 +52,26 @@ struct ResolvedFrame {
   /// reads (empty = all: whole-body queries) and those whose local
   /// translation it needs (the given subtrees); set by the engine.
   std::vector<int> need_joints, local_joints;
+  /// partial with joint rotations only (no root position, no heading): the
+  /// given subtrees prepared for the engine's subtree evaluation (set by the
+  /// engine; empty otherwise). Joints in index order (parents first); the
+  /// parent of the first ones is outside the subtrees (F's world pose).
+  struct SubtreeJoint {
+    std::size_t joint = 0, parent = 0;
+    int parent_slot = -1;  // slot of the parent in `subtree`, -1 outside
+    bool given = false;    // the query's local rotation, else F's
+    Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
+  };
+  /// Segments of the subtrees (joints with mass), with their h-scan constants.
+  struct SubtreeSegment {
+    std::size_t slot = 0, segment = 0;  // joint slot; model.segments index
+    double mg = 0.0, mh = 0.0;          // m g, m / (2 T^2)
+    Eigen::Vector3d com_local = Eigen::Vector3d::Zero();
+    Eigen::Quaterniond principal = Eigen::Quaterniond::Identity();
+    std::array<double, 3> d{0.0, 0.0, 0.0};  // principal moments / (2 T^2)
+  };
+  std::vector<SubtreeJoint> subtree;
+  std::vector<SubtreeSegment> subtree_segments;
 };
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`

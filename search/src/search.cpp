@@ -813,6 +813,8 @@ struct Scratch {
   std::vector<float> clip_x;
   std::vector<double> blk_a, blk_b;
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
+  std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
+  std::vector<Eigen::Quaterniond> sub_r;   // rotations of Q_F
   // Database frames converted for partial_approximate_energy.
   std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
   std::vector<Eigen::Quaterniond> rot, lrot;
@@ -878,6 +880,10 @@ FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scr
   return r;
 }
 
+void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArrays& fa,
+                    std::size_t g0, std::size_t g1, double* out, Scratch& sc,
+                    const std::uint8_t* skip = nullptr);
+
 // h(Q -> F) for skeleton frames [g0, g1) into out. With `shift` (relative
 // mode) the query's given x/z root components are placed at shift (world).
 void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, double t,
@@ -926,6 +932,10 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
     pq = &sc.shifted_partial;
   }
   const FrameArrays& fa = frame_arrays(index, sd);
+  if (!q.subtree.empty()) {  // joint rotations only: no root component to shift
+    subtree_energy(q, sd, fa, g0, g1, out, sc, skip);
+    return;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (skip != nullptr && skip[i]) continue;
     const FrameRef r = frame_ref(sd, fa, g0 + i, sc, q.need_joints, q.local_joints);
@@ -1099,6 +1109,114 @@ void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {
     if (need[j]) q.need_joints.push_back(static_cast<int>(j));
   q.local_joints = q.partial.subtree_joints;
   if (q.need_joints.empty()) q.need_joints.push_back(model.root());  // never empty: empty means all
+}
+
+// Prepares q.subtree / q.subtree_segments for partial frames that give
+// joint rotations only (docs/search.md "Joint-rotation frames").
+void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, double t) {
+  q.subtree.clear();
+  q.subtree_segments.clear();
+  if (q.kind != FrameKind::partial || q.partial.moves_whole_body ||
+      q.partial.subtree_joints.empty())
+    return;
+  const DynamicsModel& model = sd.model;
+  const PartialQuery& pq = q.partial;
+  std::vector<int> slot(model.joint_count(), -1);
+  for (int jj : pq.subtree_joints) {
+    const auto j = static_cast<std::size_t>(jj);
+    const int par = model.parents[j];
+    if (par < 0) {  // the root rotated: not this case (it moves the whole body)
+      q.subtree.clear();
+      return;
+    }
+    ResolvedFrame::SubtreeJoint sj;
+    sj.joint = j;
+    sj.parent = static_cast<std::size_t>(par);
+    sj.parent_slot = slot[sj.parent];
+    const int gi = pq.given_rotation[j];
+    sj.given = gi >= 0;
+    if (sj.given) sj.local = pq.spec.joint_rotations[static_cast<std::size_t>(gi)].second;
+    slot[j] = static_cast<int>(q.subtree.size());
+    q.subtree.push_back(sj);
+  }
+  const double half_inv_t2 = 0.5 / (t * t);
+  for (int jj : pq.affected_joints) {
+    const auto j = static_cast<std::size_t>(jj);
+    if (!(model.masses_kg[j] > 0.0) || slot[j] < 0 || sd.segment_of_joint[j] < 0) continue;
+    ResolvedFrame::SubtreeSegment sg;
+    sg.slot = static_cast<std::size_t>(slot[j]);
+    sg.segment = static_cast<std::size_t>(sd.segment_of_joint[j]);
+    sg.mg = model.masses_kg[j] * model.params.gravity_mps2;
+    sg.mh = model.masses_kg[j] * half_inv_t2;
+    sg.com_local = model.coms_local_m[j];
+    sg.principal = model.principal_frames[j];
+    for (int k = 0; k < 3; ++k)
+      sg.d[static_cast<std::size_t>(k)] = model.principal_moments_kgm2[j][k] * half_inv_t2;
+    q.subtree_segments.push_back(sg);
+  }
+}
+
+// h(Q_F -> F) for skeleton frames [g0, g1) of a partial frame with a subtree
+// plan (joint rotations only), in double: forward kinematics of the given
+// subtrees on F's stored pose (as complete_partial_query), then per segment
+// of the subtrees the h-scan formula with a static A (K_A = K_A^rot = 0)
+// against F's scan-table fields (COM, KE, principal orientation, KE_rot).
+// Frames with skip[i] != 0 are left alone. docs/search.md "Joint-rotation
+// frames"; test Search.SubtreeEnergyEqualsPartialEnergySet1.
+void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArrays& fa,
+                    std::size_t g0, std::size_t g1, double* out, Scratch& sc,
+                    const std::uint8_t* skip) {
+  const std::size_t nj = sd.model.joint_count();
+  const HScanTable& tb = sd.table;
+  sc.sub_x.resize(q.subtree.size());
+  sc.sub_r.resize(q.subtree.size());
+  auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
+  auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
+  for (std::size_t g = g0; g < g1; ++g) {
+    if (skip != nullptr && skip[g - g0]) continue;
+    for (std::size_t t = 0; t < q.subtree.size(); ++t) {
+      const ResolvedFrame::SubtreeJoint& sj = q.subtree[t];
+      // F's local translation of the joint (from its parent, in F's parent frame).
+      const std::size_t ij = g * nj + sj.joint, ip = g * nj + sj.parent;
+      const Eigen::Quaterniond rf_p = q4(fa.rot + ip * 4);
+      const Eigen::Vector3d xf_p = v3(fa.pos + ip * 3);
+      const Eigen::Vector3d o = rf_p.conjugate() * (v3(fa.pos + ij * 3) - xf_p);
+      const Eigen::Quaterniond local = sj.given ? sj.local : q4(fa.lrot + ij * 4);
+      if (sj.parent_slot < 0) {
+        sc.sub_x[t] = xf_p + rf_p * o;
+        sc.sub_r[t] = rf_p * local;
+      } else {
+        const auto ps = static_cast<std::size_t>(sj.parent_slot);
+        sc.sub_x[t] = sc.sub_x[ps] + sc.sub_r[ps] * o;
+        sc.sub_r[t] = sc.sub_r[ps] * local;
+      }
+    }
+    double total = 0.0;
+    for (const ResolvedFrame::SubtreeSegment& sg : q.subtree_segments) {
+      const Eigen::Vector3d ca = sc.sub_x[sg.slot] + sc.sub_r[sg.slot] * sg.com_local;
+      const Eigen::Quaterniond a = (sc.sub_r[sg.slot] * sg.principal).normalized().conjugate();
+      const std::size_t b = sg.segment;
+      const double dx = static_cast<double>(tb.field(b, 0)[g]) - ca.x();
+      const double dy = static_cast<double>(tb.field(b, 1)[g]) - ca.y();
+      const double dz = static_cast<double>(tb.field(b, 2)[g]) - ca.z();
+      const double ku = sg.mh * (dx * dx + dy * dy + dz * dz);
+      const double kb = tb.field(b, 3)[g];
+      // dK(0, K_u, K_B) = max(K_B, 2 K_u - K_B) (K_B >= 0).
+      const double trans = sg.mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+      const double bw = tb.field(b, 4)[g], bx = tb.field(b, 5)[g], by = tb.field(b, 6)[g],
+                   bz = tb.field(b, 7)[g];
+      // r = conj(q_A P) (q_B P), K_w = |log r|_D^2 / (2 T^2) (the scan's formula).
+      const double rw = a.w() * bw - a.x() * bx - a.y() * by - a.z() * bz;
+      const double rx = a.w() * bx + bw * a.x() + a.y() * bz - a.z() * by;
+      const double ry = a.w() * by + bw * a.y() + a.z() * bx - a.x() * bz;
+      const double rz = a.w() * bz + bw * a.z() + a.x() * by - a.y() * bx;
+      const double kw = log_norm_factor(std::max(0.0, 1.0 - std::abs(rw))) *
+                        (sg.d[0] * rx * rx + sg.d[1] * ry * ry + sg.d[2] * rz * rz);
+      const double kbr = tb.field(b, 8)[g];
+      total += trans + std::max(kbr, 2.0 * kw - kbr);
+    }
+    out[g - g0] = total;
+  }
 }
 
 struct Entry {
@@ -1958,6 +2076,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
           search_detail::resolve_frame(q, i, *skels[k]->sk, skels[k]->model, q.transition_time_s,
                                        m.t_index, m.bvh_cache, m.index->info().unit_option));
       set_needed_joints(run.resolved[k].back(), skels[k]->model);
+      set_subtree_plan(run.resolved[k].back(), *skels[k], q.transition_time_s);
       run.bounds[k].push_back(make_bound_query(run.resolved[k].back(), *skels[k]));
     }
   run.prepare_caches();
@@ -2013,7 +2132,8 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
 }
 
 void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
-                                std::vector<double>& lower, std::vector<double>& h) const {
+                                std::vector<double>& lower, std::vector<double>& h,
+                                std::vector<double>* engine_h) const {
   const Impl& m = *impl_;
   if (k >= m.skels.size() || i >= q.frames.size())
     throw std::invalid_argument("frame_bounds: no such skeleton or frame");
@@ -2042,6 +2162,12 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
       evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc, std::nullopt,
                nullptr, &sd.tiles[row]);
     }
+  if (engine_h != nullptr) {
+    *engine_h = h;
+    set_subtree_plan(f, sd, q.transition_time_s);
+    if (!f.subtree.empty())
+      subtree_energy(f, sd, frame_arrays(*m.index, sd), 0, n, engine_h->data(), sc);
+  }
 }
 
 // ---------------------------------------------------------------------------

@@ -479,6 +479,71 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   EXPECT_GT(partial_lb_sum, 0.2 * partial_h_sum);
 }
 
+// Partial frames that give joint rotations only are evaluated by the
+// engine's subtree kernel (forward kinematics of the given subtrees, the h-scan
+// formula against the scan table): it equals partial_approximate_energy (the
+// double reference on the converted frame arrays) to float precision of the
+// stored data, on every frame of a set-1 index, for given joints at several
+// depths (one forearm, a shoulder chain, both legs), BVH `only` frames and
+// T = 0.25..1 s. Other partial frames keep the reference.
+TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  std::mt19937 rng(7);
+  const auto& clips = index.clips();
+  auto deg = [&] { return std::to_string(static_cast<int>(rng() % 360) - 180); };
+  auto euler = [&] {
+    return "{\"euler_deg\": [" + deg() + ", " + deg() + ", " + deg() + "], \"order\": \"ZXY\"}";
+  };
+  double worst = 0.0, sum = 0.0;
+  std::size_t checked = 0;
+  for (std::size_t i = 0; i < 8; ++i) {
+    std::string f;
+    const std::size_t c = rng() % clips.size();
+    const std::string bvh = "\"bvh\": \"" + clips[c].path +
+                            "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
+    switch (i % 4) {
+      case 0:
+        f = "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
+        break;
+      case 1:
+        f = "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"LeftForeArm\": " + euler() + "}}";
+        break;
+      case 2:
+        f = "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
+        break;
+      default:
+        f = "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
+        break;
+    }
+    const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
+    const Query q =
+        parse("{\"frames\": [" + f + ", {\"root_position\": [0, null, 0]}], \"transition_time\": " +
+              std::to_string(t) + "}");
+    for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
+      std::vector<double> lower, h, engine_h;
+      engine.frame_bounds(q, 0, k, lower, h, &engine_h);
+      ASSERT_EQ(engine_h.size(), h.size());
+      for (std::size_t g = 0; g < h.size(); ++g) {
+        const double err = std::abs(engine_h[g] - h[g]);
+        ASSERT_LE(err, 1e-6 * h[g] + 1e-6) << "query " << i << " (" << f << ") frame " << g
+                                           << ": engine " << engine_h[g] << ", reference " << h[g];
+        worst = std::max(worst, err / (h[g] + 1e-3));
+        sum += h[g];
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 100000u);
+  EXPECT_GT(sum, 0.0);
+  // The query's rotations differ from most frames: not a comparison of zeros.
+  EXPECT_GT(sum / static_cast<double>(checked), 1.0);
+  std::printf("subtree kernel vs reference: worst relative difference %.3g over %zu frames\n",
+              worst, checked);
+}
+
 // A query character (tables recomputed from the stored poses) ranks and
 // scores like an index built with that character: same clips and frames,
 // scores equal to float rounding of the stored poses (ties within that

@@ -192,6 +192,23 @@ void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::s
 /// All frames of the clips, concatenated in order.
 HScanTable build_h_scan_table(const DynamicsModel& model, std::span<const ClipDynamics> clips);
 
+/// theta^2 / sin^2(theta / 2) as a function of t = 1 - |w| = 1 - cos(theta / 2)
+/// in [0, 1], for a unit quaternion (w, v) of angle theta: 4 acos(1 - t)^2 /
+/// (1 - (1 - t)^2) by a degree-10 polynomial (interpolation at Chebyshev
+/// nodes; maximum relative error 1.6e-8). |log q|^2 = log_norm_factor(1 - |w|) |v|^2,
+/// so the h scan's rotational transition energy needs no acos or atan2.
+/// Evaluated in T (float in the scan kernel, double elsewhere).
+template <class T>
+inline T log_norm_factor(T t) {
+  constexpr double c[] = {4.000000061686637,   2.666651769534008,   1.511700742838962,
+                          0.803679891497636,   0.49665062823084916, -0.09152589691698841,
+                          0.9679826583910828,  -1.4020223308477227, 1.5628066920237862,
+                          -0.9032807260483232, 0.25696078661431665};
+  T p = static_cast<T>(c[10]);
+  for (int i = 9; i >= 0; --i) p = p * t + static_cast<T>(c[i]);
+  return p;
+}
+
 /// One full query state prepared for scanning (float constants per segment).
 struct HScanQuery {
   static constexpr std::size_t kConstants = 16;
