@@ -1176,16 +1176,16 @@ void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArray
     if (skip != nullptr && skip[g - g0]) continue;
     for (std::size_t t = 0; t < q.subtree.size(); ++t) {
       const ResolvedFrame::SubtreeJoint& sj = q.subtree[t];
-      // F's local translation of the joint (from its parent, in F's parent frame).
       const std::size_t ij = g * nj + sj.joint, ip = g * nj + sj.parent;
       const Eigen::Quaterniond rf_p = q4(fa.rot + ip * 4);
-      const Eigen::Vector3d xf_p = v3(fa.pos + ip * 3);
-      const Eigen::Vector3d o = rf_p.conjugate() * (v3(fa.pos + ij * 3) - xf_p);
       const Eigen::Quaterniond local = sj.given ? sj.local : q4(fa.lrot + ij * 4);
       if (sj.parent_slot < 0) {
-        sc.sub_x[t] = xf_p + rf_p * o;
+        // The parent is F's: so is the joint's position.
+        sc.sub_x[t] = v3(fa.pos + ij * 3);
         sc.sub_r[t] = rf_p * local;
       } else {
+        // F's local translation of the joint (in F's frame of the parent), on Q_F's parent.
+        const Eigen::Vector3d o = rf_p.conjugate() * (v3(fa.pos + ij * 3) - v3(fa.pos + ip * 3));
         const auto ps = static_cast<std::size_t>(sj.parent_slot);
         sc.sub_x[t] = sc.sub_x[ps] + sc.sub_r[ps] * o;
         sc.sub_r[t] = sc.sub_r[ps] * local;
@@ -1210,10 +1210,14 @@ void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArray
       const double rx = a.w() * bx + bw * a.x() + a.y() * bz - a.z() * by;
       const double ry = a.w() * by + bw * a.y() + a.z() * bx - a.x() * bz;
       const double rz = a.w() * bz + bw * a.z() + a.x() * by - a.y() * bx;
-      const double kw = log_norm_factor(std::max(0.0, 1.0 - std::abs(rw))) *
-                        (sg.d[0] * rx * rx + sg.d[1] * ry * ry + sg.d[2] * rz * rz);
       const double kbr = tb.field(b, 8)[g];
-      total += trans + std::max(kbr, 2.0 * kw - kbr);
+      const double sd2 = sg.d[0] * rx * rx + sg.d[1] * ry * ry + sg.d[2] * rz * rz;
+      // log_norm_factor <= pi^2 (+1.6e-8): when 9.88 sd2 <= K_B^rot, K_w <= K_B^rot and
+      // the term is K_B^rot whatever the factor (the same value, without the polynomial).
+      double rot = kbr;
+      if (9.88 * sd2 > kbr)
+        rot = std::max(kbr, 2.0 * (log_norm_factor(std::max(0.0, 1.0 - std::abs(rw))) * sd2) - kbr);
+      total += trans + rot;
     }
     out[g - g0] = total;
   }
