@@ -958,6 +958,12 @@ struct PartialBoundPlan {
   // Joint-rotation subtrees (not whole-body): composite rotations per slot.
   std::vector<int> sub_joints, sub_parent_slot;
   std::vector<const Eigen::Quaterniond*> sub_given;  // the query's local rotation, null if F's
+  // Per listed segment whose joint tops a given subtree (its parent is F's,
+  // its rotation given): the parent joint, else -1; COM offset, m g, m / (2 T^2).
+  // Its translational term is computed exactly (subtree_energy's arithmetic).
+  std::vector<int> top_parent;
+  std::vector<Eigen::Vector3d> top_com;
+  std::vector<double> top_mg, top_mh;
   // Whole-body COM term (no joint rotations): root position components.
   bool com_term = false;
   std::array<bool, 3> given{false, false, false};
@@ -998,6 +1004,13 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
     p.rot_coef.push_back(sd.lambda_min[s] * (1.0 - 1e-6) * p.half_inv_t2);
     p.turns.push_back(p.whole && p.heading && pq.in_subtree[j] == 0);
     p.sub_slot.push_back(p.whole ? -1 : slot[j]);
+    const int sl = p.whole ? -1 : slot[j];
+    const bool top = sl >= 0 && p.sub_parent_slot[static_cast<std::size_t>(sl)] < 0 &&
+                     p.sub_given[static_cast<std::size_t>(sl)] != nullptr && model.parents[j] >= 0;
+    p.top_parent.push_back(top ? model.parents[j] : -1);
+    p.top_com.push_back(model.coms_local_m[j]);
+    p.top_mg.push_back(model.masses_kg[j] * model.params.gravity_mps2);
+    p.top_mh.push_back(model.masses_kg[j] * p.half_inv_t2);
   }
   p.com_term = p.whole && pq.subtree_joints.empty();
   for (std::size_t a = 0; a < 3; ++a) {
@@ -1051,7 +1064,23 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
     double kt = 0.0, rot = 0.0;
     for (std::size_t i = 0; i < p.segs.size(); ++i) {
       const std::size_t s = p.segs[i];
-      kt += static_cast<double>(tb.field(s, 3)[g]);
+      if (p.top_parent[i] >= 0) {
+        // Q_F's COM: F's joint position + R_p(F) L_Q c (as subtree_energy computes it).
+        const auto j = static_cast<std::size_t>(sd.model.segments[s]);
+        const float* r = fa.rot + (g * nj + static_cast<std::size_t>(p.top_parent[i])) * 4;
+        const float* x = fa.pos + (g * nj + j) * 3;
+        const Eigen::Quaterniond rq = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized() *
+                                      *p.sub_given[static_cast<std::size_t>(p.sub_slot[i])];
+        const Eigen::Vector3d ca = Eigen::Vector3d(x[0], x[1], x[2]) + rq * p.top_com[i];
+        const double dx = static_cast<double>(tb.field(s, 0)[g]) - ca.x();
+        const double dy = static_cast<double>(tb.field(s, 1)[g]) - ca.y();
+        const double dz = static_cast<double>(tb.field(s, 2)[g]) - ca.z();
+        const double ku = p.top_mh[i] * (dx * dx + dy * dy + dz * dz);
+        const double kb = tb.field(s, 3)[g];
+        kt += p.top_mg[i] * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+      } else {
+        kt += static_cast<double>(tb.field(s, 3)[g]);
+      }
       const double kr = tb.field(s, 8)[g];
       double theta = 0.0;
       if (p.turns[i])
