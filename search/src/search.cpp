@@ -1080,26 +1080,26 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
                                   static_cast<double>(l[2]), static_cast<double>(l[3]));
       const double nlf = lf.coeffs().squaredNorm();
       const int ps = p.sub_parent_slot[t];
-      if (ps < 0) {
-        sc.mf[t] = lf;
-        sc.nf[t] = nlf;
-      } else {
-        sc.mf[t] = sc.mf[static_cast<std::size_t>(ps)] * lf;
-        sc.nf[t] = sc.nf[static_cast<std::size_t>(ps)] * nlf;
-      }
+      // Slot t's composite rotation (and squared norm): its parent slot's times
+      // the local one, or the local one at the top of a subtree.
+      auto chain = [&](std::vector<Eigen::Quaterniond>& m, std::vector<double>& nm,
+                       const Eigen::Quaterniond& local, double nlocal) {
+        if (ps < 0) {
+          m[t] = local;
+          nm[t] = nlocal;
+        } else {
+          m[t] = m[static_cast<std::size_t>(ps)] * local;
+          nm[t] = nm[static_cast<std::size_t>(ps)] * nlocal;
+        }
+      };
+      chain(sc.mf, sc.nf, lf, nlf);
       if (p.mq_fixed[t]) {
         sc.mq[t] = p.mq[t];
         sc.nq[t] = p.nq[t];
+      } else if (p.sub_given[t] != nullptr) {
+        chain(sc.mq, sc.nq, *p.sub_given[t], p.sub_given[t]->coeffs().squaredNorm());
       } else {
-        const Eigen::Quaterniond& lq = p.sub_given[t] ? *p.sub_given[t] : lf;
-        const double nlq = p.sub_given[t] ? p.sub_given[t]->coeffs().squaredNorm() : nlf;
-        if (ps < 0) {
-          sc.mq[t] = lq;
-          sc.nq[t] = nlq;
-        } else {
-          sc.mq[t] = sc.mq[static_cast<std::size_t>(ps)] * lq;
-          sc.nq[t] = sc.nq[static_cast<std::size_t>(ps)] * nlq;
-        }
+        chain(sc.mq, sc.nq, lf, nlf);
       }
     }
     double turn = 0.0;
