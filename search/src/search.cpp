@@ -1044,6 +1044,21 @@ double quat_angle_sq_lower(const Eigen::Quaterniond& x, double nx, const Eigen::
   return 4.0 * std::max(0.0, 1.0 - c * c / (nx * ny));
 }
 
+// The translational h term of scan-table segment b of frame g against a
+// static A (K_A = 0) whose segment COM is ca: m g |d_y| + dK(0, K_u, K_B) =
+// m g |d_y| + max(K_B, 2 K_u - K_B), K_u = m / (2 T^2) |c_B - ca|^2 (mh the
+// last factor, K_B >= 0). The subtree kernel and the partial bound's top
+// segments both add it, so the bound is that very value.
+double static_translation_h(const HScanTable& tb, std::size_t b, std::size_t g,
+                            const Eigen::Vector3d& ca, double mg, double mh) {
+  const double dx = static_cast<double>(tb.field(b, 0)[g]) - ca.x();
+  const double dy = static_cast<double>(tb.field(b, 1)[g]) - ca.y();
+  const double dz = static_cast<double>(tb.field(b, 2)[g]) - ca.z();
+  const double ku = mh * (dx * dx + dy * dy + dz * dz);
+  const double kb = tb.field(b, 3)[g];
+  return mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+}
+
 // Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out.
 void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa,
                           std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
@@ -1120,12 +1135,7 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
         const Eigen::Quaterniond rq = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized() *
                                       *p.sub_given[static_cast<std::size_t>(p.sub_slot[i])];
         const Eigen::Vector3d ca = Eigen::Vector3d(x[0], x[1], x[2]) + rq * p.top_com[i];
-        const double dx = static_cast<double>(tb.field(s, 0)[g]) - ca.x();
-        const double dy = static_cast<double>(tb.field(s, 1)[g]) - ca.y();
-        const double dz = static_cast<double>(tb.field(s, 2)[g]) - ca.z();
-        const double ku = p.top_mh[i] * (dx * dx + dy * dy + dz * dz);
-        const double kb = tb.field(s, 3)[g];
-        kt += p.top_mg[i] * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+        kt += static_translation_h(tb, s, g, ca, p.top_mg[i], p.top_mh[i]);
       } else {
         kt += static_cast<double>(tb.field(s, 3)[g]);
       }
@@ -1274,13 +1284,7 @@ void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArray
       const Eigen::Vector3d ca = sc.sub_x[sg.slot] + sc.sub_r[sg.slot] * sg.com_local;
       const Eigen::Quaterniond a = (sc.sub_r[sg.slot] * sg.principal).normalized().conjugate();
       const std::size_t b = sg.segment;
-      const double dx = static_cast<double>(tb.field(b, 0)[g]) - ca.x();
-      const double dy = static_cast<double>(tb.field(b, 1)[g]) - ca.y();
-      const double dz = static_cast<double>(tb.field(b, 2)[g]) - ca.z();
-      const double ku = sg.mh * (dx * dx + dy * dy + dz * dz);
-      const double kb = tb.field(b, 3)[g];
-      // dK(0, K_u, K_B) = max(K_B, 2 K_u - K_B) (K_B >= 0).
-      const double trans = sg.mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+      const double trans = static_translation_h(tb, b, g, ca, sg.mg, sg.mh);
       const double bw = tb.field(b, 4)[g], bx = tb.field(b, 5)[g], by = tb.field(b, 6)[g],
                    bz = tb.field(b, 7)[g];
       // r = conj(q_A P) (q_B P), K_w = |log r|_D^2 / (2 T^2) (the scan's formula).
