@@ -809,6 +809,11 @@ struct Scratch {
   // eval_clip_blocks: per block suffix / prefix minima, needed blocks.
   std::vector<double> sb, pa;
   std::vector<std::uint8_t> need_a, need_b;
+  // eval_clip_blocks: blocks the probe scanned, the computed side's running
+  // minima, the other side's blocks in the order of their bounds.
+  std::vector<std::uint8_t> done_a, done_b;
+  std::vector<double> run, pa_key;
+  std::vector<std::size_t> order;
   // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
   std::vector<float> clip_x;
   std::vector<double> blk_a, blk_b;
@@ -1545,8 +1550,11 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
 // 16-frame block. lba / lbb are the box bounds of the clip's blocks (as
 // double); every bound of a frame is its block's, so a block's frames differ
 // only by which neighbours count as "s < e" (the first / last frame of a
-// block), and the block is scanned exactly when eval_clip_world scans its
-// chunk: same values, same counters, same answer, without per-frame passes.
+// block). On top of those decisions the clip prunes against its own best
+// pair so far (docs/search.md "The clip's own best"): a probe pair of blocks
+// first while tau is infinite, and the second side's blocks in the order of
+// their bounds. The chunks are eval_clip_world's 16-frame tiles (same
+// values, same answer); fewer of them are scanned.
 bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, const double* lba,
                       const double* lbb, Scratch& sc, ClipCounters& cnt, Entry& out) {
   const SkelData& sd = *c.sd;
@@ -1571,6 +1579,47 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
   std::vector<std::uint8_t>& need_b = sc.need_b;
   need_a.assign(nb, 0);
   need_b.assign(nb, 0);
+  sc.done_a.assign(nb, 0);
+  sc.done_b.assign(nb, 0);
+  if (sc.a.size() < k) {
+    sc.a.resize(k);
+    sc.b.resize(k);
+  }
+  double* a = sc.a.data();
+  double* b = sc.b.data();
+  const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
+  const double lambda = c.lambda;
+  auto cache_values = [&](FrameCache* cache) {
+    return cache ? cache->values.get() + ci.frame_start : nullptr;
+  };
+  auto cache_done = [&](FrameCache* cache) {
+    return cache ? cache->done.data() + ci.frame_start : nullptr;
+  };
+  // Probe (only while fewer than r clips are scored, tau infinite): the
+  // block pair x <= y of least lba[x] + lbb[y] is scanned first; its best
+  // pair s < e is a real score of this clip, so the clip's optimum is at most
+  // that: it serves as the clip's tau (every decision below stays sound).
+  if (!std::isfinite(tau) && k >= 2) {
+    double least = kInf;
+    std::size_t px = 0, py = 0;
+    for (std::size_t x = 0; x < nb; ++x)
+      for (std::size_t y = x; y < nb; ++y)
+        if ((x != y || frames(x) >= 2) && lba[x] + lbb[y] < least) {
+          least = lba[x] + lbb[y];
+          px = x;
+          py = y;
+        }
+    if (std::isfinite(least)) {
+      scan_whole_chunk(c, ci, *c.qa, px, first(px), first(px) + frames(px), a,
+                       cache_values(c.cache_a), cache_done(c.cache_a), sc, cnt);
+      scan_whole_chunk(c, ci, *c.qb, py, first(py), first(py) + frames(py), b,
+                       cache_values(c.cache_b), cache_done(c.cache_b), sc, cnt);
+      sc.done_a[px] = sc.done_b[py] = 1;
+      for (std::size_t s = first(px); s < first(px) + frames(px); ++s)
+        for (std::size_t e = std::max(s + 1, first(py)); e < first(py) + frames(py); ++e)
+          tau = std::min(tau, (b[e] + lambda * prefix[e]) + (a[s] - lambda * prefix[s]));
+    }
+  }
   double clip_lb = kInf;
   std::size_t count_a = 0, count_b = 0;
   for (std::size_t bl = 0; bl < nb; ++bl) {
@@ -1587,33 +1636,65 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
     cnt.pruned += 2 * k;
     return false;
   }
-  double* a = sc.a.data();
-  double* b = sc.b.data();
-  if (sc.a.size() < k) {
-    sc.a.resize(k);
-    sc.b.resize(k);
-    a = sc.a.data();
-    b = sc.b.data();
-  }
-  // Scans the needed blocks of one side (chunks shared with the other pair: copied).
-  auto side = [&](const ResolvedFrame& q, const std::vector<std::uint8_t>& need, double* dst,
-                  FrameCache* cache) {
-    double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
-    std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
+  // Scans the needed blocks of the first side (chunks shared with the other
+  // pair: copied; blocks the probe scanned: kept).
+  auto side = [&](const ResolvedFrame& q, const std::vector<std::uint8_t>& need,
+                  const std::vector<std::uint8_t>& done, double* dst, FrameCache* cache) {
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
-      if (!need[bl]) {
+      if (!need[bl])
         cnt.pruned += f1 - f0;
-      } else {
-        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cv, cd, sc, cnt);
-      }
+      else if (!done[bl])
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc,
+                         cnt);
     }
   };
+  // Scans the needed blocks of the second side in the order of key[bl] =
+  // its bound + a lower bound of the first side's best partner (least
+  // first), with u the clip's best score so far (tau at first): a block
+  // whose key exceeds u cannot hold a pair scoring <= u and is dropped
+  // (need = 0). partner(f): the computed first side's best partner of frame
+  // f (min over s < f of a(s) - lambda P[s], or over e > f of b(e) + lambda P[e]).
+  auto second_side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& need,
+                         const std::vector<std::uint8_t>& done, const double* lbx,
+                         const std::vector<double>& key_other, double* dst, FrameCache* cache,
+                         double sign) {
+    std::vector<std::size_t>& order = sc.order;
+    order.clear();
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      if (need[bl])
+        order.push_back(bl);
+      else
+        cnt.pruned += frames(bl);
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+      const double kx = lbx[x] + key_other[x], ky = lbx[y] + key_other[y];
+      return kx != ky ? kx < ky : x < y;
+    });
+    double u = tau;
+    for (const std::size_t bl : order) {
+      const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
+      if (safe(lbx[bl] + key_other[bl]) > u) {
+        need[bl] = 0;
+        cnt.pruned += f1 - f0;
+        continue;
+      }
+      if (!done[bl])
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc,
+                         cnt);
+      for (std::size_t f = f0; f < f1; ++f)
+        if (std::isfinite(dst[f]) && std::isfinite(sc.run[f]))
+          u = std::min(u, (dst[f] + sign * lambda * prefix[f]) + sc.run[f]);
+    }
+  };
+  sc.run.resize(k);
   // The side with fewer blocks first; then the other side decided again with
   // its true values (+inf where not computed) in place of its bounds, for the
   // frames its bounds kept (docs/search.md "Frame pruning").
+  std::vector<double>& key = sc.pa_key;
+  key.resize(nb);
   if (count_a <= count_b) {
-    side(*c.qa, need_a, a, c.cache_a);
+    side(*c.qa, need_a, sc.done_a, a, c.cache_a);
     double pm = kInf;  // min_{s < first frame of the block} of the computed a(s)
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t f0 = first(bl), n = frames(bl);
@@ -1627,11 +1708,18 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
                           !(safe(lbb[bl] + pm_last) > tau);
         need_b[bl] = first_frame || rest;
       }
+      key[bl] = std::max(pa[bl + 1], pm_last);  // <= a(s) + lambda (P[e] - P[s]) for s < e in bl
       if (need_a[bl]) pm = std::min(pm_last, a[f0 + n - 1]);
     }
-    side(*c.qb, need_b, b, c.cache_b);
+    // run[e] = min_{s < e} of the computed a(s) - lambda P[s]
+    double m = kInf;
+    for (std::size_t f = 0; f < k; ++f) {
+      sc.run[f] = m;
+      if (need_a[f / kBlock] && std::isfinite(a[f])) m = std::min(m, a[f] - lambda * prefix[f]);
+    }
+    second_side(*c.qb, need_b, sc.done_b, lbb, key, b, c.cache_b, 1.0);
   } else {
-    side(*c.qb, need_b, b, c.cache_b);
+    side(*c.qb, need_b, sc.done_b, b, c.cache_b);
     double sm = kInf;  // min_{e > last frame of the block} of the computed b(e)
     for (std::size_t bl = nb; bl-- > 0;) {
       const std::size_t f0 = first(bl), n = frames(bl);
@@ -1645,14 +1733,19 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
                           !(safe(lba[bl] + sm_first) > tau);
         need_a[bl] = last || rest;
       }
+      key[bl] = std::max(sb[bl], sm_first);  // <= b(e) + lambda (P[e] - P[s]) for e > s in bl
       if (need_b[bl]) sm = std::min(sm_first, b[f0]);
     }
-    side(*c.qa, need_a, a, c.cache_a);
+    // run[s] = min_{e > s} of the computed b(e) + lambda P[e]
+    double m = kInf;
+    for (std::size_t f = k; f-- > 0;) {
+      sc.run[f] = m;
+      if (need_b[f / kBlock] && std::isfinite(b[f])) m = std::min(m, b[f] + lambda * prefix[f]);
+    }
+    second_side(*c.qa, need_a, sc.done_a, lba, key, a, c.cache_a, -1.0);
   }
   // Running minimum (best_partial_motion) over the computed values, +inf
   // elsewhere: blocks with neither side computed change nothing and are skipped.
-  const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
-  const double lambda = c.lambda;
   bool have = false;
   double run_min = kInf;
   std::size_t run_s = 0;
