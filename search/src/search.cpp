@@ -1589,6 +1589,8 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
   double* b = sc.b.data();
   const std::span<const double> prefix = clip_prefix(*c.eng->index, sd, ci);
   const double lambda = c.lambda;
+  // lambda P[f], without reading P when lambda = 0 (the same value: 0).
+  auto lp = [&](std::size_t f) { return lambda != 0.0 ? lambda * prefix[f] : 0.0; };
   auto cache_values = [&](FrameCache* cache) {
     return cache ? cache->values.get() + ci.frame_start : nullptr;
   };
@@ -1617,7 +1619,7 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
       sc.done_a[px] = sc.done_b[py] = 1;
       for (std::size_t s = first(px); s < first(px) + frames(px); ++s)
         for (std::size_t e = std::max(s + 1, first(py)); e < first(py) + frames(py); ++e)
-          tau = std::min(tau, (b[e] + lambda * prefix[e]) + (a[s] - lambda * prefix[s]));
+          tau = std::min(tau, (b[e] + lp(e)) + (a[s] - lp(s)));
     }
   }
   double clip_lb = kInf;
@@ -1684,7 +1686,7 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
                          cnt);
       for (std::size_t f = f0; f < f1; ++f)
         if (std::isfinite(dst[f]) && std::isfinite(sc.run[f]))
-          u = std::min(u, (dst[f] + sign * lambda * prefix[f]) + sc.run[f]);
+          u = std::min(u, (dst[f] + sign * lp(f)) + sc.run[f]);
     }
   };
   sc.run.resize(k);
@@ -1713,9 +1715,12 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
     }
     // run[e] = min_{s < e} of the computed a(s) - lambda P[s]
     double m = kInf;
-    for (std::size_t f = 0; f < k; ++f) {
-      sc.run[f] = m;
-      if (need_a[f / kBlock] && std::isfinite(a[f])) m = std::min(m, a[f] - lambda * prefix[f]);
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
+      for (std::size_t f = f0; f < f1; ++f) {
+        sc.run[f] = m;
+        if (need_a[bl] && std::isfinite(a[f])) m = std::min(m, a[f] - lp(f));
+      }
     }
     second_side(*c.qb, need_b, sc.done_b, lbb, key, b, c.cache_b, 1.0);
   } else {
@@ -1738,9 +1743,12 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
     }
     // run[s] = min_{e > s} of the computed b(e) + lambda P[e]
     double m = kInf;
-    for (std::size_t f = k; f-- > 0;) {
-      sc.run[f] = m;
-      if (need_b[f / kBlock] && std::isfinite(b[f])) m = std::min(m, b[f] + lambda * prefix[f]);
+    for (std::size_t bl = nb; bl-- > 0;) {
+      const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
+      for (std::size_t f = f1; f-- > f0;) {
+        sc.run[f] = m;
+        if (need_b[bl] && std::isfinite(b[f])) m = std::min(m, b[f] + lp(f));
+      }
     }
     second_side(*c.qa, need_a, sc.done_a, lba, key, a, c.cache_a, -1.0);
   }
@@ -1756,14 +1764,14 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
     for (std::size_t f = f0; f < f1; ++f) {
       // e = f with s < f, then s = f for the later e.
       if (need_b[bl] && f > 0 && std::isfinite(b[f]) && std::isfinite(run_min)) {
-        const double score = (b[f] + lambda * prefix[f]) + run_min;
+        const double score = (b[f] + lp(f)) + run_min;
         if (score < best.score || !have) {
           best = {score, run_s, f};
           have = true;
         }
       }
       if (need_a[bl] && std::isfinite(a[f])) {
-        const double v = a[f] - lambda * prefix[f];
+        const double v = a[f] - lp(f);
         if (v < run_min) {
           run_min = v;
           run_s = f;
