@@ -133,6 +133,12 @@ def main():
       f"{m.get('load_average_at_end', 0):.2f} |")
     w(f"| wall time of the whole run | {m.get('seconds', 0) / 60:.1f} min |")
     w(f"| data | Bandai Namco set 2 (2,902 clips, 384,931 frames) and set 1, from `{m['data']}` |")
+    kept = {}
+    for key, st in sorted(m.get("stages", {}).items()):
+        if st.get("date") != m["date"]:
+            kept.setdefault((st.get("date", "?"), st.get("commit", "?"), st.get("command", "?")), []).append(key)
+    for (date, commit, command), keys in kept.items():
+        w(f"| kept from an earlier run | {', '.join(keys)}: {date}, commit {commit}, `{command}` |")
     w("")
     w("Rates are per core unless a thread count is given. The machine is a 2-vCPU")
     w("virtual machine: figures vary by 10–20 % between runs, which the min–max shows.")

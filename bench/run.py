@@ -324,15 +324,25 @@ def main():
                         "runs": a.runs, "data": a.data, "machine": machine()}}
     keys = {"ingest": "ingest", "energy": "energy", "index": "index_build", "search": "search",
             "synth": "synth", "scaling": "scaling"}
+    # Where each stage's figures come from: this run, or (stages not re-run,
+    # kept from the previous JSON) the run that measured them.
+    here = {"date": results["meta"]["date"], "commit": results["meta"]["machine"]["commit"],
+            "command": results["meta"]["command"]}
+    stages = {key: here for stage, key in keys.items() if stage in only}
     if os.path.exists(a.json):  # figures of stages not re-run this time are kept
         try:
             with open(a.json) as f:
                 old = json.load(f)
+            om = old.get("meta", {})
+            before = {"date": om.get("date", "?"), "commit": om.get("machine", {}).get("commit", "?"),
+                      "command": om.get("command", "?")}
             for stage, key in keys.items():
                 if stage not in only and key in old:
                     results[key] = old[key]
+                    stages[key] = om.get("stages", {}).get(key, before)
         except (OSError, ValueError):
             pass
+    results["meta"]["stages"] = stages
     set2 = set2_dir(a.data)
     try:
         t0 = time.monotonic()
