@@ -208,6 +208,15 @@ const FrameArrays& frame_arrays(const Index& index, const SkelData& sd) {
   return sd.fa;
 }
 
+// The FLANN forest of skeleton sd's frame features (approx mode), built once.
+void ensure_forest(const SkelData& sd, const SearchOptions& opt) {
+  const std::size_t n = sd.sk->frame_count, dim = sd.segments * 3;
+  if (n == 0) return;
+  std::call_once(sd.flann_once, [&] {
+    sd.flann = std::make_unique<search_detail::KnnIndex>(sd.kd, n, dim, opt.approx_trees);
+  });
+}
+
 // Model-derived per-segment constants, clip rows, frame -> clip row.
 void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, SkelData& sd) {
   sd.k = k;
@@ -2009,11 +2018,9 @@ struct QueryRunner {
     }
     for (std::size_t k = 0; k < skels.size(); ++k) {
       const SkelData& sd = *skels[k];
-      const std::size_t n = sd.sk->frame_count, dim = sd.segments * 3;
+      const std::size_t n = sd.sk->frame_count;
       if (n == 0) continue;
-      std::call_once(sd.flann_once, [&] {
-        sd.flann = std::make_unique<search_detail::KnnIndex>(sd.kd, n, dim, opt.approx_trees);
-      });
+      ensure_forest(sd, opt);
       const std::size_t knn = std::min<std::size_t>(
           n, static_cast<std::size_t>(opt.approx_neighbours_per_result) * q.top);
       std::set<std::size_t> rows;
@@ -2408,9 +2415,23 @@ std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
   return {std::move(e)};
 }
 
+void SearchEngine::prepare(const SearchOptions& options, bool partial_frames) const {
+  for (const auto& sd : impl_->skels) {
+    if (partial_frames) frame_arrays(*impl_->index, *sd);
+    if (options.mode == SearchMode::approx) ensure_forest(*sd, options);
+  }
+}
+
 std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
     const std::function<void(std::size_t, std::size_t)>& progress) {
+  // A frame that is not a whole BVH frame is partial (or may be, per skeleton).
+  bool partial = false;
+  for (const BatchEntry& e : batch)
+    if (e.query)
+      for (const QueryFrameSpec& f : e.query->frames)
+        partial = partial || !f.bvh || !f.only.empty();
+  engine.prepare(options, partial);
   std::vector<QueryOutcome> out(batch.size());
   std::mutex progress_mutex;
   std::size_t done = 0;

@@ -409,6 +409,41 @@ TEST(Search, ApproxRecallIsTheTopROverlapWithExact) {
   }
 }
 
+// A batch prepares its engine before the first query (frame arrays, FLANN
+// forests; SearchEngine::prepare): in exact mode the answers equal those of
+// an engine that loads lazily in run() (random queries include partial
+// frames, which read the frame arrays), preparing twice changes nothing, and
+// a prepared approx batch answers every query with its recall. (Approx
+// rankings are not compared across engines: FLANN's forests are random.)
+TEST(Search, PreparedBatchEqualsLazyRuns) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const auto queries = random_queries(index, small_query_count());
+  std::vector<BatchEntry> batch;
+  for (const auto& q : queries) batch.push_back({q.id, q, ""});
+  SearchOptions opt;
+  opt.max_length_s = 0.5;
+  const SearchEngine lazy(index), prepared(index);
+  prepared.prepare(opt, true);
+  const auto out = run_query_batch(prepared, batch, opt);
+  ASSERT_EQ(out.size(), queries.size());
+  for (std::size_t i = 0; i < queries.size(); ++i)
+    expect_same_results(lazy.run(queries[i], opt), out[i], queries[i].id);
+  SearchOptions approx = opt;
+  approx.mode = SearchMode::approx;
+  approx.approx_checks = 4;
+  prepared.prepare(approx, true);
+  const auto ap = run_query_batch(prepared, batch, approx);
+  ASSERT_EQ(ap.size(), queries.size());
+  for (const auto& o : ap) {
+    ASSERT_FALSE(o.error.has_value()) << o.id << ": " << *o.error;
+    ASSERT_TRUE(o.stats.recall.has_value()) << o.id;
+    EXPECT_GE(*o.stats.recall, 0.0);
+    EXPECT_LE(*o.stats.recall, 1.0);
+  }
+}
+
 // Every lower bound exact mode uses is <= h, frame by frame, over a whole
 // set-1 skeleton: full BVH frames (block boxes), root-only, heading (+ root
 // position), joint rotations (one joint, a chain of two, random angles), BVH

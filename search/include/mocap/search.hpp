@@ -137,6 +137,13 @@ class SearchEngine {
   /// frame out of range; an unreadable or invalid character file).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
 
+  /// Loads up front what queries will need and run() would otherwise load on
+  /// first use (shared by all later queries): with `partial_frames`, the
+  /// per-frame arrays that partial query frames read; in approx mode, the
+  /// FLANN forests. A batch calls it before its first query, so that each
+  /// query's stats.time_ms is the query alone. Thread-safe; idempotent.
+  void prepare(const SearchOptions& options, bool partial_frames) const;
+
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
   /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
   /// every frame F of the skeleton (16-frame block boxes, per-frame bounds of
