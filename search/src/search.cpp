@@ -819,9 +819,9 @@ struct Scratch {
   std::vector<double> sb, pa;
   std::vector<std::uint8_t> need_a, need_b;
   // eval_clip_blocks: blocks the probe scanned, the computed side's running
-  // minima, the other side's blocks in the order of their bounds.
+  // minima, the second side's keys and its blocks in the order of them.
   std::vector<std::uint8_t> done_a, done_b;
-  std::vector<double> run, pa_key;
+  std::vector<double> run, key;
   std::vector<std::size_t> order;
   // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
   std::vector<float> clip_x;
@@ -1702,7 +1702,7 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
   // The side with fewer blocks first; then the other side decided again with
   // its true values (+inf where not computed) in place of its bounds, for the
   // frames its bounds kept (docs/search.md "Frame pruning").
-  std::vector<double>& key = sc.pa_key;
+  std::vector<double>& key = sc.key;
   key.resize(nb);
   if (count_a <= count_b) {
     side(*c.qa, need_a, sc.done_a, a, c.cache_a);
