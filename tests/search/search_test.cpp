@@ -97,6 +97,26 @@ void expect_same_results(const QueryOutcome& x, const QueryOutcome& y, const std
   }
 }
 
+// Helpers of the per-frame tests over a set-1 index (bounds, subtree kernel).
+// `"bvh": PATH, "frame": K` of a random frame of a random clip.
+std::string random_bvh_frame(const Index& index, std::mt19937& rng) {
+  const auto& clips = index.clips();
+  const std::size_t c = rng() % clips.size();
+  return "\"bvh\": \"" + clips[c].path +
+         "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
+}
+// A random whole angle in degrees, -180..179.
+std::string random_deg(std::mt19937& rng) {
+  return std::to_string(static_cast<int>(rng() % 360) - 180);
+}
+// Test query i: query frame `frame`, then the origin; T = 0.25, 0.5, 1 s by i % 3.
+Query frame_to_origin_query(const std::string& frame, std::size_t i) {
+  const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
+  return parse("{\"frames\": [" + frame +
+               ", {\"root_position\": [0, null, 0]}], \"transition_time\": " + std::to_string(t) +
+               "}");
+}
+
 }  // namespace
 
 TEST(RunningMinimum, EqualsQuadraticReference) {
@@ -455,13 +475,8 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   const Index index = Index::open(set1_index());
   const SearchEngine engine(index);
   std::mt19937 rng(99);
-  const auto& clips = index.clips();
-  auto frame_json = [&] {
-    const std::size_t c = rng() % clips.size();
-    return "\"bvh\": \"" + clips[c].path +
-           "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
-  };
-  auto deg = [&] { return std::to_string(static_cast<int>(rng() % 360) - 180); };
+  auto frame_json = [&] { return random_bvh_frame(index, rng); };
+  auto deg = [&] { return random_deg(rng); };
   const std::size_t count = std::max<std::size_t>(12, random_query_count() / 10);
   double partial_lb_sum = 0.0, partial_h_sum = 0.0;
   std::size_t checked = 0;
@@ -488,10 +503,7 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
         f = "{" + frame_json() + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
         break;
     }
-    const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
-    const Query q =
-        parse("{\"frames\": [" + f + ", {\"root_position\": [0, null, 0]}], \"transition_time\": " +
-              std::to_string(t) + "}");
+    const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
       std::vector<double> lower, h;
       engine.frame_bounds(q, 0, k, lower, h);
@@ -527,8 +539,7 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
   const Index index = Index::open(set1_index());
   const SearchEngine engine(index);
   std::mt19937 rng(7);
-  const auto& clips = index.clips();
-  auto deg = [&] { return std::to_string(static_cast<int>(rng() % 360) - 180); };
+  auto deg = [&] { return random_deg(rng); };
   auto euler = [&] {
     return "{\"euler_deg\": [" + deg() + ", " + deg() + ", " + deg() + "], \"order\": \"ZXY\"}";
   };
@@ -536,9 +547,7 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
   std::size_t checked = 0;
   for (std::size_t i = 0; i < 8; ++i) {
     std::string f;
-    const std::size_t c = rng() % clips.size();
-    const std::string bvh = "\"bvh\": \"" + clips[c].path +
-                            "\", \"frame\": " + std::to_string(rng() % clips[c].frame_count);
+    const std::string bvh = random_bvh_frame(index, rng);  // drawn every time: same sequence
     switch (i % 4) {
       case 0:
         f = "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
@@ -553,10 +562,7 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
         f = "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
         break;
     }
-    const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
-    const Query q =
-        parse("{\"frames\": [" + f + ", {\"root_position\": [0, null, 0]}], \"transition_time\": " +
-              std::to_string(t) + "}");
+    const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
       std::vector<double> lower, h, engine_h;
       engine.frame_bounds(q, 0, k, lower, h, &engine_h);
