@@ -139,6 +139,10 @@ constexpr std::size_t kBoundFields = 10;  // cmin xyz, cmax xyz, KE min max, KE_
 constexpr std::size_t kBlock = 16;
 constexpr std::size_t kGroup = 16;  // clips per group (group bound tables)
 constexpr std::size_t kLanes = 16;  // clips per lane-major tile (box_bounds_lanes)
+// Whole-body sketch of a frame (docs/search.md "Whole-body sketches"): the
+// segments' mass-weighted mean COM x, y, z (metres) and the sums of their
+// translational and rotational kinetic energies (J).
+constexpr std::size_t kSketchFields = 5;
 static_assert(kGroup == kLanes, "a group's clip bounds are one lane-major tile");
 
 struct SkelData {
@@ -167,6 +171,10 @@ struct SkelData {
   // (group g) as [kBoundFields][segments][kLanes] floats, and their root
   // boxes as [6][kLanes] (unused lanes are zero).
   std::vector<float> clip_soa, clip_root_soa;
+  // Whole-body sketches of every frame, per block: [block][kSketchFields][kBlock]
+  // floats, from the scan table's float values (a short block repeats its
+  // last frame, which leaves the block's minimum unchanged).
+  std::vector<float> sketch;
   const float* kd = nullptr;  // [N][S*3]
   std::vector<float> kd_own;  // a query character's kd features (kd points here)
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
@@ -262,6 +270,7 @@ void build_bound_tables(SkelData& sd) {
   sd.clip_bounds.assign(sd.clips.size() * w, 0.0f);
   sd.clip_root.assign(sd.clips.size() * 6, 0.0f);
   sd.tiles.assign(blocks, HScanTable{});
+  sd.sketch.assign(blocks * kSketchFields * kBlock, 0.0f);
   const HScanTable& tb = sd.table;
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
@@ -300,6 +309,20 @@ void build_bound_tables(SkelData& sd) {
         std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
                   tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
                   tile.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tile.stride));
+      float* sketch = sd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
+      for (std::size_t l = 0; l < kBlock; ++l) {
+        const std::size_t g = std::min(g0 + l, g1 - 1);
+        std::array<double, kSketchFields> v{};
+        for (std::size_t b = 0; b < real; ++b) {
+          for (std::size_t a = 0; a < 3; ++a)
+            v[a] += sd.masses[b] * static_cast<double>(tb.field(b, a)[g]);
+          v[3] += static_cast<double>(tb.field(b, 3)[g]);
+          v[4] += static_cast<double>(tb.field(b, 8)[g]);
+        }
+        for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
+        for (std::size_t i = 0; i < kSketchFields; ++i)
+          sketch[i * kBlock + l] = static_cast<float>(v[i]);
+      }
       // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
       constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
                             hi_f[5] = {3, 4, 5, 7, 9};
@@ -381,6 +404,9 @@ struct BoundQuery {
   std::array<bool, 3> given{false, false, false};
   float total_mg = 0.0f;
   std::vector<float> m_inv_t2;
+  // full: the whole-body sketch constants (sketch_term): mean COM x y z,
+  // sum KE_A, sum KE_A^rot, M g, M / T^2.
+  std::array<float, 7> sketch{};
 };
 
 BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
@@ -398,6 +424,18 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
       b.mh.push_back(k[5]);
       b.kar.push_back(k[10]);
     }
+    std::array<double, 7> k{};
+    for (std::size_t s = 0; s < sd.segments; ++s) {
+      k[0] += sd.masses[s] * static_cast<double>(b.ax[s]);
+      k[1] += sd.masses[s] * static_cast<double>(b.ay[s]);
+      k[2] += sd.masses[s] * static_cast<double>(b.az[s]);
+      k[3] += static_cast<double>(b.ka[s]);
+      k[4] += static_cast<double>(b.kar[s]);
+      k[5] += static_cast<double>(b.mg[s]);
+      k[6] += 2.0 * static_cast<double>(b.mh[s]);
+    }
+    for (std::size_t a = 0; a < 3; ++a) k[a] /= sd.segment_mass;
+    for (std::size_t i = 0; i < k.size(); ++i) b.sketch[i] = static_cast<float>(k[i]);
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
     float total = 0.0f;
@@ -512,6 +550,39 @@ float box_bound(const BoundQuery& q, const float* __restrict row, const float* _
 #else
 #define MOCAP_SEARCH_MULTIVERSION
 #endif
+
+// Lower bound of the scanned h(Q -> F) for a full query frame from F's
+// whole-body sketch (x, y, z, kb, rb; SkelData::sketch) and the query's
+// constants k (BoundQuery::sketch); docs/search.md "Whole-body sketches"
+// proves it. Float, like box_bound; the caller's slack absorbs the roundings.
+inline float sketch_term(const float* k, float x, float y, float z, float kb, float rb) {
+  const float dx = x - k[0], dy = y - k[1], dz = z - k[2];
+  const float trans =
+      std::max(std::fabs(kb - k[3]), k[6] * ((dx * dx + dy * dy) + dz * dz) - k[3] - kb);
+  return (k[5] * std::fabs(dy) + trans) + std::fabs(rb - k[4]);
+}
+
+// The least sketch bound over the frames of one block (`blk`: its
+// [kSketchFields][kBlock] sketches) for query frame a (constants ka) and
+// query frame b (kb), in one pass over the block.
+MOCAP_SEARCH_MULTIVERSION
+void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
+                         const float* __restrict blk, float& out_a, float& out_b) {
+  float va[kBlock], vb[kBlock];
+  for (std::size_t l = 0; l < kBlock; ++l) {
+    const float x = blk[l], y = blk[kBlock + l], z = blk[2 * kBlock + l];
+    const float kin = blk[3 * kBlock + l], rot = blk[4 * kBlock + l];
+    va[l] = sketch_term(ka, x, y, z, kin, rot);
+    vb[l] = sketch_term(kb, x, y, z, kin, rot);
+  }
+  float ma = va[0], mb = vb[0];
+  for (std::size_t l = 1; l < kBlock; ++l) {
+    ma = std::min(ma, va[l]);
+    mb = std::min(mb, vb[l]);
+  }
+  out_a = ma;
+  out_b = mb;
+}
 
 // box_bound for the kLanes boxes of one lane-major tile (SkelData::clip_soa)
 // at once, vectorised over the boxes: out[l] bounds h(Q -> F) for every
@@ -826,6 +897,7 @@ struct Scratch {
   // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
   std::vector<float> clip_x;
   std::vector<double> blk_a, blk_b;
+  std::vector<double> blk_pa;  // block_bounds_of: prefix minima of the a-side sketch bounds
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   std::vector<double> nq, nf;              // and their squared norms
   std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
@@ -2150,18 +2222,47 @@ struct QueryRunner {
                                  bounds[gk][h + 1].kind != FrameKind::partial &&
                                  frame_bounds_of(gk, h) == nullptr &&
                                  frame_bounds_of(gk, h + 1) == nullptr;
-        // The box bounds of a clip's 16-frame blocks, both query frames.
-        auto block_bounds_of = [&](const ClipInfo& ci) {
+        // The bounds of a clip's 16-frame blocks, both query frames: the box
+        // bounds; for a full query frame first the least whole-body sketch
+        // bound of the block's frames, raised to the box bound only where the
+        // sketches cannot rule the block out against tau (docs/search.md
+        // "Whole-body sketches": a block left at its sketch bound is not
+        // needed either way).
+        auto block_bounds_of = [&](const ClipInfo& ci, double tau) {
           const std::size_t nb = (ci.frame_count + kBlock - 1) / kBlock;
           const std::size_t w = kBoundFields * gsd.padded;
+          const BoundQuery& qa = bounds[gk][h];
+          const BoundQuery& qb = bounds[gk][h + 1];
+          const bool sketch_a = qa.kind == FrameKind::full, sketch_b = qb.kind == FrameKind::full;
+          auto box = [&](const BoundQuery& bq, std::size_t bl) {
+            const std::size_t row = ci.block_start + bl;
+            return static_cast<double>(
+                box_bound(bq, gsd.block_bounds.data() + row * w, gsd.block_root.data() + row * 6));
+          };
           sc.blk_a.resize(nb);
           sc.blk_b.resize(nb);
           for (std::size_t bl = 0; bl < nb; ++bl) {
-            const std::size_t row = ci.block_start + bl;
-            const float* bnd = gsd.block_bounds.data() + row * w;
-            const float* root = gsd.block_root.data() + row * 6;
-            sc.blk_a[bl] = static_cast<double>(box_bound(bounds[gk][h], bnd, root));
-            sc.blk_b[bl] = static_cast<double>(box_bound(bounds[gk][h + 1], bnd, root));
+            float xa = 0.0f, xb = 0.0f;
+            if (sketch_a || sketch_b)
+              sketch_block_bounds(
+                  qa.sketch.data(), qb.sketch.data(),
+                  gsd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock, xa, xb);
+            sc.blk_a[bl] = sketch_a ? static_cast<double>(xa) : box(qa, bl);
+            sc.blk_b[bl] = sketch_b ? static_cast<double>(xb) : box(qb, bl);
+          }
+          if (!sketch_a && !sketch_b) return;
+          // PA / SB of the bounds so far (a block pairs with itself and the
+          // blocks after it); the box is needed where they do not exceed tau.
+          sc.blk_pa.resize(nb);
+          double prefix = kInf, suffix = kInf;
+          for (std::size_t bl = 0; bl < nb; ++bl)
+            sc.blk_pa[bl] = prefix = std::min(prefix, sc.blk_a[bl]);
+          for (std::size_t bl = nb; bl-- > 0;) {
+            suffix = std::min(suffix, sc.blk_b[bl]);
+            if (sketch_a && !(safe(sc.blk_a[bl] + suffix) > tau))
+              sc.blk_a[bl] = std::max(sc.blk_a[bl], box(qa, bl));
+            if (sketch_b && !(safe(sc.blk_b[bl] + sc.blk_pa[bl]) > tau))
+              sc.blk_b[bl] = std::max(sc.blk_b[bl], box(qb, bl));
           }
         };
         for (std::size_t i = 0; i < work.size(); ++i) {
@@ -2178,7 +2279,7 @@ struct QueryRunner {
           if (q.relative) {
             ok = eval_clip_relative(contexts[work[i].k], ci, tau, sc, cnt, e);
           } else if (blocks_only) {
-            block_bounds_of(ci);
+            block_bounds_of(ci, tau);
             ok = eval_clip_blocks(contexts[work[i].k], ci, tau, sc.blk_a.data(), sc.blk_b.data(),
                                   sc, cnt, e);
           } else {
@@ -2352,7 +2453,17 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
           box_bound(bq, sd.block_bounds.data() + row * w, sd.block_root.data() + row * 6);
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
-      for (std::size_t g = g0; g < g1; ++g) lower[g] = std::max(lower[g], x);
+      const float* sketch = sd.sketch.data() + row * kSketchFields * kBlock;
+      for (std::size_t g = g0; g < g1; ++g) {
+        lower[g] = std::max(lower[g], x);
+        if (bq.kind == FrameKind::full) {
+          const std::size_t l = g - g0;
+          lower[g] = std::max(
+              lower[g], static_cast<double>(sketch_term(
+                            bq.sketch.data(), sketch[l], sketch[kBlock + l], sketch[2 * kBlock + l],
+                            sketch[3 * kBlock + l], sketch[4 * kBlock + l])));
+        }
+      }
       evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc, std::nullopt,
                nullptr, &sd.tiles[row]);
     }

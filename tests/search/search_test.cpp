@@ -465,10 +465,11 @@ TEST(Search, PreparedBatchEqualsLazyRuns) {
 }
 
 // Every lower bound exact mode uses is <= h, frame by frame, over a whole
-// set-1 skeleton: full BVH frames (block boxes), root-only, heading (+ root
-// position), joint rotations (one joint, a chain of two, random angles), BVH
-// "only" with and without the root; several transition times. Also checks
-// that the partial bounds are not trivially zero (they must prune).
+// set-1 skeleton: full BVH frames (block boxes and whole-body sketches),
+// root-only, heading (+ root position), joint rotations (one joint, a chain of
+// two, random angles), BVH "only" with and without the root; several
+// transition times. Also checks that the partial bounds are not trivially zero
+// (they must prune) and that the full-frame bounds are per frame.
 TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   MOCAP_REQUIRE_DATA();
   ASSERT_FALSE(set1_index().empty());
@@ -478,7 +479,7 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   auto frame_json = [&] { return random_bvh_frame(index, rng); };
   auto deg = [&] { return random_deg(rng); };
   const std::size_t count = std::max<std::size_t>(12, random_query_count() / 10);
-  double partial_lb_sum = 0.0, partial_h_sum = 0.0;
+  double partial_lb_sum = 0.0, partial_h_sum = 0.0, full_lb_sum = 0.0, full_h_sum = 0.0;
   std::size_t checked = 0;
   for (std::size_t i = 0; i < count; ++i) {
     std::string f;
@@ -517,6 +518,9 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
         if (i % 6 >= 2) {
           partial_lb_sum += lower[g];
           partial_h_sum += h[g];
+        } else if (i % 6 == 0) {
+          full_lb_sum += lower[g];
+          full_h_sum += h[g];
         }
       }
     }
@@ -524,6 +528,9 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   EXPECT_GT(checked, 100000u);
   // Not a vacuous bound: on average it recovers a real share of h.
   EXPECT_GT(partial_lb_sum, 0.2 * partial_h_sum);
+  // Full frames: the whole-body sketches make the bound per frame (0.995 of h
+  // on this data; the 16-frame block boxes alone: 0.83).
+  EXPECT_GT(full_lb_sum, 0.9 * full_h_sum);
 }
 
 // Partial frames that give joint rotations only are evaluated by the
