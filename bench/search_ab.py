@@ -12,6 +12,10 @@ query's fastest time (the least disturbed estimate) and of its median time
 (`stats.time_ms`, the query alone, not opening the index), the frames
 evaluated, the peak resident memory, and whether every binary returned the
 same rankings as the first. Exit status 1 when the rankings differ.
+
+With --vs-brute, each round also runs the first binary in brute mode, and
+each binary's line gives its speed-up over brute as the ratio of the sums of
+each query's fastest time (the rankings are compared with brute's too).
 """
 import argparse, json, os, statistics, subprocess, sys, tempfile
 
@@ -19,24 +23,28 @@ ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 ap.add_argument("--runs", type=int, default=3)
 ap.add_argument("--mode", default="exact")
 ap.add_argument("--threads", type=int, default=1)
+ap.add_argument("--vs-brute", action="store_true", help="also time brute mode (first binary)")
 ap.add_argument("index")
 ap.add_argument("queries")
 ap.add_argument("specs", nargs="+", metavar="[NAME=VALUE,...,]BINARY")
 a = ap.parse_args()
 
-times = {s: {} for s in a.specs}
+BRUTE = "brute"
+# (binary spec, mode, name of its figures)
+runs_of = [(s, a.mode, s) for s in a.specs] + ([(a.specs[0], "brute", BRUTE)] if a.vs_brute else [])
+times = {name: {} for name in a.specs + ([BRUTE] if a.vs_brute else [])}
 evaluated, rss, rankings = {}, {}, {}
 with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "out.jsonl")
     for _ in range(a.runs):
-        for s in a.specs:
-            *settings, exe = s.split(",")
+        for spec, mode, s in runs_of:
+            *settings, exe = spec.split(",")
             env = dict(os.environ)
             for kv in settings:
                 k, v = kv.split("=", 1)
                 env[k] = v
             p = subprocess.run(["/usr/bin/time", "-f", "%M", exe, "--index", a.index, "-q",
-                                "--queries", a.queries, "--mode", a.mode, "--threads",
+                                "--queries", a.queries, "--mode", mode, "--threads",
                                 str(a.threads), "--out", out], env=env, capture_output=True, text=True)
             if p.returncode not in (0, 1):  # 1: some queries failed (reported on their lines)
                 sys.exit(f"{exe} failed ({p.returncode}): {p.stderr[-2000:]}")
@@ -48,10 +56,12 @@ with tempfile.TemporaryDirectory() as tmp:
             evaluated[s] = sum(r["stats"]["frames_evaluated"] for r in rows if "stats" in r)
             rankings[s] = [[(x["clip_index"], x["start_frame"], x["end_frame"]) for p in r.get("pairs", [])
                             for x in p["results"]] for r in rows]
-same = all(rankings[s] == rankings[a.specs[0]] for s in a.specs)
-for s in a.specs:
+same = all(rankings[s] == rankings[a.specs[0]] for s in times)
+fastest = {s: sum(min(v) for v in times[s].values()) for s in times}
+for s in times:
     t = times[s]
-    print(f"{s}: sum of fastest {sum(min(v) for v in t.values()):.0f} ms, "
+    vs = f", {fastest[BRUTE] / fastest[s]:.1f}x brute" if a.vs_brute and s != BRUTE else ""
+    print(f"{s}: sum of fastest {fastest[s]:.0f} ms{vs}, "
           f"sum of medians {sum(statistics.median(v) for v in t.values()):.0f} ms, "
           f"frames evaluated {evaluated[s]}, peak RSS {rss[s] / 1024:.0f} MB")
 print(f"same rankings: {same}")
