@@ -319,7 +319,8 @@ void build_bound_tables(SkelData& sd) {
           v[3] += static_cast<double>(tb.field(b, 3)[g]);
           v[4] += static_cast<double>(tb.field(b, 8)[g]);
         }
-        for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
+        if (sd.segment_mass > 0.0)  // no segments: h = 0, and so is the bound
+          for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
       }
@@ -434,7 +435,8 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
       k[5] += static_cast<double>(b.mg[s]);
       k[6] += 2.0 * static_cast<double>(b.mh[s]);
     }
-    for (std::size_t a = 0; a < 3; ++a) k[a] /= sd.segment_mass;
+    if (sd.segment_mass > 0.0)
+      for (std::size_t a = 0; a < 3; ++a) k[a] /= sd.segment_mass;
     for (std::size_t i = 0; i < k.size(); ++i) b.sketch[i] = static_cast<float>(k[i]);
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
