@@ -225,6 +225,24 @@ void ensure_forest(const SkelData& sd, const SearchOptions& opt) {
   });
 }
 
+// A whole-body sketch (kSketchFields values: mass-weighted mean COM x y z,
+// summed KE, summed KE_rot) from per-segment values: com(s, axis), ke(s),
+// rot(s), summed in double in segment order; database frames and query
+// frames are formed by this one function, as the bound requires. A skeleton
+// without segments gets zeros (h = 0 there, and so is the bound).
+template <class Com, class Ke, class Rot>
+std::array<double, kSketchFields> whole_body_sketch(const SkelData& sd, Com com, Ke ke, Rot rot) {
+  std::array<double, kSketchFields> v{};
+  for (std::size_t b = 0; b < sd.segments; ++b) {
+    for (std::size_t a = 0; a < 3; ++a) v[a] += sd.masses[b] * static_cast<double>(com(b, a));
+    v[3] += static_cast<double>(ke(b));
+    v[4] += static_cast<double>(rot(b));
+  }
+  if (sd.segment_mass > 0.0)
+    for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
+  return v;
+}
+
 // Model-derived per-segment constants, clip rows, frame -> clip row.
 void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, SkelData& sd) {
   sd.k = k;
@@ -312,15 +330,10 @@ void build_bound_tables(SkelData& sd) {
       float* sketch = sd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
       for (std::size_t l = 0; l < kBlock; ++l) {
         const std::size_t g = std::min(g0 + l, g1 - 1);
-        std::array<double, kSketchFields> v{};
-        for (std::size_t b = 0; b < real; ++b) {
-          for (std::size_t a = 0; a < 3; ++a)
-            v[a] += sd.masses[b] * static_cast<double>(tb.field(b, a)[g]);
-          v[3] += static_cast<double>(tb.field(b, 3)[g]);
-          v[4] += static_cast<double>(tb.field(b, 8)[g]);
-        }
-        if (sd.segment_mass > 0.0)  // no segments: h = 0, and so is the bound
-          for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
+        const auto v = whole_body_sketch(
+            sd, [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; },
+            [&](std::size_t b) { return tb.field(b, 3)[g]; },
+            [&](std::size_t b) { return tb.field(b, 8)[g]; });
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
       }
@@ -425,19 +438,18 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
       b.mh.push_back(k[5]);
       b.kar.push_back(k[10]);
     }
-    std::array<double, 7> k{};
+    const std::vector<float>* com[3] = {&b.ax, &b.ay, &b.az};
+    const auto wb = whole_body_sketch(
+        sd, [&](std::size_t s, std::size_t a) { return (*com[a])[s]; },
+        [&](std::size_t s) { return b.ka[s]; }, [&](std::size_t s) { return b.kar[s]; });
+    double mg = 0.0, m_t2 = 0.0;  // M g, M / T^2 from the scan's own constants
     for (std::size_t s = 0; s < sd.segments; ++s) {
-      k[0] += sd.masses[s] * static_cast<double>(b.ax[s]);
-      k[1] += sd.masses[s] * static_cast<double>(b.ay[s]);
-      k[2] += sd.masses[s] * static_cast<double>(b.az[s]);
-      k[3] += static_cast<double>(b.ka[s]);
-      k[4] += static_cast<double>(b.kar[s]);
-      k[5] += static_cast<double>(b.mg[s]);
-      k[6] += 2.0 * static_cast<double>(b.mh[s]);
+      mg += static_cast<double>(b.mg[s]);
+      m_t2 += 2.0 * static_cast<double>(b.mh[s]);
     }
-    if (sd.segment_mass > 0.0)
-      for (std::size_t a = 0; a < 3; ++a) k[a] /= sd.segment_mass;
-    for (std::size_t i = 0; i < k.size(); ++i) b.sketch[i] = static_cast<float>(k[i]);
+    for (std::size_t i = 0; i < kSketchFields; ++i) b.sketch[i] = static_cast<float>(wb[i]);
+    b.sketch[5] = static_cast<float>(mg);
+    b.sketch[6] = static_cast<float>(m_t2);
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
     float total = 0.0f;
