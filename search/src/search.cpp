@@ -143,6 +143,7 @@ constexpr std::size_t kLanes = 16;  // clips per lane-major tile (box_bounds_lan
 // segments' mass-weighted mean COM x, y, z (metres) and the sums of their
 // translational and rotational kinetic energies (J).
 constexpr std::size_t kSketchFields = 5;
+constexpr std::size_t kSketchRange = 2 * kSketchFields;  // min fields, then max fields
 static_assert(kGroup == kLanes, "a group's clip bounds are one lane-major tile");
 
 struct SkelData {
@@ -175,6 +176,11 @@ struct SkelData {
   // floats, from the scan table's float values (a short block repeats its
   // last frame, which leaves the block's minimum unchanged).
   std::vector<float> sketch;
+  // The ranges of the sketch fields over each clip's frames, lane-major like
+  // clip_soa: tile g holds clip rows [kLanes g, kLanes g + kLanes) as
+  // [kSketchRange][kLanes] floats (min x y z kin rot, max x y z kin rot;
+  // unused lanes are zero); and over each group's frames, [group][kSketchRange].
+  std::vector<float> clip_sketch_soa, group_sketch;
   const float* kd = nullptr;  // [N][S*3]
   std::vector<float> kd_own;  // a query character's kd features (kd points here)
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
@@ -384,6 +390,36 @@ void build_bound_tables(SkelData& sd) {
   };
   lanes(sd.clip_bounds, sd.clip_root, sd.clips.size(), sd.clip_soa, sd.clip_root_soa);
   const std::size_t groups = (sd.clips.size() + kGroup - 1) / kGroup;
+  // Sketch ranges of clips (lane-major) and groups, from the block sketches.
+  sd.clip_sketch_soa.assign(groups * kSketchRange * kLanes, 0.0f);
+  sd.group_sketch.assign(groups * kSketchRange, 0.0f);
+  for (std::size_t g = 0; g < groups; ++g) {
+    float* grange = sd.group_sketch.data() + g * kSketchRange;
+    for (std::size_t i = 0; i < kSketchFields; ++i) {
+      grange[i] = inf;
+      grange[kSketchFields + i] = -inf;
+    }
+    for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r) {
+      const ClipInfo& ci = sd.clips[r];
+      float* tile = sd.clip_sketch_soa.data() + g * kSketchRange * kLanes;
+      const std::size_t l = r % kLanes;
+      for (std::size_t i = 0; i < kSketchFields; ++i) {
+        float lo = inf, hi = -inf;
+        for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+          const float* v = sd.sketch.data() + ((ci.block_start + bl) * kSketchFields + i) * kBlock;
+          for (std::size_t f = 0; f < kBlock; ++f) {
+            lo = std::min(lo, v[f]);
+            hi = std::max(hi, v[f]);
+          }
+        }
+        if (ci.frame_count == 0) lo = hi = 0.0f;
+        tile[i * kLanes + l] = lo;
+        tile[(kSketchFields + i) * kLanes + l] = hi;
+        grange[i] = std::min(grange[i], lo);
+        grange[kSketchFields + i] = std::max(grange[kSketchFields + i], hi);
+      }
+    }
+  }
   sd.group_bounds.assign(groups * w, 0.0f);
   sd.group_root.assign(groups * 6, 0.0f);
   for (std::size_t g = 0; g < groups; ++g) {
@@ -596,6 +632,35 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
   }
   out_a = ma;
   out_b = mb;
+}
+
+// Lower bound of the scanned h(Q -> F) for a full query frame over the
+// frames F whose sketch fields lie in the ranges [lo[i], hi[i]] (a clip's or
+// a group's): each term of sketch_term at its least over the ranges, which
+// the sum of the terms' minima cannot exceed (docs/search.md "Sketch
+// ranges"). k: the query's constants (BoundQuery::sketch).
+inline float sketch_range_term(const float* k, const float* lo, const float* hi) {
+  auto dist = [](float v, float a, float b) { return std::max(std::max(a - v, v - b), 0.0f); };
+  const float dx = dist(k[0], lo[0], hi[0]), dy = dist(k[1], lo[1], hi[1]),
+              dz = dist(k[2], lo[2], hi[2]);
+  const float trans =
+      std::max(dist(k[3], lo[3], hi[3]), k[6] * ((dx * dx + dy * dy) + dz * dz) - k[3] - hi[3]);
+  return (k[5] * dy + trans) + dist(k[4], lo[4], hi[4]);
+}
+
+// sketch_range_term for the kLanes clips of one lane-major tile
+// (SkelData::clip_sketch_soa), vectorised over the clips.
+MOCAP_SEARCH_MULTIVERSION
+void sketch_range_lanes(const float* __restrict k, const float* __restrict tile,
+                        float* __restrict out) {
+  for (std::size_t l = 0; l < kLanes; ++l) {
+    float lo[kSketchFields], hi[kSketchFields];
+    for (std::size_t i = 0; i < kSketchFields; ++i) {
+      lo[i] = tile[i * kLanes + l];
+      hi[i] = tile[(kSketchFields + i) * kLanes + l];
+    }
+    out[l] = sketch_range_term(k, lo, hi);
+  }
 }
 
 // box_bound for the kLanes boxes of one lane-major tile (SkelData::clip_soa)
@@ -2165,8 +2230,14 @@ struct QueryRunner {
         const std::size_t g = r / kGroup;
         const float* bnd = sd.group_bounds.data() + g * kBoundFields * sd.padded;
         const float* root = sd.group_root.data() + g * 6;
-        glb = static_cast<double>(box_bound(bounds[k][h], bnd, root)) +
-              static_cast<double>(box_bound(bounds[k][h + 1], bnd, root));
+        const float* range = sd.group_sketch.data() + g * kSketchRange;
+        auto side = [&](const BoundQuery& bq) {
+          float x = box_bound(bq, bnd, root);
+          if (bq.kind == FrameKind::full)
+            x = std::max(x, sketch_range_term(bq.sketch.data(), range, range + kSketchFields));
+          return static_cast<double>(x);
+        };
+        glb = side(bounds[k][h]) + side(bounds[k][h + 1]);
       }
       groups.push_back({glb, i, j - i});
       i = j;
@@ -2224,6 +2295,16 @@ struct QueryRunner {
           box_bounds_lanes(bounds[gk][h + 1], gsd.clip_soa.data() + g * tw,
                            gsd.clip_root_soa.data() + g * 6 * kLanes, gsd.segments,
                            sc.clip_x.data() + kLanes);
+          // Full query frames: at least the clips' sketch-range bounds.
+          for (std::size_t side = 0; side < 2; ++side) {
+            const BoundQuery& bq = bounds[gk][h + side];
+            if (bq.kind != FrameKind::full) continue;
+            float sk[kLanes];
+            sketch_range_lanes(bq.sketch.data(),
+                               gsd.clip_sketch_soa.data() + g * kSketchRange * kLanes, sk);
+            for (std::size_t l = 0; l < kLanes; ++l)
+              sc.clip_x[side * kLanes + l] = std::max(sc.clip_x[side * kLanes + l], sk[l]);
+          }
           for (Work& w : work)
             w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
         }
@@ -2460,6 +2541,30 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
     partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd), 0, n, lower.data(), sc);
   }
   const BoundQuery bq = make_bound_query(f, sd);
+  // The clip and group levels (run_pair's group bound and clip tiles): each
+  // is a lower bound for every frame of its clips, so it joins the maximum.
+  std::vector<float> clip_lb(sd.clips.size(), 0.0f);
+  for (std::size_t g = 0; g * kGroup < sd.clips.size(); ++g) {
+    float box[kLanes], sk[kLanes];
+    box_bounds_lanes(bq, sd.clip_soa.data() + g * kBoundFields * sd.segments * kLanes,
+                     sd.clip_root_soa.data() + g * 6 * kLanes, sd.segments, box);
+    const float* range = sd.group_sketch.data() + g * kSketchRange;
+    float group = box_bound(bq, sd.group_bounds.data() + g * w, sd.group_root.data() + g * 6);
+    if (bq.kind == FrameKind::full) {
+      sketch_range_lanes(bq.sketch.data(), sd.clip_sketch_soa.data() + g * kSketchRange * kLanes,
+                         sk);
+      group = std::max(group, sketch_range_term(bq.sketch.data(), range, range + kSketchFields));
+    } else {
+      std::fill(sk, sk + kLanes, 0.0f);
+    }
+    for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r)
+      clip_lb[r] = std::max({box[r % kLanes], sk[r % kLanes], group});
+  }
+  for (std::size_t r = 0; r < sd.clips.size(); ++r) {
+    const ClipInfo& ci = sd.clips[r];
+    for (std::size_t g = ci.frame_start; g < ci.frame_start + ci.frame_count; ++g)
+      lower[g] = std::max(lower[g], static_cast<double>(clip_lb[r]));
+  }
   for (const ClipInfo& ci : sd.clips)
     for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
       const std::size_t row = ci.block_start + bl;

@@ -146,8 +146,9 @@ class SearchEngine {
 
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
   /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
-  /// every frame F of the skeleton (16-frame block boxes, whole-body sketches
-  /// of full frames, per-frame bounds of partial frames; docs/search.md) in `lower`, and h itself
+  /// every frame F of the skeleton (the greatest of its group's and clip's box and sketch-range
+  /// bounds, 16-frame block boxes, whole-body sketches of full frames, per-frame bounds of
+  /// partial frames; docs/search.md) in `lower`, and h itself
   /// in `h` (the reference: the h scan for full and root-only frames, partial_approximate_energy
   /// for partial ones). With `engine_h`, also the values the search ranks by (every mode): equal to
   /// `h` except for partial frames giving joint rotations only, which the engine evaluates with its
