@@ -17,6 +17,9 @@ namespace mocap {
 namespace {
 
 constexpr std::size_t kBvhCacheEntries = 256;
+// Verified texts of indexed files kept (QueryBvhCache::get_frames): a
+// set-2 clip's text is about 100 KB.
+constexpr std::size_t kVerifiedTexts = 16;
 
 std::string field(std::size_t i) { return fmt::format("frames[{}]", i); }
 
@@ -138,17 +141,33 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
         return it->second;
     }
   }
-  std::string text;
+  std::shared_ptr<const std::string> verified;
   {
+    std::lock_guard lock(mutex_);
+    auto it = verified_.find(key);
+    if (it != verified_.end() && it->second.mtime == mtime && it->second.size == size)
+      verified = it->second.text;
+  }
+  std::shared_ptr<std::string> read;
+  if (!verified) {
+    read = std::make_shared<std::string>();
+    std::string& text = *read;
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
     text.resize(static_cast<std::size_t>(size));
     in.read(text.data(), static_cast<std::streamsize>(size));
     text.resize(static_cast<std::size_t>(in.gcount()));
     if (in.bad()) throw InputError(path.string(), 0, "cannot read file");
+    if (xxh64(text.data(), text.size()) == it_known->second.hash) {
+      verified = read;
+      std::lock_guard lock(mutex_);
+      if (verified_.size() >= kVerifiedTexts) verified_.clear();
+      verified_[key] = {mtime, size, verified};
+    }
   }
   std::shared_ptr<QueryBvhFile> loaded;
-  if (xxh64(text.data(), text.size()) == it_known->second.hash) {
+  if (verified) {
+    const std::string& text = *verified;
     // The indexer parsed these bytes: the window's lines are all that is needed.
     const std::size_t first = frame >= radius ? frame - radius : 0;
     const BvhWindow w = parse_bvh_window(text, path.string(), first, frame - first + radius + 1);
@@ -160,7 +179,7 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
     loaded->size = size;
     return store(window_key, std::move(loaded));
   }
-  loaded = whole_file(parse_bvh(text, path.string()), unit_option);
+  loaded = whole_file(parse_bvh(*read, path.string()), unit_option);
   loaded->mtime = mtime;
   loaded->size = size;
   return store(key, std::move(loaded));

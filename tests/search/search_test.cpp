@@ -4,6 +4,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include <limits>
 #include <random>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include "mocap/error.hpp"
@@ -264,6 +266,56 @@ TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
   const auto c = windowed.get_frames(copy, index.info().unit_option, 5, 2);
   EXPECT_EQ(c->first_frame, 0u);
   EXPECT_EQ(c->motion.frame_count, index.clips()[0].frame_count);
+}
+
+// The verified bytes of an indexed file serve its other frames only while
+// the file is unchanged: after an edit of the same size (and a new
+// modification time) the next frame is read again, fails the index's hash
+// and is parsed whole, with the edited value.
+TEST(QueryResolution, ChangedIndexedFileIsReadAgain) {
+  const fs::path dir = test::temp_dir("search-verified");
+  fs::create_directories(dir / "clips");
+  const fs::path file = dir / "clips" / "walk.bvh";
+  fs::copy_file(fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/golden_walk_normal_001.bvh", file);
+  const char* bin = std::getenv("MOCAP_BIN_DIR");
+  const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
+  const std::string cmd = "'" + exe.string() + "' build -q --out '" + (dir / "i.h5").string() +
+                          "' '" + (dir / "clips").string() + "' > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const Index index = Index::open(dir / "i.h5");
+  const std::string unit = index.info().unit_option;
+  const std::size_t n = index.clips()[0].frame_count;
+  ASSERT_EQ(n, 4u);
+  QueryBvhCache cache;
+  cache.use_index(index);
+  EXPECT_EQ(cache.get_frames(file, unit, 2, 1)->first_frame, 1u);
+  const auto w3 = cache.get_frames(file, unit, 3, 1);  // from the verified bytes
+  EXPECT_EQ(w3->first_frame, 2u);
+  EXPECT_EQ(w3->motion.frame_count, 2u);
+  // Edit the last frame's first digit (same size), with a later modification time.
+  std::string text;
+  {
+    std::ifstream in(file, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  const std::size_t last_line = text.find_last_of('\n', text.size() - 2) + 1;
+  const std::size_t digit = text.find_first_of("012345678", last_line);
+  ASSERT_NE(digit, std::string::npos);
+  ++text[digit];
+  {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out << text;
+  }
+  fs::last_write_time(file, fs::last_write_time(file) + std::chrono::seconds(10));
+  const auto w4 = cache.get_frames(file, unit, 1, 1);  // a window would hold 3 frames
+  EXPECT_EQ(w4->first_frame, 0u);
+  EXPECT_EQ(w4->motion.frame_count, n);
+  const QueryBvhFile whole = *QueryBvhCache().get(file, unit);
+  ASSERT_EQ(whole.motion.frame_count, n);
+  EXPECT_EQ(w4->motion.local_rotations, whole.motion.local_rotations);
+  EXPECT_EQ(w4->motion.local_translations_m, whole.motion.local_translations_m);
 }
 
 TEST(Search, TinyIndexRankingIsSane) {

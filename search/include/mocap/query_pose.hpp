@@ -55,7 +55,10 @@ class QueryBvhCache {
   /// unit: only the header and the window's frame lines are parsed
   /// (parse_bvh_window) and the clip's unit is used. Otherwise it is get()
   /// (every frame). A frame past the file's end gives an empty window
-  /// (file_frame_count says how many frames there are).
+  /// (file_frame_count says how many frames there are). The verified bytes
+  /// of the last few such files are kept, so another frame of the same
+  /// unchanged file (same size and modification time) is not read and hashed
+  /// again.
   std::shared_ptr<const QueryBvhFile> get_frames(const std::filesystem::path& path,
                                                  const std::string& unit_option,
                                                  std::size_t frame, std::size_t radius);
@@ -67,8 +70,17 @@ class QueryBvhCache {
   };
   std::shared_ptr<const QueryBvhFile> store(const std::string& key,
                                             std::shared_ptr<QueryBvhFile> entry);
+  // The bytes of an indexed file whose hash matched the index's, kept for
+  // the file's other frames (a query's frames often come from one file); an
+  // entry serves while the file's size and modification time are unchanged.
+  struct VerifiedText {
+    std::filesystem::file_time_type mtime;
+    std::uintmax_t size = 0;
+    std::shared_ptr<const std::string> text;
+  };
   std::mutex mutex_;
   std::map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
+  std::map<std::string, VerifiedText> verified_;  // by path as given (bounded)
   std::map<std::string, KnownFile> known_;  // by path; set before concurrent use
   std::string known_unit_option_;
 };
