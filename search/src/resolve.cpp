@@ -133,6 +133,7 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
   if (size != it_known->second.size) return get(path, unit_option);
   const std::string key = unit_option + "|" + path.string();
   const std::string window_key = fmt::format("{}@{}/{}", key, frame, radius);
+  std::shared_ptr<const std::string> verified;
   {
     std::lock_guard lock(mutex_);
     for (const std::string* k : {&key, &window_key}) {
@@ -140,10 +141,6 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
       if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size)
         return it->second;
     }
-  }
-  std::shared_ptr<const std::string> verified;
-  {
-    std::lock_guard lock(mutex_);
     auto it = verified_.find(key);
     if (it != verified_.end() && it->second.mtime == mtime && it->second.size == size)
       verified = it->second.text;

@@ -728,6 +728,30 @@ void box_bounds_lanes(const BoundQuery& q, const float* __restrict tile,
   for (std::size_t l = 0; l < kLanes; ++l) out[l] = acc[l];
 }
 
+// The bound of query frame q over every frame of group g's clips: its box
+// bound and, for a full query frame, at least its sketch-range bound.
+float group_bound(const BoundQuery& q, const SkelData& sd, std::size_t g) {
+  float x = box_bound(q, sd.group_bounds.data() + g * kBoundFields * sd.padded,
+                      sd.group_root.data() + g * 6);
+  if (q.kind == FrameKind::full) {
+    const float* range = sd.group_sketch.data() + g * kSketchRange;
+    x = std::max(x, sketch_range_term(q.sketch.data(), range, range + kSketchFields));
+  }
+  return x;
+}
+
+// The bounds of query frame q over the frames of each of group g's kLanes
+// clips (out[l]: clip row kLanes g + l): their box bounds and, for a full
+// query frame, at least their sketch-range bounds.
+void clip_tile_bounds(const BoundQuery& q, const SkelData& sd, std::size_t g, float* out) {
+  box_bounds_lanes(q, sd.clip_soa.data() + g * kBoundFields * sd.segments * kLanes,
+                   sd.clip_root_soa.data() + g * 6 * kLanes, sd.segments, out);
+  if (q.kind != FrameKind::full) return;
+  float sk[kLanes];
+  sketch_range_lanes(q.sketch.data(), sd.clip_sketch_soa.data() + g * kSketchRange * kLanes, sk);
+  for (std::size_t l = 0; l < kLanes; ++l) out[l] = std::max(out[l], sk[l]);
+}
+
 // A bound computed in float from float32 data is compared with scores
 // computed by the float32 scan: the slack covers both roundings.
 double safe(double lb) {
@@ -2228,16 +2252,8 @@ struct QueryRunner {
       if (bounded) {
         const SkelData& sd = *skels[k];
         const std::size_t g = r / kGroup;
-        const float* bnd = sd.group_bounds.data() + g * kBoundFields * sd.padded;
-        const float* root = sd.group_root.data() + g * 6;
-        const float* range = sd.group_sketch.data() + g * kSketchRange;
-        auto side = [&](const BoundQuery& bq) {
-          float x = box_bound(bq, bnd, root);
-          if (bq.kind == FrameKind::full)
-            x = std::max(x, sketch_range_term(bq.sketch.data(), range, range + kSketchFields));
-          return static_cast<double>(x);
-        };
-        glb = side(bounds[k][h]) + side(bounds[k][h + 1]);
+        glb = static_cast<double>(group_bound(bounds[k][h], sd, g)) +
+              static_cast<double>(group_bound(bounds[k][h + 1], sd, g));
       }
       groups.push_back({glb, i, j - i});
       i = j;
@@ -2248,7 +2264,7 @@ struct QueryRunner {
     });
     // Clip bound: boxes, and the per-frame bounds of partial query frames:
     // min over s < e of (max(xa, fa[s]) + max(xb, fb[e])).
-    // xa, xb: the clip's box bounds (box_bounds_lanes over its group's tile).
+    // xa, xb: the clip's tile bounds (clip_tile_bounds over its group's tile).
     auto clip_bound = [&](std::size_t k, std::size_t r, double xa, double xb) {
       const SkelData& sd = *skels[k];
       const double* fa = frame_bounds_of(k, h);
@@ -2288,23 +2304,9 @@ struct QueryRunner {
         const std::size_t g = cands[grp.first].second / kGroup;
         if (bounded) {
           // The group's clip bounds: one lane-major tile per side.
-          const std::size_t tw = kBoundFields * gsd.segments * kLanes;
           sc.clip_x.resize(2 * kLanes);
-          box_bounds_lanes(bounds[gk][h], gsd.clip_soa.data() + g * tw,
-                           gsd.clip_root_soa.data() + g * 6 * kLanes, gsd.segments, sc.clip_x.data());
-          box_bounds_lanes(bounds[gk][h + 1], gsd.clip_soa.data() + g * tw,
-                           gsd.clip_root_soa.data() + g * 6 * kLanes, gsd.segments,
-                           sc.clip_x.data() + kLanes);
-          // Full query frames: at least the clips' sketch-range bounds.
-          for (std::size_t side = 0; side < 2; ++side) {
-            const BoundQuery& bq = bounds[gk][h + side];
-            if (bq.kind != FrameKind::full) continue;
-            float sk[kLanes];
-            sketch_range_lanes(bq.sketch.data(),
-                               gsd.clip_sketch_soa.data() + g * kSketchRange * kLanes, sk);
-            for (std::size_t l = 0; l < kLanes; ++l)
-              sc.clip_x[side * kLanes + l] = std::max(sc.clip_x[side * kLanes + l], sk[l]);
-          }
+          clip_tile_bounds(bounds[gk][h], gsd, g, sc.clip_x.data());
+          clip_tile_bounds(bounds[gk][h + 1], gsd, g, sc.clip_x.data() + kLanes);
           for (Work& w : work)
             w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
         }
@@ -2541,24 +2543,15 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
     partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd), 0, n, lower.data(), sc);
   }
   const BoundQuery bq = make_bound_query(f, sd);
-  // The clip and group levels (run_pair's group bound and clip tiles): each
+  // The clip and group levels (run_pair's group_bound and clip_tile_bounds): each
   // is a lower bound for every frame of its clips, so it joins the maximum.
   std::vector<float> clip_lb(sd.clips.size(), 0.0f);
   for (std::size_t g = 0; g * kGroup < sd.clips.size(); ++g) {
-    float box[kLanes], sk[kLanes];
-    box_bounds_lanes(bq, sd.clip_soa.data() + g * kBoundFields * sd.segments * kLanes,
-                     sd.clip_root_soa.data() + g * 6 * kLanes, sd.segments, box);
-    const float* range = sd.group_sketch.data() + g * kSketchRange;
-    float group = box_bound(bq, sd.group_bounds.data() + g * w, sd.group_root.data() + g * 6);
-    if (bq.kind == FrameKind::full) {
-      sketch_range_lanes(bq.sketch.data(), sd.clip_sketch_soa.data() + g * kSketchRange * kLanes,
-                         sk);
-      group = std::max(group, sketch_range_term(bq.sketch.data(), range, range + kSketchFields));
-    } else {
-      std::fill(sk, sk + kLanes, 0.0f);
-    }
+    float tile[kLanes];
+    clip_tile_bounds(bq, sd, g, tile);
+    const float group = group_bound(bq, sd, g);
     for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r)
-      clip_lb[r] = std::max({box[r % kLanes], sk[r % kLanes], group});
+      clip_lb[r] = std::max(tile[r % kLanes], group);
   }
   for (std::size_t r = 0; r < sd.clips.size(); ++r) {
     const ClipInfo& ci = sd.clips[r];

@@ -35,18 +35,24 @@ Query parse(const std::string& text) {
   return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q");
 }
 
-// A set-1 index built with the mocap-index binary (with `character` when
-// not empty); empty path on failure.
-fs::path build_set1_index(const std::string& tag, const fs::path& character) {
+// `out`, an index of the BVH files in `dir` built with the mocap-index binary
+// (with `character` when not empty); empty path on failure.
+fs::path build_index_with_binary(const fs::path& dir, const fs::path& out,
+                                 const fs::path& character) {
   const char* bin = std::getenv("MOCAP_BIN_DIR");
   const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-  const fs::path out = test::temp_dir(tag) / "set1.h5";
-  std::string cmd = "'" + exe.string() + "' build -q --out '" + out.string() + "' '" +
-                    (test::data_dir() / "bandai-namco-1/data").string() + "'";
+  std::string cmd =
+      "'" + exe.string() + "' build -q --out '" + out.string() + "' '" + dir.string() + "'";
   if (!character.empty()) cmd += " --character '" + character.string() + "'";
   cmd += " > /dev/null";
   if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
   return out;
+}
+
+// A set-1 index (with `character` when not empty); empty path on failure.
+fs::path build_set1_index(const std::string& tag, const fs::path& character) {
+  return build_index_with_binary(test::data_dir() / "bandai-namco-1/data",
+                                 test::temp_dir(tag) / "set1.h5", character);
 }
 
 // A set-1 index built once per test run.
@@ -277,11 +283,7 @@ TEST(QueryResolution, ChangedIndexedFileIsReadAgain) {
   fs::create_directories(dir / "clips");
   const fs::path file = dir / "clips" / "walk.bvh";
   fs::copy_file(fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/golden_walk_normal_001.bvh", file);
-  const char* bin = std::getenv("MOCAP_BIN_DIR");
-  const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-  const std::string cmd = "'" + exe.string() + "' build -q --out '" + (dir / "i.h5").string() +
-                          "' '" + (dir / "clips").string() + "' > /dev/null";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  ASSERT_FALSE(build_index_with_binary(dir / "clips", dir / "i.h5", {}).empty());
   const Index index = Index::open(dir / "i.h5");
   const std::string unit = index.info().unit_option;
   const std::size_t n = index.clips()[0].frame_count;
