@@ -464,6 +464,7 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
   b.kind = q.kind;
   b.s = sd.padded;
   if (q.kind == FrameKind::full) {
+    for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->reserve(b.s);
     for (std::size_t s = 0; s < sd.segments; ++s) {
       const float* k = q.scan.constants.data() + s * HScanQuery::kConstants;
       b.ax.push_back(k[0]);
@@ -489,6 +490,7 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
     float total = 0.0f;
+    b.m_inv_t2.reserve(b.s);
     for (float m : q.root_scan.masses) {
       total += m;
       b.m_inv_t2.push_back(m * q.root_scan.inv_t2);
@@ -918,6 +920,39 @@ std::optional<Character> index_character(const Index& index) {
 
 }  // namespace
 
+namespace {
+// Per-thread scratch, kept by the engine across queries (its buffers grow
+// to the largest clip once instead of being allocated again for every query).
+struct Scratch {
+  std::vector<float> fbuf;
+  std::vector<double> a, b, la, lb;
+  std::vector<std::uint8_t> skip_a, skip_b;
+  // eval_clip_blocks: per block suffix / prefix minima, needed blocks.
+  std::vector<double> sb, pa;
+  std::vector<std::uint8_t> need_a, need_b;
+  // eval_clip_blocks: blocks the probe scanned, the computed side's running
+  // minima, the second side's keys and its blocks in the order of them.
+  std::vector<std::uint8_t> done_a, done_b;
+  std::vector<double> run, key;
+  std::vector<std::size_t> order;
+  // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
+  std::vector<float> clip_x;
+  std::vector<double> blk_a, blk_b;
+  std::vector<double> blk_pa;  // block_bounds_of: prefix minima of the a-side sketch bounds
+  std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
+  std::vector<double> nq, nf;              // and their squared norms
+  std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
+  std::vector<Eigen::Quaterniond> sub_r;   // rotations of Q_F
+  // Database frames converted for partial_approximate_energy.
+  std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
+  std::vector<Eigen::Quaterniond> rot, lrot;
+  BodyState state;
+  HScanQuery shifted_scan;
+  HScanRootQuery shifted_root;
+  PartialQuery shifted_partial;
+};
+}  // namespace
+
 struct SearchEngine::Impl {
   const Index* index = nullptr;
   double t_index = 0.5;
@@ -933,6 +968,9 @@ struct SearchEngine::Impl {
   };
   mutable std::mutex characters_mutex;
   mutable std::map<std::string, std::shared_ptr<CharacterTables>> characters;
+  // Used only between blocking points (no task of another query can run on
+  // the thread while a reference to its scratch is held).
+  mutable tbb::enumerable_thread_specific<Scratch> scratch;
 };
 
 SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>()) {
@@ -983,36 +1021,6 @@ const Index& SearchEngine::index() const {
 // Evaluation
 
 namespace {
-
-// Per-thread scratch.
-struct Scratch {
-  std::vector<float> fbuf;
-  std::vector<double> a, b, la, lb;
-  std::vector<std::uint8_t> skip_a, skip_b;
-  // eval_clip_blocks: per block suffix / prefix minima, needed blocks.
-  std::vector<double> sb, pa;
-  std::vector<std::uint8_t> need_a, need_b;
-  // eval_clip_blocks: blocks the probe scanned, the computed side's running
-  // minima, the second side's keys and its blocks in the order of them.
-  std::vector<std::uint8_t> done_a, done_b;
-  std::vector<double> run, key;
-  std::vector<std::size_t> order;
-  // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
-  std::vector<float> clip_x;
-  std::vector<double> blk_a, blk_b;
-  std::vector<double> blk_pa;  // block_bounds_of: prefix minima of the a-side sketch bounds
-  std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
-  std::vector<double> nq, nf;              // and their squared norms
-  std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
-  std::vector<Eigen::Quaterniond> sub_r;   // rotations of Q_F
-  // Database frames converted for partial_approximate_energy.
-  std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
-  std::vector<Eigen::Quaterniond> rot, lrot;
-  BodyState state;
-  HScanQuery shifted_scan;
-  HScanRootQuery shifted_root;
-  PartialQuery shifted_partial;
-};
 
 // Converts skeleton frame g into scratch (double) and returns its FrameRef.
 // Only the joints in `need` are converted (all when it is empty); the local
@@ -2067,6 +2075,9 @@ struct PairRun {
 }  // namespace
 
 struct QueryRunner {
+  QueryRunner(const SearchEngine::Impl& e, const Query& query, const SearchOptions& options,
+              const std::vector<std::unique_ptr<SkelData>>& tables)
+      : eng(e), q(query), opt(options), skels(tables), scratch(e.scratch) {}
   const SearchEngine::Impl& eng;
   const Query& q;
   const SearchOptions& opt;
@@ -2078,7 +2089,7 @@ struct QueryRunner {
   // cache[k][i]: values of query frame i shared by pairs i-1 and i (world
   // mode, interior frames of queries with 3 or more frames); empty otherwise.
   std::vector<std::vector<FrameCache>> cache;
-  tbb::enumerable_thread_specific<Scratch> scratch;
+  tbb::enumerable_thread_specific<Scratch>& scratch;  // the engine's
 
   void prepare_caches() {
     cache.clear();
@@ -2459,7 +2470,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
     }
   }
   const auto& skels = tables ? tables->skels : m.skels;
-  QueryRunner run{m, q, opt, skels, {}, {}, {}, {}, {}};
+  QueryRunner run(m, q, opt, skels);
   run.resolved.resize(skels.size());
   run.bounds.resize(skels.size());
   for (std::size_t k = 0; k < skels.size(); ++k)
