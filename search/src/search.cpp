@@ -144,6 +144,7 @@ constexpr std::size_t kLanes = 16;  // clips per lane-major tile (box_bounds_lan
 // translational and rotational kinetic energies (J).
 constexpr std::size_t kSketchFields = 5;
 constexpr std::size_t kSketchRange = 2 * kSketchFields;  // min fields, then max fields
+constexpr std::size_t kSketchConstants = kSketchFields + 2;  // a query's: fields, M g, M / T^2
 static_assert(kGroup == kLanes, "a group's clip bounds are one lane-major tile");
 
 struct SkelData {
@@ -181,6 +182,15 @@ struct SkelData {
   // [kSketchRange][kLanes] floats (min x y z kin rot, max x y z kin rot;
   // unused lanes are zero); and over each group's frames, [group][kSketchRange].
   std::vector<float> clip_sketch_soa, group_sketch;
+  // Chain sketches (docs/search.md "Chain sketches"): the same five fields
+  // per kinematic chain (a maximal run of joints without branching; the
+  // chains with segments, `chains` of them, chain_of_segment[b] in
+  // [0, chains)), per frame, per block: [block][chains][kSketchFields][kBlock]
+  // floats; chain_mass[c] = the chain's total segment mass (kg).
+  std::size_t chains = 0;
+  std::vector<std::uint32_t> chain_of_segment;
+  std::vector<double> chain_mass;
+  std::vector<float> chain_sketch;
   const float* kd = nullptr;  // [N][S*3]
   std::vector<float> kd_own;  // a query character's kd features (kd points here)
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
@@ -236,17 +246,27 @@ void ensure_forest(const SkelData& sd, const SearchOptions& opt) {
 // rot(s), summed in double in segment order; database frames and query
 // frames are formed by this one function, as the bound requires. A skeleton
 // without segments gets zeros (h = 0 there, and so is the bound).
+// `chain` < 0: every segment (the whole body); otherwise the segments of
+// that chain (SkelData::chain_of_segment), with the chain's mass.
 template <class Com, class Ke, class Rot>
-std::array<double, kSketchFields> whole_body_sketch(const SkelData& sd, Com com, Ke ke, Rot rot) {
+std::array<double, kSketchFields> segment_sketch(const SkelData& sd, int chain, Com com, Ke ke,
+                                                 Rot rot) {
   std::array<double, kSketchFields> v{};
   for (std::size_t b = 0; b < sd.segments; ++b) {
+    if (chain >= 0 && sd.chain_of_segment[b] != static_cast<std::uint32_t>(chain)) continue;
     for (std::size_t a = 0; a < 3; ++a) v[a] += sd.masses[b] * static_cast<double>(com(b, a));
     v[3] += static_cast<double>(ke(b));
     v[4] += static_cast<double>(rot(b));
   }
-  if (sd.segment_mass > 0.0)
-    for (std::size_t a = 0; a < 3; ++a) v[a] /= sd.segment_mass;
+  const double mass = chain < 0 ? sd.segment_mass : sd.chain_mass[static_cast<std::size_t>(chain)];
+  if (mass > 0.0)
+    for (std::size_t a = 0; a < 3; ++a) v[a] /= mass;
   return v;
+}
+
+template <class Com, class Ke, class Rot>
+std::array<double, kSketchFields> whole_body_sketch(const SkelData& sd, Com com, Ke ke, Rot rot) {
+  return segment_sketch(sd, -1, com, ke, rot);
 }
 
 // Model-derived per-segment constants, clip rows, frame -> clip row.
@@ -265,6 +285,31 @@ void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, Sk
     const Eigen::Vector3d d = sd.model.principal_moments_kgm2[j];
     sd.lambda_min.push_back(std::max(0.0, std::min({d[0], d[1], d[2]})));
     sd.segment_of_joint[j] = static_cast<int>(sd.masses.size() - 1);
+  }
+  // Kinematic chains: a joint starts one unless its parent has exactly one
+  // child (joints are in index order, parents first); chains without a
+  // segment are dropped.
+  const std::size_t nj = sd.model.joint_count();
+  std::vector<int> children(nj, 0), chain_of_joint(nj, -1), id_of_chain;
+  for (std::size_t j = 0; j < nj; ++j)
+    if (sd.model.parents[j] >= 0) ++children[static_cast<std::size_t>(sd.model.parents[j])];
+  int next = 0;
+  for (std::size_t j = 0; j < nj; ++j) {
+    const int p = sd.model.parents[j];
+    chain_of_joint[j] = p >= 0 && children[static_cast<std::size_t>(p)] == 1
+                            ? chain_of_joint[static_cast<std::size_t>(p)]
+                            : next++;
+  }
+  id_of_chain.assign(static_cast<std::size_t>(next), -1);
+  for (std::size_t b = 0; b < sd.segments; ++b) {
+    int& id = id_of_chain[static_cast<std::size_t>(
+        chain_of_joint[static_cast<std::size_t>(sd.model.segments[b])])];
+    if (id < 0) {
+      id = static_cast<int>(sd.chains++);
+      sd.chain_mass.push_back(0.0);
+    }
+    sd.chain_of_segment.push_back(static_cast<std::uint32_t>(id));
+    sd.chain_mass[static_cast<std::size_t>(id)] += sd.masses[b];
   }
   const std::size_t n = sd.sk->frame_count;
   std::size_t blocks = 0;
@@ -295,6 +340,7 @@ void build_bound_tables(SkelData& sd) {
   sd.clip_root.assign(sd.clips.size() * 6, 0.0f);
   sd.tiles.assign(blocks, HScanTable{});
   sd.sketch.assign(blocks * kSketchFields * kBlock, 0.0f);
+  sd.chain_sketch.assign(blocks * sd.chains * kSketchFields * kBlock, 0.0f);
   const HScanTable& tb = sd.table;
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
@@ -342,6 +388,17 @@ void build_bound_tables(SkelData& sd) {
             [&](std::size_t b) { return tb.field(b, 8)[g]; });
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
+        for (std::size_t ch = 0; ch < sd.chains; ++ch) {
+          const auto cs = segment_sketch(
+              sd, static_cast<int>(ch),
+              [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; },
+              [&](std::size_t b) { return tb.field(b, 3)[g]; },
+              [&](std::size_t b) { return tb.field(b, 8)[g]; });
+          float* out = sd.chain_sketch.data() +
+                       ((ci.block_start + bl) * sd.chains + ch) * kSketchFields * kBlock;
+          for (std::size_t i = 0; i < kSketchFields; ++i)
+            out[i * kBlock + l] = static_cast<float>(cs[i]);
+        }
       }
       // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
       constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
@@ -456,7 +513,9 @@ struct BoundQuery {
   std::vector<float> m_inv_t2;
   // full: the whole-body sketch constants (sketch_term): mean COM x y z,
   // sum KE_A, sum KE_A^rot, M g, M / T^2.
-  std::array<float, 7> sketch{};
+  std::array<float, kSketchConstants> sketch{};
+  // full: the same per chain, [chain][kSketchConstants].
+  std::vector<float> chain_sketch;
 };
 
 BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
@@ -476,17 +535,25 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
       b.kar.push_back(k[10]);
     }
     const std::vector<float>* com[3] = {&b.ax, &b.ay, &b.az};
-    const auto wb = whole_body_sketch(
-        sd, [&](std::size_t s, std::size_t a) { return (*com[a])[s]; },
-        [&](std::size_t s) { return b.ka[s]; }, [&](std::size_t s) { return b.kar[s]; });
-    double mg = 0.0, m_t2 = 0.0;  // M g, M / T^2 from the scan's own constants
-    for (std::size_t s = 0; s < sd.segments; ++s) {
-      mg += static_cast<double>(b.mg[s]);
-      m_t2 += 2.0 * static_cast<double>(b.mh[s]);
-    }
-    for (std::size_t i = 0; i < kSketchFields; ++i) b.sketch[i] = static_cast<float>(wb[i]);
-    b.sketch[5] = static_cast<float>(mg);
-    b.sketch[6] = static_cast<float>(m_t2);
+    // The sketch constants of the whole body (chain -1) or of one chain.
+    auto constants = [&](int chain, float* out) {
+      const auto wb = segment_sketch(
+          sd, chain, [&](std::size_t s, std::size_t a) { return (*com[a])[s]; },
+          [&](std::size_t s) { return b.ka[s]; }, [&](std::size_t s) { return b.kar[s]; });
+      double mg = 0.0, m_t2 = 0.0;  // M g, M / T^2 from the scan's own constants
+      for (std::size_t s = 0; s < sd.segments; ++s) {
+        if (chain >= 0 && sd.chain_of_segment[s] != static_cast<std::uint32_t>(chain)) continue;
+        mg += static_cast<double>(b.mg[s]);
+        m_t2 += 2.0 * static_cast<double>(b.mh[s]);
+      }
+      for (std::size_t i = 0; i < kSketchFields; ++i) out[i] = static_cast<float>(wb[i]);
+      out[5] = static_cast<float>(mg);
+      out[6] = static_cast<float>(m_t2);
+    };
+    constants(-1, b.sketch.data());
+    b.chain_sketch.resize(sd.chains * kSketchConstants);
+    for (std::size_t ch = 0; ch < sd.chains; ++ch)
+      constants(static_cast<int>(ch), b.chain_sketch.data() + ch * kSketchConstants);
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
     float total = 0.0f;
@@ -634,6 +701,25 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
   }
   out_a = ma;
   out_b = mb;
+}
+
+// Per-frame lower bounds of the scanned h(Q -> F) for the kBlock frames of
+// one block from their chain sketches (`blk`: [chains][kSketchFields][kBlock]
+// of SkelData::chain_sketch) and the query's chain constants k
+// (BoundQuery::chain_sketch): out[l] = sum over the chains of sketch_term
+// (docs/search.md "Chain sketches": h is a sum over segments, and each
+// chain's segments obey the whole-body lemma).
+MOCAP_SEARCH_MULTIVERSION
+void chain_sketch_bounds(const float* __restrict k, const float* __restrict blk, std::size_t chains,
+                         float* __restrict out) {
+  for (std::size_t l = 0; l < kBlock; ++l) out[l] = 0.0f;
+  for (std::size_t ch = 0; ch < chains; ++ch) {
+    const float* kc = k + ch * kSketchConstants;
+    const float* v = blk + ch * kSketchFields * kBlock;
+    for (std::size_t l = 0; l < kBlock; ++l)
+      out[l] += sketch_term(kc, v[l], v[kBlock + l], v[2 * kBlock + l], v[3 * kBlock + l],
+                            v[4 * kBlock + l]);
+  }
 }
 
 // Lower bound of the scanned h(Q -> F) for a full query frame over the
@@ -1574,16 +1660,41 @@ struct ClipCounters {
 // query frame: copied when the query's other pair computed it (cv / cd: the
 // shared frame cache from the clip's first frame, null without one), else
 // evaluated with the block's tile, counted and cached.
+//
+// With `partner` (a finite threshold `thr`; full query frames, `bq` its
+// bound form), frame f of the chunk matters only if h(f) + partner[f - f0]
+// can be <= thr, partner[i] being a lower bound of the best rest of a pair
+// through frame f0 + i: the frames' chain-sketch bounds are computed first
+// (2.2 KB on a 7-chain skeleton against the tile's 12 KB), and when no frame
+// can matter by them the chunk is left at +inf, counted as pruned and not
+// cached (docs/search.md "Chain sketches").
 void scan_whole_chunk(const PairContext& c, const ClipInfo& ci, const ResolvedFrame& q,
                       std::size_t bl, std::size_t f0, std::size_t f1, double* dst, double* cv,
-                      std::uint8_t* cd, Scratch& sc, ClipCounters& cnt) {
+                      std::uint8_t* cd, Scratch& sc, ClipCounters& cnt,
+                      const BoundQuery* bq = nullptr, const double* partner = nullptr,
+                      double thr = kInf) {
   if (cd != nullptr && cd[f0]) {
     std::copy(cv + f0, cv + f1, dst + f0);
     return;
   }
   const SkelData& sd = *c.sd;
+  const std::size_t row = ci.block_start + bl;
+  if (partner != nullptr && bq != nullptr && bq->kind == FrameKind::full && std::isfinite(thr)) {
+    float lb[kBlock];
+    chain_sketch_bounds(bq->chain_sketch.data(),
+                        sd.chain_sketch.data() + row * sd.chains * kSketchFields * kBlock,
+                        sd.chains, lb);
+    bool any = false;
+    for (std::size_t f = f0; f < f1; ++f)
+      any = any || !(safe(static_cast<double>(lb[f - f0]) + partner[f - f0]) > thr);
+    if (!any) {
+      std::fill(dst + f0, dst + f1, kInf);
+      cnt.pruned += f1 - f0;
+      return;
+    }
+  }
   evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
-           std::nullopt, nullptr, &sd.tiles[ci.block_start + bl]);
+           std::nullopt, nullptr, &sd.tiles[row]);
   cnt.evaluated += f1 - f0;
   if (cd != nullptr) {
     std::copy(dst + f0, dst + f1, cv + f0);
@@ -1832,15 +1943,24 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
   }
   // Scans the needed blocks of the first side (chunks shared with the other
   // pair: copied; blocks the probe scanned: kept).
+  // A frame's partner bound (scan_whole_chunk): for a(s), the least lbb of
+  // the blocks with a frame after s; for b(e), the least lba of the blocks
+  // with a frame before e; on the second side, the first side's best partner.
+  double partner[kBlock];
   auto side = [&](const ResolvedFrame& q, const std::vector<std::uint8_t>& need,
                   const std::vector<std::uint8_t>& done, double* dst, FrameCache* cache) {
+    const bool is_a = &q == c.qa;
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t f0 = first(bl), f1 = f0 + frames(bl);
-      if (!need[bl])
+      if (!need[bl]) {
         cnt.pruned += f1 - f0;
-      else if (!done[bl])
-        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc,
-                         cnt);
+      } else if (!done[bl]) {
+        for (std::size_t f = f0; f < f1; ++f)
+          partner[f - f0] =
+              is_a ? (f + 1 == f1 ? sb[bl + 1] : sb[bl]) : (f == f0 ? pa[bl] : pa[bl + 1]);
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc, cnt,
+                         is_a ? c.ba : c.bb, partner, tau);
+      }
     }
   };
   // Scans the needed blocks of the second side in the order of key[bl] =
@@ -1873,9 +1993,11 @@ bool eval_clip_blocks(const PairContext& c, const ClipInfo& ci, double tau, cons
         cnt.pruned += f1 - f0;
         continue;
       }
-      if (!done[bl])
-        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc,
-                         cnt);
+      if (!done[bl]) {
+        for (std::size_t f = f0; f < f1; ++f) partner[f - f0] = sign * lp(f) + sc.run[f];
+        scan_whole_chunk(c, ci, q, bl, f0, f1, dst, cache_values(cache), cache_done(cache), sc, cnt,
+                         &q == c.qa ? c.ba : c.bb, partner, u);
+      }
       for (std::size_t f = f0; f < f1; ++f)
         if (std::isfinite(dst[f]) && std::isfinite(sc.run[f]))
           u = std::min(u, (dst[f] + sign * lp(f)) + sc.run[f]);
@@ -2536,7 +2658,8 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
 
 void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
                                 std::vector<double>& lower, std::vector<double>& h,
-                                std::vector<double>* engine_h) const {
+                                std::vector<double>* engine_h, std::vector<double>* sketch_lower,
+                                std::vector<double>* chain_lower) const {
   const Impl& m = *impl_;
   if (k >= m.skels.size() || i >= q.frames.size())
     throw std::invalid_argument("frame_bounds: no such skeleton or frame");
@@ -2548,6 +2671,8 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
   const std::size_t n = sd.sk->frame_count, w = kBoundFields * sd.padded;
   lower.assign(n, 0.0);
   h.assign(n, kInf);
+  if (sketch_lower != nullptr) sketch_lower->assign(n, 0.0);
+  if (chain_lower != nullptr) chain_lower->assign(n, 0.0);
   Scratch sc;
   if (f.kind == FrameKind::partial) {
     const PartialBoundPlan plan = make_partial_bound_plan(f, sd, q.transition_time_s);
@@ -2577,14 +2702,21 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
       const float* sketch = sd.sketch.data() + row * kSketchFields * kBlock;
+      float chain[kBlock];
+      if (bq.kind == FrameKind::full)
+        chain_sketch_bounds(bq.chain_sketch.data(),
+                            sd.chain_sketch.data() + row * sd.chains * kSketchFields * kBlock,
+                            sd.chains, chain);
       for (std::size_t g = g0; g < g1; ++g) {
         lower[g] = std::max(lower[g], x);
         if (bq.kind == FrameKind::full) {
           const std::size_t l = g - g0;
-          lower[g] = std::max(
-              lower[g], static_cast<double>(sketch_term(
-                            bq.sketch.data(), sketch[l], sketch[kBlock + l], sketch[2 * kBlock + l],
-                            sketch[3 * kBlock + l], sketch[4 * kBlock + l])));
+          const auto whole = static_cast<double>(
+              sketch_term(bq.sketch.data(), sketch[l], sketch[kBlock + l], sketch[2 * kBlock + l],
+                          sketch[3 * kBlock + l], sketch[4 * kBlock + l]));
+          lower[g] = std::max({lower[g], whole, static_cast<double>(chain[l])});
+          if (sketch_lower != nullptr) (*sketch_lower)[g] = whole;
+          if (chain_lower != nullptr) (*chain_lower)[g] = chain[l];
         }
       }
       evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc, std::nullopt,

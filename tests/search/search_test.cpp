@@ -523,7 +523,8 @@ TEST(Search, PreparedBatchEqualsLazyRuns) {
 // root-only, heading (+ root position), joint rotations (one joint, a chain of
 // two, random angles), BVH "only" with and without the root; several
 // transition times. Also checks that the partial bounds are not trivially zero
-// (they must prune) and that the full-frame bounds are per frame.
+// (they must prune), that the full-frame bounds are per frame, and that the
+// chain sketches are tighter than the whole-body one.
 TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   MOCAP_REQUIRE_DATA();
   ASSERT_FALSE(set1_index().empty());
@@ -534,7 +535,7 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   auto deg = [&] { return random_deg(rng); };
   const std::size_t count = std::max<std::size_t>(12, random_query_count() / 10);
   double partial_lb_sum = 0.0, partial_h_sum = 0.0, full_lb_sum = 0.0, full_h_sum = 0.0;
-  std::size_t checked = 0;
+  std::size_t checked = 0, full_frames = 0, sketch_misses = 0, chain_misses = 0;
   for (std::size_t i = 0; i < count; ++i) {
     std::string f;
     switch (i % 6) {
@@ -560,8 +561,8 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
     }
     const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
-      std::vector<double> lower, h;
-      engine.frame_bounds(q, 0, k, lower, h);
+      std::vector<double> lower, h, sketch, chain;
+      engine.frame_bounds(q, 0, k, lower, h, nullptr, &sketch, &chain);
       ASSERT_EQ(lower.size(), h.size());
       for (std::size_t g = 0; g < h.size(); ++g) {
         ASSERT_TRUE(std::isfinite(h[g])) << i << " frame " << g;
@@ -575,6 +576,9 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
         } else if (i % 6 == 0) {
           full_lb_sum += lower[g];
           full_h_sum += h[g];
+          sketch_misses += sketch[g] < 0.5 * h[g];
+          chain_misses += chain[g] < 0.5 * h[g];
+          ++full_frames;
         }
       }
     }
@@ -585,6 +589,11 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   // Full frames: the whole-body sketches make the bound per frame (0.995 of h
   // on this data; the 16-frame block boxes alone: 0.83).
   EXPECT_GT(full_lb_sum, 0.9 * full_h_sum);
+  // The chain sketches that filter the scans are per frame and tight: under
+  // half of h on no full frame here (the whole-body sketch alone: 4 %).
+  EXPECT_GT(full_frames, 10000u);
+  EXPECT_LT(chain_misses, full_frames / 100);
+  EXPECT_GT(sketch_misses, full_frames / 100);
 }
 
 // Partial frames that give joint rotations only are evaluated by the

@@ -147,14 +147,18 @@ class SearchEngine {
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
   /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
   /// every frame F of the skeleton (the greatest of its group's and clip's box and sketch-range
-  /// bounds, 16-frame block boxes, whole-body sketches of full frames, per-frame bounds of
-  /// partial frames; docs/search.md) in `lower`, and h itself
-  /// in `h` (the reference: the h scan for full and root-only frames, partial_approximate_energy
-  /// for partial ones). With `engine_h`, also the values the search ranks by (every mode): equal to
-  /// `h` except for partial frames giving joint rotations only, which the engine evaluates with its
-  /// own subtree kernel (docs/search.md "Joint-rotation frames").
+  /// bounds, 16-frame block boxes, whole-body and chain sketches of full frames, per-frame bounds
+  /// of partial frames; docs/search.md) in `lower`, and h itself in `h` (the reference: the h scan
+  /// for full and root-only frames, partial_approximate_energy for partial ones). With `engine_h`,
+  /// also the values the search ranks by (every mode): equal to `h` except for partial frames
+  /// giving joint rotations only, which the engine evaluates with its own subtree kernel
+  /// (docs/search.md "Joint-rotation frames"). With `sketch_lower` (full frames), also the
+  /// per-frame whole-body sketch bound alone and with `chain_lower` the chain sketch bound alone
+  /// that the scans use as a filter (0 for other frames; docs/search.md "Chain sketches").
   void frame_bounds(const Query& query, std::size_t i, std::size_t k, std::vector<double>& lower,
-                    std::vector<double>& h, std::vector<double>* engine_h = nullptr) const;
+                    std::vector<double>& h, std::vector<double>* engine_h = nullptr,
+                    std::vector<double>* sketch_lower = nullptr,
+                    std::vector<double>* chain_lower = nullptr) const;
 
   /// Internal tables (search.cpp).
   struct Impl;
