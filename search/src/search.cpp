@@ -11,6 +11,7 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -29,6 +30,7 @@
 #include "mocap/body.hpp"
 #include "mocap/energy.hpp"
 #include "mocap/error.hpp"
+#include "mocap/half.hpp"
 #include "mocap/newton_euler.hpp"
 #include "resolve.hpp"
 
@@ -165,7 +167,13 @@ struct SkelData {
   // block reads 12 KB in one stream instead of S x 9 rows far apart.
   std::vector<HScanTable> tiles;
   // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules.
+  // The blocks' rows are kept as IEEE half floats rounded outwards (block_box:
+  // minima down, maxima up, so each box still holds its frames' values; half
+  // the bytes of a row for the 1,200 block boxes a full-frame query reads;
+  // docs/search.md "Box bounds"); block_bounds is the float table they are
+  // made from, emptied once the clip rows are built.
   std::vector<float> block_bounds, clip_bounds, block_root, clip_root;
+  std::vector<std::uint16_t> block_box;
   // The same for groups of kGroup consecutive clip rows (union of their clips).
   std::vector<float> group_bounds, group_root;
   // The clip bound table again, lane-major for SIMD over a group's clips
@@ -431,6 +439,16 @@ void build_bound_tables(SkelData& sd) {
       }
     }
   });
+  // The blocks' rows as halves rounded outwards; the float rows are not needed any more.
+  sd.block_box.resize(sd.block_bounds.size());
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t row) {
+    for (std::size_t i = 0; i < w; ++i) {
+      const std::size_t f = i / s;
+      const bool is_min = f < 3 || f == 6 || f == 8;
+      sd.block_box[row * w + i] = float_to_half(sd.block_bounds[row * w + i], !is_min);
+    }
+  });
+  std::vector<float>().swap(sd.block_bounds);
   // Lane-major copies (box_bounds_lanes).
   auto lanes = [&](const std::vector<float>& rows, const std::vector<float>& roots, std::size_t count,
                    std::vector<float>& out, std::vector<float>& out_root) {
@@ -701,6 +719,22 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
   }
   out_a = ma;
   out_b = mb;
+}
+
+// box_bound of block `row` (its half-float row, SkelData::block_box).
+float block_box_bound(const BoundQuery& q, const SkelData& sd, std::size_t row) {
+  const std::size_t w = kBoundFields * sd.padded;
+  constexpr std::size_t kStack = kBoundFields * 128;
+  std::array<float, kStack> buf;  // NOLINT: written before read
+  std::vector<float> heap;
+  float* out = buf.data();
+  if (w > kStack) {
+    heap.resize(w);
+    out = heap.data();
+  }
+  if (q.kind == FrameKind::partial) return 0.0f;  // as box_bound
+  halves_to_floats(sd.block_box.data() + row * w, w, out);
+  return box_bound(q, out, sd.block_root.data() + row * 6);
 }
 
 // Per-frame lower bounds of the scanned h(Q -> F) for the kBlock frames of
@@ -1717,14 +1751,11 @@ bool eval_clip_world(const PairContext& c, const ClipInfo& ci, double tau, Scrat
   if (prune) {
     sc.la.resize(k);
     sc.lb.resize(k);
-    const std::size_t w = kBoundFields * sd.padded;
     const bool box_a = c.qa->kind != FrameKind::partial, box_b = c.qb->kind != FrameKind::partial;
     for (std::size_t bl = 0; bl < nb; ++bl) {
       const std::size_t row = ci.block_start + bl;
-      const float* bnd = sd.block_bounds.data() + row * w;
-      const float* root = sd.block_root.data() + row * 6;
-      const double xa = box_a ? static_cast<double>(box_bound(*c.ba, bnd, root)) : 0.0;
-      const double xb = box_b ? static_cast<double>(box_bound(*c.bb, bnd, root)) : 0.0;
+      const double xa = box_a ? static_cast<double>(block_box_bound(*c.ba, sd, row)) : 0.0;
+      const double xb = box_b ? static_cast<double>(block_box_bound(*c.bb, sd, row)) : 0.0;
       const std::size_t f1 = std::min(k, bl * kBlock + kBlock);
       for (std::size_t f = bl * kBlock; f < f1; ++f) {
         sc.la[f] = xa;
@@ -2460,14 +2491,11 @@ struct QueryRunner {
         // needed either way).
         auto block_bounds_of = [&](const ClipInfo& ci, double tau) {
           const std::size_t nb = (ci.frame_count + kBlock - 1) / kBlock;
-          const std::size_t w = kBoundFields * gsd.padded;
           const BoundQuery& qa = bounds[gk][h];
           const BoundQuery& qb = bounds[gk][h + 1];
           const bool sketch_a = qa.kind == FrameKind::full, sketch_b = qb.kind == FrameKind::full;
           auto box = [&](const BoundQuery& bq, std::size_t bl) {
-            const std::size_t row = ci.block_start + bl;
-            return static_cast<double>(
-                box_bound(bq, gsd.block_bounds.data() + row * w, gsd.block_root.data() + row * 6));
+            return static_cast<double>(block_box_bound(bq, gsd, ci.block_start + bl));
           };
           sc.blk_a.resize(nb);
           sc.blk_b.resize(nb);
@@ -2668,7 +2696,7 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
       search_detail::resolve_frame(q, i, *sd.sk, sd.model, q.transition_time_s, m.t_index,
                                    m.bvh_cache, m.index->info().unit_option);
   set_needed_joints(f, sd.model);
-  const std::size_t n = sd.sk->frame_count, w = kBoundFields * sd.padded;
+  const std::size_t n = sd.sk->frame_count;
   lower.assign(n, 0.0);
   h.assign(n, kInf);
   if (sketch_lower != nullptr) sketch_lower->assign(n, 0.0);
@@ -2697,8 +2725,7 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
   for (const ClipInfo& ci : sd.clips)
     for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
       const std::size_t row = ci.block_start + bl;
-      const double x =
-          box_bound(bq, sd.block_bounds.data() + row * w, sd.block_root.data() + row * 6);
+      const double x = block_box_bound(bq, sd, row);
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
       const float* sketch = sd.sketch.data() + row * kSketchFields * kBlock;
