@@ -723,16 +723,16 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
 
 // box_bound of block `row` (its half-float row, SkelData::block_box).
 float block_box_bound(const BoundQuery& q, const SkelData& sd, std::size_t row) {
+  if (q.kind == FrameKind::partial) return 0.0f;  // as box_bound
   const std::size_t w = kBoundFields * sd.padded;
-  constexpr std::size_t kStack = kBoundFields * 128;
-  std::array<float, kStack> buf;  // NOLINT: written before read
+  constexpr std::size_t kStack = kBoundFields * 128;  // up to 128 segments on the stack
+  std::array<float, kStack> buf;                      // NOLINT: written before read
   std::vector<float> heap;
   float* out = buf.data();
   if (w > kStack) {
     heap.resize(w);
     out = heap.data();
   }
-  if (q.kind == FrameKind::partial) return 0.0f;  // as box_bound
   halves_to_floats(sd.block_box.data() + row * w, w, out);
   return box_bound(q, out, sd.block_root.data() + row * 6);
 }
