@@ -590,10 +590,11 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
   // on this data; the 16-frame block boxes alone: 0.83).
   EXPECT_GT(full_lb_sum, 0.9 * full_h_sum);
   // The chain sketches that filter the scans are per frame and tight: under
-  // half of h on no full frame here (the whole-body sketch alone: 4 %).
+  // half of h on no full frame here, where the whole-body sketch alone is on
+  // 0.5-4 % of them (depending on the queries drawn).
   EXPECT_GT(full_frames, 10000u);
   EXPECT_LT(chain_misses, full_frames / 100);
-  EXPECT_GT(sketch_misses, full_frames / 100);
+  EXPECT_LE(chain_misses, sketch_misses);
 }
 
 // Partial frames that give joint rotations only are evaluated by the
