@@ -138,6 +138,10 @@ struct FrameArrays {
 // Computed from the very float values the scan reads, so a bound computed
 // from them holds for the scanned h of every frame of the block.
 constexpr std::size_t kBoundFields = 10;  // cmin xyz, cmax xyz, KE min max, KE_rot min max
+// Whether bound field f (of kBoundFields) is a minimum (0..2, 6, 8) or a maximum (3..5, 7, 9).
+constexpr bool is_min_bound_field(std::size_t f) {
+  return f < 3 || f == 6 || f == 8;
+}
 constexpr std::size_t kBlock = 16;
 constexpr std::size_t kGroup = 16;  // clips per group (group bound tables)
 constexpr std::size_t kLanes = 16;  // clips per lane-major tile (box_bounds_lanes)
@@ -249,32 +253,44 @@ void ensure_forest(const SkelData& sd, const SearchOptions& opt) {
   });
 }
 
-// A whole-body sketch (kSketchFields values: mass-weighted mean COM x y z,
-// summed KE, summed KE_rot) from per-segment values: com(s, axis), ke(s),
-// rot(s), summed in double in segment order; database frames and query
-// frames are formed by this one function, as the bound requires. A skeleton
-// without segments gets zeros (h = 0 there, and so is the bound).
-// `chain` < 0: every segment (the whole body); otherwise the segments of
-// that chain (SkelData::chain_of_segment), with the chain's mass.
-template <class Com, class Ke, class Rot>
-std::array<double, kSketchFields> segment_sketch(const SkelData& sd, int chain, Com com, Ke ke,
-                                                 Rot rot) {
-  std::array<double, kSketchFields> v{};
+// Sketches of groups of segments (kSketchFields values each: mass-weighted
+// mean COM x y z, summed KE, summed KE_rot) from per-segment values:
+// com(s, axis), ke(s), rot(s), summed in double in segment order, in one pass;
+// group(s) in [0, groups) is segment s's group and mass[c] group c's mass.
+// Database frames and query frames are formed by this one function, as the
+// bounds require. A group without mass gets a zero COM (no segment: h = 0
+// there, and so is the bound).
+template <class Group, class Com, class Ke, class Rot>
+void group_sketches(const SkelData& sd, Group group, const double* mass, std::size_t groups,
+                    Com com, Ke ke, Rot rot, std::array<double, kSketchFields>* out) {
+  for (std::size_t c = 0; c < groups; ++c) out[c] = {};
   for (std::size_t b = 0; b < sd.segments; ++b) {
-    if (chain >= 0 && sd.chain_of_segment[b] != static_cast<std::uint32_t>(chain)) continue;
+    std::array<double, kSketchFields>& v = out[group(b)];
     for (std::size_t a = 0; a < 3; ++a) v[a] += sd.masses[b] * static_cast<double>(com(b, a));
     v[3] += static_cast<double>(ke(b));
     v[4] += static_cast<double>(rot(b));
   }
-  const double mass = chain < 0 ? sd.segment_mass : sd.chain_mass[static_cast<std::size_t>(chain)];
-  if (mass > 0.0)
-    for (std::size_t a = 0; a < 3; ++a) v[a] /= mass;
+  for (std::size_t c = 0; c < groups; ++c)
+    if (mass[c] > 0.0)
+      for (std::size_t a = 0; a < 3; ++a) out[c][a] /= mass[c];
+}
+
+// The whole body as one group.
+template <class Com, class Ke, class Rot>
+std::array<double, kSketchFields> whole_body_sketch(const SkelData& sd, Com com, Ke ke, Rot rot) {
+  std::array<double, kSketchFields> v;
+  group_sketches(
+      sd, [](std::size_t) { return std::size_t{0}; }, &sd.segment_mass, 1, com, ke, rot, &v);
   return v;
 }
 
+// Each kinematic chain as a group (SkelData::chain_of_segment): out[c], c < sd.chains.
 template <class Com, class Ke, class Rot>
-std::array<double, kSketchFields> whole_body_sketch(const SkelData& sd, Com com, Ke ke, Rot rot) {
-  return segment_sketch(sd, -1, com, ke, rot);
+void chain_sketches(const SkelData& sd, Com com, Ke ke, Rot rot,
+                    std::array<double, kSketchFields>* out) {
+  group_sketches(
+      sd, [&](std::size_t b) { return static_cast<std::size_t>(sd.chain_of_segment[b]); },
+      sd.chain_mass.data(), sd.chains, com, ke, rot, out);
 }
 
 // Model-derived per-segment constants, clip rows, frame -> clip row.
@@ -366,8 +382,18 @@ void build_bound_tables(SkelData& sd) {
       root[a + 3] = -inf;
     }
   };
+  // Widens the box `row` (bound row and root box) to hold the box `from`.
+  auto unite = [&](float* row, float* root, const float* from, const float* from_root) {
+    for (std::size_t i = 0; i < w; ++i)
+      row[i] = is_min_bound_field(i / s) ? std::min(row[i], from[i]) : std::max(row[i], from[i]);
+    for (std::size_t a = 0; a < 3; ++a) {
+      root[a] = std::min(root[a], from_root[a]);
+      root[a + 3] = std::max(root[a + 3], from_root[a + 3]);
+    }
+  };
   tbb::parallel_for(std::size_t{0}, sd.clips.size(), [&](std::size_t r) {
     const ClipInfo& ci = sd.clips[r];
+    std::vector<std::array<double, kSketchFields>> chain_values(sd.chains);
     float* crow = sd.clip_bounds.data() + r * w;
     float* croot = sd.clip_root.data() + r * 6;
     init(crow, croot);
@@ -388,25 +414,20 @@ void build_bound_tables(SkelData& sd) {
                   tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
                   tile.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tile.stride));
       float* sketch = sd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
+      float* chain =
+          sd.chain_sketch.data() + (ci.block_start + bl) * sd.chains * kSketchFields * kBlock;
       for (std::size_t l = 0; l < kBlock; ++l) {
         const std::size_t g = std::min(g0 + l, g1 - 1);
-        const auto v = whole_body_sketch(
-            sd, [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; },
-            [&](std::size_t b) { return tb.field(b, 3)[g]; },
-            [&](std::size_t b) { return tb.field(b, 8)[g]; });
+        auto com = [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; };
+        auto ke = [&](std::size_t b) { return tb.field(b, 3)[g]; };
+        auto rot = [&](std::size_t b) { return tb.field(b, 8)[g]; };
+        const auto v = whole_body_sketch(sd, com, ke, rot);
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
-        for (std::size_t ch = 0; ch < sd.chains; ++ch) {
-          const auto cs = segment_sketch(
-              sd, static_cast<int>(ch),
-              [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; },
-              [&](std::size_t b) { return tb.field(b, 3)[g]; },
-              [&](std::size_t b) { return tb.field(b, 8)[g]; });
-          float* out = sd.chain_sketch.data() +
-                       ((ci.block_start + bl) * sd.chains + ch) * kSketchFields * kBlock;
+        chain_sketches(sd, com, ke, rot, chain_values.data());
+        for (std::size_t ch = 0; ch < sd.chains; ++ch)
           for (std::size_t i = 0; i < kSketchFields; ++i)
-            out[i * kBlock + l] = static_cast<float>(cs[i]);
-        }
+            chain[(ch * kSketchFields + i) * kBlock + l] = static_cast<float>(chain_values[ch][i]);
       }
       // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
       constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
@@ -427,26 +448,15 @@ void build_bound_tables(SkelData& sd) {
           root[a] = std::min(root[a], v);
           root[a + 3] = std::max(root[a + 3], v);
         }
-      for (std::size_t i = 0; i < w; ++i) {
-        // min rows: fields 0..2, 6, 8; max rows: 3..5, 7, 9.
-        const std::size_t f = i / s;
-        const bool is_min = f < 3 || f == 6 || f == 8;
-        crow[i] = is_min ? std::min(crow[i], row[i]) : std::max(crow[i], row[i]);
-      }
-      for (std::size_t a = 0; a < 3; ++a) {
-        croot[a] = std::min(croot[a], root[a]);
-        croot[a + 3] = std::max(croot[a + 3], root[a + 3]);
-      }
+      unite(crow, croot, row, root);
     }
   });
   // The blocks' rows as halves rounded outwards; the float rows are not needed any more.
   sd.block_box.resize(sd.block_bounds.size());
   tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t row) {
-    for (std::size_t i = 0; i < w; ++i) {
-      const std::size_t f = i / s;
-      const bool is_min = f < 3 || f == 6 || f == 8;
-      sd.block_box[row * w + i] = float_to_half(sd.block_bounds[row * w + i], !is_min);
-    }
+    for (std::size_t i = 0; i < w; ++i)
+      sd.block_box[row * w + i] =
+          float_to_half(sd.block_bounds[row * w + i], !is_min_bound_field(i / s));
   });
   std::vector<float>().swap(sd.block_bounds);
   // Lane-major copies (box_bounds_lanes).
@@ -502,17 +512,7 @@ void build_bound_tables(SkelData& sd) {
     float* groot = sd.group_root.data() + g * 6;
     init(grow, groot);
     for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r) {
-      const float* crow = sd.clip_bounds.data() + r * w;
-      const float* croot = sd.clip_root.data() + r * 6;
-      for (std::size_t i = 0; i < w; ++i) {
-        const std::size_t f = i / s;
-        const bool is_min = f < 3 || f == 6 || f == 8;
-        grow[i] = is_min ? std::min(grow[i], crow[i]) : std::max(grow[i], crow[i]);
-      }
-      for (std::size_t a = 0; a < 3; ++a) {
-        groot[a] = std::min(groot[a], croot[a]);
-        groot[a + 3] = std::max(groot[a + 3], croot[a + 3]);
-      }
+      unite(grow, groot, sd.clip_bounds.data() + r * w, sd.clip_root.data() + r * 6);
     }
   }
 }
@@ -553,25 +553,32 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkelData& sd) {
       b.kar.push_back(k[10]);
     }
     const std::vector<float>* com[3] = {&b.ax, &b.ay, &b.az};
-    // The sketch constants of the whole body (chain -1) or of one chain.
-    auto constants = [&](int chain, float* out) {
-      const auto wb = segment_sketch(
-          sd, chain, [&](std::size_t s, std::size_t a) { return (*com[a])[s]; },
-          [&](std::size_t s) { return b.ka[s]; }, [&](std::size_t s) { return b.kar[s]; });
-      double mg = 0.0, m_t2 = 0.0;  // M g, M / T^2 from the scan's own constants
-      for (std::size_t s = 0; s < sd.segments; ++s) {
-        if (chain >= 0 && sd.chain_of_segment[s] != static_cast<std::uint32_t>(chain)) continue;
-        mg += static_cast<double>(b.mg[s]);
-        m_t2 += 2.0 * static_cast<double>(b.mh[s]);
-      }
-      for (std::size_t i = 0; i < kSketchFields; ++i) out[i] = static_cast<float>(wb[i]);
+    auto com_of = [&](std::size_t s, std::size_t a) { return (*com[a])[s]; };
+    auto ke_of = [&](std::size_t s) { return b.ka[s]; };
+    auto rot_of = [&](std::size_t s) { return b.kar[s]; };
+    // A group's sketch constants: its sketch, then M g and M / T^2 summed from
+    // the scan's own constants (in segment order, like the sketch).
+    auto constants = [&](const std::array<double, kSketchFields>& v, double mg, double m_t2,
+                         float* out) {
+      for (std::size_t i = 0; i < kSketchFields; ++i) out[i] = static_cast<float>(v[i]);
       out[5] = static_cast<float>(mg);
       out[6] = static_cast<float>(m_t2);
     };
-    constants(-1, b.sketch.data());
+    double mg = 0.0, m_t2 = 0.0;
+    std::vector<double> chain_mg(sd.chains, 0.0), chain_m_t2(sd.chains, 0.0);
+    for (std::size_t s = 0; s < sd.segments; ++s) {
+      mg += static_cast<double>(b.mg[s]);
+      m_t2 += 2.0 * static_cast<double>(b.mh[s]);
+      chain_mg[sd.chain_of_segment[s]] += static_cast<double>(b.mg[s]);
+      chain_m_t2[sd.chain_of_segment[s]] += 2.0 * static_cast<double>(b.mh[s]);
+    }
+    constants(whole_body_sketch(sd, com_of, ke_of, rot_of), mg, m_t2, b.sketch.data());
+    std::vector<std::array<double, kSketchFields>> chains(sd.chains);
+    chain_sketches(sd, com_of, ke_of, rot_of, chains.data());
     b.chain_sketch.resize(sd.chains * kSketchConstants);
     for (std::size_t ch = 0; ch < sd.chains; ++ch)
-      constants(static_cast<int>(ch), b.chain_sketch.data() + ch * kSketchConstants);
+      constants(chains[ch], chain_mg[ch], chain_m_t2[ch],
+                b.chain_sketch.data() + ch * kSketchConstants);
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->resize(b.s, 0.0f);
   } else if (q.kind == FrameKind::root_only) {
     float total = 0.0f;
