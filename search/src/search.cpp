@@ -2403,12 +2403,14 @@ struct QueryRunner {
     // clips are adjacent: files sorted by name). A group's bound (its union
     // box) orders the groups and prunes whole groups; inside a group, clip
     // bounds order and prune the clips. Likely winners come first, so tau
-    // falls fast; the answer does not depend on the order.
+    // falls fast; the answer does not depend on the order (docs/search.md
+    // "Search order").
     const bool bounded = eval_mode == SearchMode::exact && !q.relative;
     struct Work {
       double lb;
       std::size_t clip;
       std::size_t k, r;
+      std::size_t cand;  // index in `cands`
     };
     struct Group {
       double lb;
@@ -2454,6 +2456,133 @@ struct QueryRunner {
     std::atomic<std::uint64_t> evaluated{0}, pruned{0}, clips_pruned{0};
     std::vector<PairContext> contexts;
     for (std::size_t k = 0; k < skels.size(); ++k) contexts.push_back(context(k, h, eval_mode));
+    // Full or root-only query frames on both sides: block-level evaluation.
+    std::vector<std::uint8_t> blocks_only(skels.size());
+    for (std::size_t k = 0; k < skels.size(); ++k)
+      blocks_only[k] = bounded && bounds[k][h].kind != FrameKind::partial &&
+                       bounds[k][h + 1].kind != FrameKind::partial &&
+                       frame_bounds_of(k, h) == nullptr && frame_bounds_of(k, h + 1) == nullptr;
+    // The bounds of a clip's 16-frame blocks, both query frames: the box
+    // bounds; for a full query frame first the least whole-body sketch
+    // bound of the block's frames, raised to the box bound only where the
+    // sketches cannot rule the block out against tau (docs/search.md
+    // "Whole-body sketches": a block left at its sketch bound is not
+    // needed either way).
+    auto block_bounds_of = [&](std::size_t k, const ClipInfo& ci, double tau, Scratch& sc) {
+      const SkelData& sd = *skels[k];
+      const std::size_t nb = (ci.frame_count + kBlock - 1) / kBlock;
+      const BoundQuery& qa = bounds[k][h];
+      const BoundQuery& qb = bounds[k][h + 1];
+      const bool sketch_a = qa.kind == FrameKind::full, sketch_b = qb.kind == FrameKind::full;
+      auto box = [&](const BoundQuery& bq, std::size_t bl) {
+        return static_cast<double>(block_box_bound(bq, sd, ci.block_start + bl));
+      };
+      sc.blk_a.resize(nb);
+      sc.blk_b.resize(nb);
+      for (std::size_t bl = 0; bl < nb; ++bl) {
+        float xa = 0.0f, xb = 0.0f;
+        if (sketch_a || sketch_b)
+          sketch_block_bounds(qa.sketch.data(), qb.sketch.data(),
+                              sd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock, xa,
+                              xb);
+        sc.blk_a[bl] = sketch_a ? static_cast<double>(xa) : box(qa, bl);
+        sc.blk_b[bl] = sketch_b ? static_cast<double>(xb) : box(qb, bl);
+      }
+      if (!sketch_a && !sketch_b) return;
+      // PA / SB of the bounds so far (a block pairs with itself and the
+      // blocks after it); the box is needed where they do not exceed tau.
+      sc.blk_pa.resize(nb);
+      double prefix = kInf, suffix = kInf;
+      for (std::size_t bl = 0; bl < nb; ++bl)
+        sc.blk_pa[bl] = prefix = std::min(prefix, sc.blk_a[bl]);
+      for (std::size_t bl = nb; bl-- > 0;) {
+        suffix = std::min(suffix, sc.blk_b[bl]);
+        if (sketch_a && !(safe(sc.blk_a[bl] + suffix) > tau))
+          sc.blk_a[bl] = std::max(sc.blk_a[bl], box(qa, bl));
+        if (sketch_b && !(safe(sc.blk_b[bl] + sc.blk_pa[bl]) > tau))
+          sc.blk_b[bl] = std::max(sc.blk_b[bl], box(qb, bl));
+      }
+    };
+    // Evaluates one candidate against tau (its bound does not exceed tau)
+    // and offers its best partial motion to the top.
+    auto eval_work = [&](const Work& w, double tau, Scratch& sc, std::uint64_t& ev,
+                         std::uint64_t& pf, std::uint64_t& pc) {
+      const ClipInfo& ci = skels[w.k]->clips[w.r];
+      ClipCounters cnt;
+      Entry e{};
+      bool ok = false;
+      if (q.relative) {
+        ok = eval_clip_relative(contexts[w.k], ci, tau, sc, cnt, e);
+      } else if (blocks_only[w.k]) {
+        block_bounds_of(w.k, ci, tau, sc);
+        ok = eval_clip_blocks(contexts[w.k], ci, tau, sc.blk_a.data(), sc.blk_b.data(), sc, cnt, e);
+      } else {
+        ok = eval_clip_world(contexts[w.k], ci, tau, sc, cnt, e);
+      }
+      if (ok) top.insert(e);
+      ev += cnt.evaluated;
+      pf += cnt.pruned;
+      pc += cnt.clip_pruned;
+    };
+    // Candidates of a group the seeding evaluated; their clip bounds.
+    std::vector<std::uint8_t> seeded(cands.size(), 0);
+    // The group's candidates not seeded, with their clip bounds when bounded.
+    auto group_work = [&](const Group& grp, Scratch& sc, std::vector<Work>& work) {
+      work.clear();
+      for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
+        if (!seeded[i])
+          work.push_back({0.0, skels[cands[i].first]->clips[cands[i].second].clip, cands[i].first,
+                          cands[i].second, i});
+      if (!bounded || work.empty()) return;
+      // The group's clip bounds: one lane-major tile per side.
+      const std::size_t gk = cands[grp.first].first;
+      const std::size_t g = cands[grp.first].second / kGroup;
+      sc.clip_x.resize(2 * kLanes);
+      clip_tile_bounds(bounds[gk][h], *skels[gk], g, sc.clip_x.data());
+      clip_tile_bounds(bounds[gk][h + 1], *skels[gk], g, sc.clip_x.data() + kLanes);
+      for (Work& w : work)
+        w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
+    };
+    auto by_bound = [](const Work& x, const Work& y) {
+      if (x.lb != y.lb) return x.lb < y.lb;
+      return x.clip < y.clip;
+    };
+    // Seeding (docs/search.md "Search order"): best-first over the groups
+    // (by group bound) and the clips of the groups opened (by clip bound)
+    // until 2r clips are evaluated, so that tau is finite and low before the
+    // sweep below; those clips are skipped there. One thread: the 2r clips
+    // of least bound among the groups of least bound, in the order of their
+    // bounds, wherever they lie.
+    if (bounded) {
+      Scratch& sc = scratch.local();
+      std::uint64_t ev = 0, pf = 0, pc = 0;
+      std::vector<Work> pool, work;
+      auto later = [&](const Work& x, const Work& y) { return by_bound(y, x); };
+      std::size_t next = 0, done = 0;
+      while (done < 2 * q.top) {
+        if (next < groups.size() && (pool.empty() || !(pool.front().lb < groups[next].lb))) {
+          group_work(groups[next++], sc, work);
+          for (const Work& w : work) {
+            pool.push_back(w);
+            std::push_heap(pool.begin(), pool.end(), later);
+          }
+          continue;
+        }
+        if (pool.empty()) break;
+        std::pop_heap(pool.begin(), pool.end(), later);
+        const Work w = pool.back();
+        pool.pop_back();
+        const double tau = top.tau();
+        // Every bound left is at least this one: the sweep prunes them all.
+        if (safe(w.lb) > tau) break;
+        eval_work(w, tau, sc, ev, pf, pc);
+        seeded[w.cand] = 1;
+        ++done;
+      }
+      evaluated += ev;
+      pruned += pf;
+      clips_pruned += pc;
+    }
     auto run_group = [&](const Group& grp, std::vector<Work>& work) {
       std::uint64_t ev = 0, pf = 0, pc = 0;
       auto prune_all = [&](std::size_t from) {
@@ -2462,98 +2591,23 @@ struct QueryRunner {
           ++pc;
         }
       };
-      work.clear();
-      for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
-        work.push_back({0.0, skels[cands[i].first]->clips[cands[i].second].clip, cands[i].first,
-                        cands[i].second});
+      Scratch& sc = scratch.local();
       if (bounded && safe(grp.lb) > top.tau()) {
+        work.clear();
+        for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
+          if (!seeded[i]) work.push_back({0.0, 0, cands[i].first, cands[i].second, i});
         prune_all(0);
       } else {
-        Scratch& sc = scratch.local();
-        const std::size_t gk = cands[grp.first].first;
-        const SkelData& gsd = *skels[gk];
-        const std::size_t g = cands[grp.first].second / kGroup;
-        if (bounded) {
-          // The group's clip bounds: one lane-major tile per side.
-          sc.clip_x.resize(2 * kLanes);
-          clip_tile_bounds(bounds[gk][h], gsd, g, sc.clip_x.data());
-          clip_tile_bounds(bounds[gk][h + 1], gsd, g, sc.clip_x.data() + kLanes);
-          for (Work& w : work)
-            w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
-        }
-        std::sort(work.begin(), work.end(), [](const Work& x, const Work& y) {
-          if (x.lb != y.lb) return x.lb < y.lb;
-          return x.clip < y.clip;
-        });
-        // Full or root-only query frames on both sides: block-level evaluation.
-        const bool blocks_only = bounded && !q.relative && bounds[gk][h].kind != FrameKind::partial &&
-                                 bounds[gk][h + 1].kind != FrameKind::partial &&
-                                 frame_bounds_of(gk, h) == nullptr &&
-                                 frame_bounds_of(gk, h + 1) == nullptr;
-        // The bounds of a clip's 16-frame blocks, both query frames: the box
-        // bounds; for a full query frame first the least whole-body sketch
-        // bound of the block's frames, raised to the box bound only where the
-        // sketches cannot rule the block out against tau (docs/search.md
-        // "Whole-body sketches": a block left at its sketch bound is not
-        // needed either way).
-        auto block_bounds_of = [&](const ClipInfo& ci, double tau) {
-          const std::size_t nb = (ci.frame_count + kBlock - 1) / kBlock;
-          const BoundQuery& qa = bounds[gk][h];
-          const BoundQuery& qb = bounds[gk][h + 1];
-          const bool sketch_a = qa.kind == FrameKind::full, sketch_b = qb.kind == FrameKind::full;
-          auto box = [&](const BoundQuery& bq, std::size_t bl) {
-            return static_cast<double>(block_box_bound(bq, gsd, ci.block_start + bl));
-          };
-          sc.blk_a.resize(nb);
-          sc.blk_b.resize(nb);
-          for (std::size_t bl = 0; bl < nb; ++bl) {
-            float xa = 0.0f, xb = 0.0f;
-            if (sketch_a || sketch_b)
-              sketch_block_bounds(
-                  qa.sketch.data(), qb.sketch.data(),
-                  gsd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock, xa, xb);
-            sc.blk_a[bl] = sketch_a ? static_cast<double>(xa) : box(qa, bl);
-            sc.blk_b[bl] = sketch_b ? static_cast<double>(xb) : box(qb, bl);
-          }
-          if (!sketch_a && !sketch_b) return;
-          // PA / SB of the bounds so far (a block pairs with itself and the
-          // blocks after it); the box is needed where they do not exceed tau.
-          sc.blk_pa.resize(nb);
-          double prefix = kInf, suffix = kInf;
-          for (std::size_t bl = 0; bl < nb; ++bl)
-            sc.blk_pa[bl] = prefix = std::min(prefix, sc.blk_a[bl]);
-          for (std::size_t bl = nb; bl-- > 0;) {
-            suffix = std::min(suffix, sc.blk_b[bl]);
-            if (sketch_a && !(safe(sc.blk_a[bl] + suffix) > tau))
-              sc.blk_a[bl] = std::max(sc.blk_a[bl], box(qa, bl));
-            if (sketch_b && !(safe(sc.blk_b[bl] + sc.blk_pa[bl]) > tau))
-              sc.blk_b[bl] = std::max(sc.blk_b[bl], box(qb, bl));
-          }
-        };
+        group_work(grp, sc, work);
+        std::sort(work.begin(), work.end(), by_bound);
         for (std::size_t i = 0; i < work.size(); ++i) {
-          const ClipInfo& ci = skels[work[i].k]->clips[work[i].r];
           const double tau = top.tau();
           if (bounded && safe(work[i].lb) > tau) {
             // The rest of the group has bounds >= this one and tau only decreases.
             prune_all(i);
             break;
           }
-          ClipCounters cnt;
-          Entry e{};
-          bool ok = false;
-          if (q.relative) {
-            ok = eval_clip_relative(contexts[work[i].k], ci, tau, sc, cnt, e);
-          } else if (blocks_only) {
-            block_bounds_of(ci, tau);
-            ok = eval_clip_blocks(contexts[work[i].k], ci, tau, sc.blk_a.data(), sc.blk_b.data(),
-                                  sc, cnt, e);
-          } else {
-            ok = eval_clip_world(contexts[work[i].k], ci, tau, sc, cnt, e);
-          }
-          if (ok) top.insert(e);
-          ev += cnt.evaluated;
-          pf += cnt.pruned;
-          pc += cnt.clip_pruned;
+          eval_work(work[i], tau, sc, ev, pf, pc);
         }
       }
       evaluated += ev;
