@@ -719,13 +719,14 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
     va[l] = sketch_term(ka, x, y, z, kin, rot);
     vb[l] = sketch_term(kb, x, y, z, kin, rot);
   }
-  float ma = va[0], mb = vb[0];
-  for (std::size_t l = 1; l < kBlock; ++l) {
-    ma = std::min(ma, va[l]);
-    mb = std::min(mb, vb[l]);
-  }
-  out_a = ma;
-  out_b = mb;
+  // Pairwise (a tree of depth 4, not a chain of 15 dependent minima).
+  for (std::size_t w = kBlock / 2; w >= 1; w /= 2)
+    for (std::size_t l = 0; l < w; ++l) {
+      va[l] = std::min(va[l], va[l + w]);
+      vb[l] = std::min(vb[l], vb[l + w]);
+    }
+  out_a = va[0];
+  out_b = vb[0];
 }
 
 // box_bound of block `row` (its half-float row, SkelData::block_box).
@@ -742,6 +743,13 @@ float block_box_bound(const BoundQuery& q, const SkelData& sd, std::size_t row) 
   }
   halves_to_floats(sd.block_box.data() + row * w, w, out);
   return box_bound(q, out, sd.block_root.data() + row * 6);
+}
+
+// Requests the cache lines of block `row`'s half-float box row.
+void prefetch_block_box(const SkelData& sd, std::size_t row) {
+  const std::size_t w = kBoundFields * sd.padded;
+  const char* p = reinterpret_cast<const char*>(sd.block_box.data() + row * w);
+  for (std::size_t off = 0; off < w * sizeof(std::uint16_t); off += 64) __builtin_prefetch(p + off);
 }
 
 // Per-frame lower bounds of the scanned h(Q -> F) for the kBlock frames of
@@ -1065,7 +1073,8 @@ struct Scratch {
   // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
   std::vector<float> clip_x;
   std::vector<double> blk_a, blk_b;
-  std::vector<double> blk_pa;  // block_bounds_of: prefix minima of the a-side sketch bounds
+  std::vector<double> blk_pa;          // block_bounds_of: prefix minima of the a-side sketch bounds
+  std::vector<std::uint8_t> blk_need;  // and the boxes needed (bit 0: a, bit 1: b)
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   std::vector<double> nq, nf;              // and their squared norms
   std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
@@ -2489,18 +2498,25 @@ struct QueryRunner {
         sc.blk_b[bl] = sketch_b ? static_cast<double>(xb) : box(qb, bl);
       }
       if (!sketch_a && !sketch_b) return;
-      // PA / SB of the bounds so far (a block pairs with itself and the
+      // PA / SB of the sketch bounds (a block pairs with itself and the
       // blocks after it); the box is needed where they do not exceed tau.
+      // The needed rows are all requested (prefetched) before the first
+      // box is computed, so their cache misses overlap.
       sc.blk_pa.resize(nb);
+      sc.blk_need.resize(nb);
       double prefix = kInf, suffix = kInf;
       for (std::size_t bl = 0; bl < nb; ++bl)
         sc.blk_pa[bl] = prefix = std::min(prefix, sc.blk_a[bl]);
       for (std::size_t bl = nb; bl-- > 0;) {
         suffix = std::min(suffix, sc.blk_b[bl]);
-        if (sketch_a && !(safe(sc.blk_a[bl] + suffix) > tau))
-          sc.blk_a[bl] = std::max(sc.blk_a[bl], box(qa, bl));
-        if (sketch_b && !(safe(sc.blk_b[bl] + sc.blk_pa[bl]) > tau))
-          sc.blk_b[bl] = std::max(sc.blk_b[bl], box(qb, bl));
+        const bool need_a = sketch_a && !(safe(sc.blk_a[bl] + suffix) > tau);
+        const bool need_b = sketch_b && !(safe(sc.blk_b[bl] + sc.blk_pa[bl]) > tau);
+        sc.blk_need[bl] = static_cast<std::uint8_t>(need_a | (need_b << 1));
+        if (need_a || need_b) prefetch_block_box(sd, ci.block_start + bl);
+      }
+      for (std::size_t bl = 0; bl < nb; ++bl) {
+        if (sc.blk_need[bl] & 1) sc.blk_a[bl] = std::max(sc.blk_a[bl], box(qa, bl));
+        if (sc.blk_need[bl] & 2) sc.blk_b[bl] = std::max(sc.blk_b[bl], box(qb, bl));
       }
     };
     // Evaluates one candidate against tau (its bound does not exceed tau)
