@@ -170,7 +170,8 @@ struct SkelData {
   // block_bounds): a block's 16 x S x 9 values are contiguous, so scanning a
   // block reads 12 KB in one stream instead of S x 9 rows far apart.
   std::vector<HScanTable> tiles;
-  // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules.
+  // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules
+  // (clip_bounds and clip_root only while the tables are built: clip_soa holds them).
   // The blocks' rows are kept as IEEE half floats rounded outwards (block_box:
   // minima down, maxima up, so each box still holds its frames' values; half
   // the bytes of a row for the 1,200 block boxes a full-frame query reads;
@@ -178,13 +179,14 @@ struct SkelData {
   // made from, emptied once the clip rows are built.
   std::vector<float> block_bounds, clip_bounds, block_root, clip_root;
   std::vector<std::uint16_t> block_box;
-  // The same for groups of kGroup consecutive clip rows (union of their clips).
-  std::vector<float> group_bounds, group_root;
   // The clip bound table again, lane-major for SIMD over a group's clips
   // (box_bounds_lanes): tile g holds clip rows [kLanes g, kLanes g + kLanes)
   // (group g) as [kBoundFields][segments][kLanes] floats, and their root
   // boxes as [6][kLanes] (unused lanes are zero).
   std::vector<float> clip_soa, clip_root_soa;
+  // The same for groups of kGroup consecutive clip rows (the union of their
+  // clips' boxes): tile t holds groups [kLanes t, kLanes t + kLanes).
+  std::vector<float> group_soa, group_root_soa;
   // Whole-body sketches of every frame, per block: [block][kSketchFields][kBlock]
   // floats, from the scan table's float values (a short block repeats its
   // last frame, which leaves the block's minimum unchanged).
@@ -192,8 +194,9 @@ struct SkelData {
   // The ranges of the sketch fields over each clip's frames, lane-major like
   // clip_soa: tile g holds clip rows [kLanes g, kLanes g + kLanes) as
   // [kSketchRange][kLanes] floats (min x y z kin rot, max x y z kin rot;
-  // unused lanes are zero); and over each group's frames, [group][kSketchRange].
-  std::vector<float> clip_sketch_soa, group_sketch;
+  // unused lanes are zero); and over each group's frames, lane-major by
+  // group tiles like group_soa.
+  std::vector<float> clip_sketch_soa, group_sketch_soa;
   // Chain sketches (docs/search.md "Chain sketches"): the same five fields
   // per kinematic chain (a maximal run of joints without branching; the
   // chains with segments, `chains` of them, chain_of_segment[b] in
@@ -477,9 +480,10 @@ void build_bound_tables(SkelData& sd) {
   const std::size_t groups = (sd.clips.size() + kGroup - 1) / kGroup;
   // Sketch ranges of clips (lane-major) and groups, from the block sketches.
   sd.clip_sketch_soa.assign(groups * kSketchRange * kLanes, 0.0f);
-  sd.group_sketch.assign(groups * kSketchRange, 0.0f);
+  const std::size_t group_tiles = (groups + kLanes - 1) / kLanes;
+  sd.group_sketch_soa.assign(group_tiles * kSketchRange * kLanes, 0.0f);
   for (std::size_t g = 0; g < groups; ++g) {
-    float* grange = sd.group_sketch.data() + g * kSketchRange;
+    std::array<float, kSketchRange> grange;
     for (std::size_t i = 0; i < kSketchFields; ++i) {
       grange[i] = inf;
       grange[kSketchFields + i] = -inf;
@@ -504,17 +508,22 @@ void build_bound_tables(SkelData& sd) {
         grange[kSketchFields + i] = std::max(grange[kSketchFields + i], hi);
       }
     }
+    for (std::size_t i = 0; i < kSketchRange; ++i)
+      sd.group_sketch_soa[((g / kLanes) * kSketchRange + i) * kLanes + g % kLanes] = grange[i];
   }
-  sd.group_bounds.assign(groups * w, 0.0f);
-  sd.group_root.assign(groups * 6, 0.0f);
+  std::vector<float> group_rows(groups * w, 0.0f), group_root(groups * 6, 0.0f);
   for (std::size_t g = 0; g < groups; ++g) {
-    float* grow = sd.group_bounds.data() + g * w;
-    float* groot = sd.group_root.data() + g * 6;
+    float* grow = group_rows.data() + g * w;
+    float* groot = group_root.data() + g * 6;
     init(grow, groot);
     for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r) {
       unite(grow, groot, sd.clip_bounds.data() + r * w, sd.clip_root.data() + r * 6);
     }
   }
+  lanes(group_rows, group_root, groups, sd.group_soa, sd.group_root_soa);
+  // The clip rows live on in their lane-major copies.
+  std::vector<float>().swap(sd.clip_bounds);
+  std::vector<float>().swap(sd.clip_root);
 }
 
 // A query frame prepared for box bounds (full and root-only frames; other
@@ -865,28 +874,36 @@ void box_bounds_lanes(const BoundQuery& q, const float* __restrict tile,
   for (std::size_t l = 0; l < kLanes; ++l) out[l] = acc[l];
 }
 
-// The bound of query frame q over every frame of group g's clips: its box
-// bound and, for a full query frame, at least its sketch-range bound.
-float group_bound(const BoundQuery& q, const SkelData& sd, std::size_t g) {
-  float x = box_bound(q, sd.group_bounds.data() + g * kBoundFields * sd.padded,
-                      sd.group_root.data() + g * 6);
-  if (q.kind == FrameKind::full) {
-    const float* range = sd.group_sketch.data() + g * kSketchRange;
-    x = std::max(x, sketch_range_term(q.sketch.data(), range, range + kSketchFields));
-  }
-  return x;
+// The bounds of query frame q over the frames of each of the kLanes boxes
+// of lane-major tile t (soa, root_soa, sketch_soa: clip_soa, clip_root_soa,
+// clip_sketch_soa or the group ones): their box bounds and, for a full
+// query frame, at least their sketch-range bounds.
+void tile_bounds(const BoundQuery& q, const SkelData& sd, const std::vector<float>& soa,
+                 const std::vector<float>& root_soa, const std::vector<float>& sketch_soa,
+                 std::size_t t, float* out) {
+  box_bounds_lanes(q, soa.data() + t * kBoundFields * sd.segments * kLanes,
+                   root_soa.data() + t * 6 * kLanes, sd.segments, out);
+  if (q.kind != FrameKind::full) return;
+  float sk[kLanes];
+  sketch_range_lanes(q.sketch.data(), sketch_soa.data() + t * kSketchRange * kLanes, sk);
+  for (std::size_t l = 0; l < kLanes; ++l) out[l] = std::max(out[l], sk[l]);
 }
 
 // The bounds of query frame q over the frames of each of group g's kLanes
-// clips (out[l]: clip row kLanes g + l): their box bounds and, for a full
-// query frame, at least their sketch-range bounds.
+// clips (out[l]: clip row kLanes g + l).
 void clip_tile_bounds(const BoundQuery& q, const SkelData& sd, std::size_t g, float* out) {
-  box_bounds_lanes(q, sd.clip_soa.data() + g * kBoundFields * sd.segments * kLanes,
-                   sd.clip_root_soa.data() + g * 6 * kLanes, sd.segments, out);
-  if (q.kind != FrameKind::full) return;
-  float sk[kLanes];
-  sketch_range_lanes(q.sketch.data(), sd.clip_sketch_soa.data() + g * kSketchRange * kLanes, sk);
-  for (std::size_t l = 0; l < kLanes; ++l) out[l] = std::max(out[l], sk[l]);
+  tile_bounds(q, sd, sd.clip_soa, sd.clip_root_soa, sd.clip_sketch_soa, g, out);
+}
+
+// The bounds of query frame q over every frame of each group's clips, for
+// all the groups of skeleton sd: out[g], g < the number of groups (out is
+// resized to whole tiles).
+void group_bounds(const BoundQuery& q, const SkelData& sd, std::vector<float>& out) {
+  const std::size_t tiles = sd.group_root_soa.size() / (6 * kLanes);
+  out.resize(tiles * kLanes);
+  for (std::size_t t = 0; t < tiles; ++t)
+    tile_bounds(q, sd, sd.group_soa, sd.group_root_soa, sd.group_sketch_soa, t,
+                out.data() + t * kLanes);
 }
 
 // A bound computed in float from float32 data is compared with scores
@@ -2426,17 +2443,20 @@ struct QueryRunner {
       std::size_t first, count;  // range of `cands`
     };
     std::vector<Group> groups;
+    // Every group's bound for both query frames, 16 groups at a time.
+    std::vector<std::array<std::vector<float>, 2>> group_lb(skels.size());
+    if (bounded)
+      for (std::size_t k = 0; k < skels.size(); ++k)
+        for (std::size_t side = 0; side < 2; ++side)
+          group_bounds(bounds[k][h + side], *skels[k], group_lb[k][side]);
     for (std::size_t i = 0; i < cands.size();) {
       const auto [k, r] = cands[i];
       std::size_t j = i + 1;
       while (j < cands.size() && cands[j].first == k && cands[j].second / kGroup == r / kGroup) ++j;
       double glb = 0.0;
-      if (bounded) {
-        const SkelData& sd = *skels[k];
-        const std::size_t g = r / kGroup;
-        glb = static_cast<double>(group_bound(bounds[k][h], sd, g)) +
-              static_cast<double>(group_bound(bounds[k][h + 1], sd, g));
-      }
+      if (bounded)
+        glb = static_cast<double>(group_lb[k][0][r / kGroup]) +
+              static_cast<double>(group_lb[k][1][r / kGroup]);
       groups.push_back({glb, i, j - i});
       i = j;
     }
@@ -2784,13 +2804,14 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
     partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd), 0, n, lower.data(), sc);
   }
   const BoundQuery bq = make_bound_query(f, sd);
-  // The clip and group levels (run_pair's group_bound and clip_tile_bounds): each
-  // is a lower bound for every frame of its clips, so it joins the maximum.
-  std::vector<float> clip_lb(sd.clips.size(), 0.0f);
+  // The clip and group levels (run_pair's group_bounds and clip_tile_bounds):
+  // each is a lower bound for every frame of its clips, so it joins the maximum.
+  std::vector<float> clip_lb(sd.clips.size(), 0.0f), group_lb;
+  group_bounds(bq, sd, group_lb);
   for (std::size_t g = 0; g * kGroup < sd.clips.size(); ++g) {
     float tile[kLanes];
     clip_tile_bounds(bq, sd, g, tile);
-    const float group = group_bound(bq, sd, g);
+    const float group = group_lb[g];
     for (std::size_t r = g * kGroup; r < std::min(sd.clips.size(), g * kGroup + kGroup); ++r)
       clip_lb[r] = std::max(tile[r % kLanes], group);
   }
