@@ -1087,8 +1087,7 @@ struct Scratch {
   std::vector<std::uint8_t> done_a, done_b;
   std::vector<double> run, key;
   std::vector<std::size_t> order;
-  // Box bounds of a group's clips (run_pair: a then b) and of a clip's blocks.
-  std::vector<float> clip_x;
+  // Bounds of a clip's blocks.
   std::vector<double> blk_a, blk_b;
   std::vector<double> blk_pa;          // block_bounds_of: prefix minima of the a-side sketch bounds
   std::vector<std::uint8_t> blk_need;  // and the boxes needed (bit 0: a, bit 1: b)
@@ -2294,6 +2293,40 @@ struct QueryRunner {
   FrameCache* cache_of(std::size_t k, std::size_t i) {
     return cache.empty() || !cache[k][i].values ? nullptr : &cache[k][i];
   }
+  // tiles[k][i]: query frame i's bounds on skeleton k over every group
+  // (group_bounds) and over the clips of the groups opened so far
+  // (clip_tile_bounds), computed once per query frame and shared by its
+  // two pairs, and by the seeding and the sweep of a pair.
+  struct FrameTiles {
+    std::vector<float> groups;             // [group]
+    std::vector<float> clips;              // [group][kLanes]
+    std::vector<std::uint8_t> clips_done;  // [group]
+  };
+  std::vector<std::vector<FrameTiles>> tiles;
+  // Computes query frame i's group bounds on skeleton k if not done yet and
+  // makes room for its clip tiles (one thread: before a pair's groups are
+  // taken).
+  const float* group_lbs(std::size_t k, std::size_t i) {
+    if (tiles.empty()) tiles.assign(skels.size(), std::vector<FrameTiles>(q.frames.size()));
+    FrameTiles& t = tiles[k][i];
+    if (t.clips_done.empty()) {
+      group_bounds(bounds[k][i], *skels[k], t.groups);
+      t.clips.resize(t.groups.size() * kLanes);
+      t.clips_done.assign(t.groups.size(), 0);
+    }
+    return t.groups.data();
+  }
+  // Query frame i's bounds over the kLanes clips of group g of skeleton k
+  // (after group_lbs(k, i); a group is opened by one thread at a time).
+  const float* clip_lbs(std::size_t k, std::size_t i, std::size_t g) {
+    FrameTiles& t = tiles[k][i];
+    float* out = t.clips.data() + g * kLanes;
+    if (!t.clips_done[g]) {
+      clip_tile_bounds(bounds[k][i], *skels[k], g, out);
+      t.clips_done[g] = 1;
+    }
+    return out;
+  }
   // frame_lb[k][i]: per skeleton frame lower bound of h(query frame i -> F)
   // for partial query frames (exact mode, world), computed once per query
   // frame and shared by its two pairs; empty otherwise.
@@ -2444,11 +2477,10 @@ struct QueryRunner {
     };
     std::vector<Group> groups;
     // Every group's bound for both query frames, 16 groups at a time.
-    std::vector<std::array<std::vector<float>, 2>> group_lb(skels.size());
+    std::vector<std::array<const float*, 2>> group_lb(skels.size());
     if (bounded)
       for (std::size_t k = 0; k < skels.size(); ++k)
-        for (std::size_t side = 0; side < 2; ++side)
-          group_bounds(bounds[k][h + side], *skels[k], group_lb[k][side]);
+        for (std::size_t side = 0; side < 2; ++side) group_lb[k][side] = group_lbs(k, h + side);
     for (std::size_t i = 0; i < cands.size();) {
       const auto [k, r] = cands[i];
       std::size_t j = i + 1;
@@ -2563,7 +2595,7 @@ struct QueryRunner {
     // Candidates of a group the seeding evaluated; their clip bounds.
     std::vector<std::uint8_t> seeded(cands.size(), 0);
     // The group's candidates not seeded, with their clip bounds when bounded.
-    auto group_work = [&](const Group& grp, Scratch& sc, std::vector<Work>& work) {
+    auto group_work = [&](const Group& grp, std::vector<Work>& work) {
       work.clear();
       for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
         if (!seeded[i])
@@ -2573,11 +2605,9 @@ struct QueryRunner {
       // The group's clip bounds: one lane-major tile per side.
       const std::size_t gk = cands[grp.first].first;
       const std::size_t g = cands[grp.first].second / kGroup;
-      sc.clip_x.resize(2 * kLanes);
-      clip_tile_bounds(bounds[gk][h], *skels[gk], g, sc.clip_x.data());
-      clip_tile_bounds(bounds[gk][h + 1], *skels[gk], g, sc.clip_x.data() + kLanes);
-      for (Work& w : work)
-        w.lb = clip_bound(w.k, w.r, sc.clip_x[w.r % kLanes], sc.clip_x[kLanes + w.r % kLanes]);
+      const float* xa = clip_lbs(gk, h, g);
+      const float* xb = clip_lbs(gk, h + 1, g);
+      for (Work& w : work) w.lb = clip_bound(w.k, w.r, xa[w.r % kLanes], xb[w.r % kLanes]);
     };
     auto by_bound = [](const Work& x, const Work& y) {
       if (x.lb != y.lb) return x.lb < y.lb;
@@ -2597,7 +2627,7 @@ struct QueryRunner {
       std::size_t next = 0, done = 0;
       while (done < 2 * q.top) {
         if (next < groups.size() && (pool.empty() || !(pool.front().lb < groups[next].lb))) {
-          group_work(groups[next++], sc, work);
+          group_work(groups[next++], work);
           for (const Work& w : work) {
             pool.push_back(w);
             std::push_heap(pool.begin(), pool.end(), later);
@@ -2634,7 +2664,7 @@ struct QueryRunner {
           if (!seeded[i]) work.push_back({0.0, 0, cands[i].first, cands[i].second, i});
         prune_all(0);
       } else {
-        group_work(grp, sc, work);
+        group_work(grp, work);
         std::sort(work.begin(), work.end(), by_bound);
         for (std::size_t i = 0; i < work.size(); ++i) {
           const double tau = top.tau();
