@@ -184,7 +184,8 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
 
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,
-                                     const std::string& unit_option) {
+                                     const std::string& unit_option,
+                                     std::shared_ptr<const QueryBvhFile>* file) {
   const QueryFrameSpec& spec = q.frames[i];
   const std::string path = field(i);
   const Skeleton& skel = sk.skeleton;
@@ -194,12 +195,15 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
   PartialPoseSpec& partial = out.given;
   if (spec.bvh) {
     out.from_bvh = true;
-    std::shared_ptr<const QueryBvhFile> bvh;
-    try {
-      // The +-2 frame window below is all that is read of the file.
-      bvh = cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
-    } catch (const InputError& e) {
-      fail(q, path + ".bvh", e.what());
+    std::shared_ptr<const QueryBvhFile> bvh = file != nullptr ? *file : nullptr;
+    if (!bvh) {
+      try {
+        // The +-2 frame window below is all that is read of the file.
+        bvh = cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
+      } catch (const InputError& e) {
+        fail(q, path + ".bvh", e.what());
+      }
+      if (file != nullptr) *file = bvh;
     }
     const ClipMotion& m = bvh->motion;
     if (spec.bvh_frame >= bvh->file_frame_count)
@@ -218,11 +222,22 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     const std::size_t base = bvh->first_frame;
     const std::size_t n = f1 - f0 + 1;
     const std::size_t fj = m.joint_count();
-    std::vector<Eigen::Vector3d> positions(n * nj);
-    std::vector<Eigen::Quaterniond> rotations(n * nj);
+    // The window's buffers, kept by the thread across calls (a query
+    // resolves each frame on every skeleton of the index).
+    thread_local struct {
+      std::vector<Eigen::Vector3d> positions;
+      std::vector<Eigen::Quaterniond> rotations;
+      LocalPose local;
+      WorldPose world;
+      ClipDynamics dyn;
+    } buffers;
+    std::vector<Eigen::Vector3d>& positions = buffers.positions;
+    std::vector<Eigen::Quaterniond>& rotations = buffers.rotations;
+    LocalPose& local = buffers.local;
+    WorldPose& world = buffers.world;
+    positions.resize(n * nj);
+    rotations.resize(n * nj);
     std::vector<Eigen::Quaterniond> locals_at_frame(nj);
-    LocalPose local;
-    WorldPose world;
     local.translations_m.resize(nj);
     local.rotations.resize(nj);
     for (std::size_t f = f0; f <= f1; ++f) {
@@ -242,7 +257,7 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       std::copy(world.positions_m.begin(), world.positions_m.end(), positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
       std::copy(world.rotations.begin(), world.rotations.end(), rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
     }
-    ClipDynamics dyn;
+    ClipDynamics& dyn = buffers.dyn;
     compute_clip_dynamics(model, n, m.frame_time_s, positions.data(), rotations.data(), dyn);
     const StateView v = dyn.state(spec.bvh_frame - f0);
     const std::size_t r = static_cast<std::size_t>(root);
@@ -310,8 +325,9 @@ namespace search_detail {
 ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
                             const DynamicsModel& model, double transition_time_s,
                             double index_transition_time_s, BvhCache& cache,
-                            const std::string& unit_option) {
-  ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option);
+                            const std::string& unit_option,
+                            std::shared_ptr<const QueryBvhFile>* file) {
+  ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option, file);
   ResolvedFrame out;
   out.from_bvh = pose.from_bvh;
   if (pose.full) {

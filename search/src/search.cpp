@@ -2750,11 +2750,13 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
   QueryRunner run(m, q, opt, skels);
   run.resolved.resize(skels.size());
   run.bounds.resize(skels.size());
+  // Each frame's BVH file is looked up once, for the first skeleton.
+  std::vector<std::shared_ptr<const QueryBvhFile>> files(q.frames.size());
   for (std::size_t k = 0; k < skels.size(); ++k)
     for (std::size_t i = 0; i < q.frames.size(); ++i) {
-      run.resolved[k].push_back(
-          search_detail::resolve_frame(q, i, *skels[k]->sk, skels[k]->model, q.transition_time_s,
-                                       m.t_index, m.bvh_cache, m.index->info().unit_option));
+      run.resolved[k].push_back(search_detail::resolve_frame(
+          q, i, *skels[k]->sk, skels[k]->model, q.transition_time_s, m.t_index, m.bvh_cache,
+          m.index->info().unit_option, &files[i]));
       set_needed_joints(run.resolved[k].back(), skels[k]->model);
       set_subtree_plan(run.resolved[k].back(), *skels[k], q.transition_time_s);
       run.bounds[k].push_back(make_bound_query(run.resolved[k].back(), *skels[k]));

@@ -274,6 +274,42 @@ TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
   EXPECT_EQ(c->motion.frame_count, index.clips()[0].frame_count);
 }
 
+// A query frame's file fetched once (resolve_query_pose's `file` slot, as
+// SearchEngine::run does across skeletons) resolves exactly as a fresh
+// lookup; an unreadable file fails the same way and leaves the slot empty.
+TEST(QueryResolution, FetchedFileReusedAcrossCallsSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  QueryBvhCache cache;
+  cache.use_index(index);
+  const IndexClip& clip = index.clips()[7];
+  const IndexSkeleton& sk = index.skeletons()[clip.skeleton];
+  const DynamicsModel model = index.dynamics_model(clip.skeleton);
+  const std::string unit = index.info().unit_option;
+  const Query q = parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": 3}, " +
+                        "{\"bvh\": \"/nonexistent/x.bvh\", \"frame\": 0}]}");
+  std::shared_ptr<const QueryBvhFile> slot;
+  const ResolvedQueryPose fresh = resolve_query_pose(q, 0, sk, model, cache, unit);
+  const ResolvedQueryPose first = resolve_query_pose(q, 0, sk, model, cache, unit, &slot);
+  ASSERT_NE(slot, nullptr);
+  const QueryBvhFile* fetched = slot.get();
+  const ResolvedQueryPose again = resolve_query_pose(q, 0, sk, model, cache, unit, &slot);
+  EXPECT_EQ(slot.get(), fetched);
+  for (const ResolvedQueryPose* x : {&first, &again}) {
+    ASSERT_TRUE(x->full);
+    for (std::size_t j = 0; j < fresh.state.joint_positions_m.size(); ++j) {
+      ASSERT_EQ(x->state.joint_positions_m[j], fresh.state.joint_positions_m[j]);
+      ASSERT_EQ(x->state.com_velocities_mps[j], fresh.state.com_velocities_mps[j]);
+      ASSERT_EQ(x->state.angular_accelerations_radps2[j],
+                fresh.state.angular_accelerations_radps2[j]);
+    }
+  }
+  std::shared_ptr<const QueryBvhFile> bad;
+  EXPECT_THROW((void)resolve_query_pose(q, 1, sk, model, cache, unit, &bad), InputError);
+  EXPECT_EQ(bad, nullptr);
+}
+
 // The verified bytes of an indexed file serve its other frames only while
 // the file is unchanged: after an edit of the same size (and a new
 // modification time) the next frame is read again, fails the index's hash

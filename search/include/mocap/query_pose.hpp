@@ -113,9 +113,12 @@ struct ResolvedQueryPose {
 /// Throws InputError ("query ID: frames[i]...: ...") for unknown joints
 /// (listing the valid names), unreadable files, frames out of range and BVH
 /// files whose skeleton does not map onto `sk` (a segment or the root with
-/// no counterpart).
+/// no counterpart). `file`, when given, is the frame's BVH file fetched by an
+/// earlier call for the same query frame on another skeleton (used when set,
+/// set when fetched here), so the file is looked up once per query frame.
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,
-                                     const std::string& unit_option = "auto");
+                                     const std::string& unit_option = "auto",
+                                     std::shared_ptr<const QueryBvhFile>* file = nullptr);
 
 }  // namespace mocap
