@@ -6,6 +6,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #endif
@@ -1136,31 +1137,42 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
   m.character = index_character(index);
   // Query frames from indexed, unchanged files: only their +-2 frame window is parsed.
   m.bvh_cache.use_index(index);
-  for (std::uint32_t k = 0; k < index.skeletons().size(); ++k) {
-    auto sd = std::make_unique<SkelData>();
-    init_skel_data(index, k, index.dynamics_model(k), *sd);
-    const std::size_t n = sd->sk->frame_count, s = sd->segments;
-    // h_scan [N][S][9] (one row per frame) -> field-major HScanTable.
-    const IndexArray& hs = index.array(k, "frames", "h_scan");
-    const std::size_t stride = sd->table.stride;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
-                      [&](const tbb::blocked_range<std::size_t>& rg) {
-                        for (std::size_t f = rg.begin(); f != rg.end(); ++f) {
-                          const float* row = hs.f32.data() + f * s * 9;
-                          for (std::size_t b = 0; b < s; ++b)
-                            for (std::size_t q = 0; q < 9; ++q)
-                              sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
-                        }
-                      });
-    const IndexArray& rp = index.array(k, "frames", "root_position_m");
-    for (std::size_t f = 0; f < n; ++f)
-      for (std::size_t a = 0; a < 3; ++a)
-        sd->table.root_positions[a * stride + f] = rp.f32[f * 3 + a];
-    sd->kd = index.array(k, "frames", "kd_features").f32.data();
-    sd->prefix_index = index.array(k, "frames", "energy_prefix_J").f64.data();
-    build_bound_tables(*sd);
-    m.skels.push_back(std::move(sd));
+  // Per skeleton, this thread reads the index arrays (HDF5, one reader at a
+  // time) and a task builds the tables from them, so the next skeleton's
+  // reading overlaps this one's building (TBB-parallel inside).
+  const std::size_t nk = index.skeletons().size();
+  m.skels.resize(nk);
+  tbb::task_group builds;
+  for (std::uint32_t k = 0; k < nk; ++k) {
+    const IndexArray* hs = &index.array(k, "frames", "h_scan");
+    const IndexArray* rp = &index.array(k, "frames", "root_position_m");
+    const float* kd = index.array(k, "frames", "kd_features").f32.data();
+    const double* prefix = index.array(k, "frames", "energy_prefix_J").f64.data();
+    builds.run([&m, &index, k, hs, rp, kd, prefix] {
+      auto sd = std::make_unique<SkelData>();
+      init_skel_data(index, k, index.dynamics_model(k), *sd);
+      const std::size_t n = sd->sk->frame_count, s = sd->segments;
+      // h_scan [N][S][9] (one row per frame) -> field-major HScanTable.
+      const std::size_t stride = sd->table.stride;
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                        [&](const tbb::blocked_range<std::size_t>& rg) {
+                          for (std::size_t f = rg.begin(); f != rg.end(); ++f) {
+                            const float* row = hs->f32.data() + f * s * 9;
+                            for (std::size_t b = 0; b < s; ++b)
+                              for (std::size_t q = 0; q < 9; ++q)
+                                sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
+                          }
+                        });
+      for (std::size_t f = 0; f < n; ++f)
+        for (std::size_t a = 0; a < 3; ++a)
+          sd->table.root_positions[a * stride + f] = rp->f32[f * 3 + a];
+      sd->kd = kd;
+      sd->prefix_index = prefix;
+      build_bound_tables(*sd);
+      m.skels[k] = std::move(sd);
+    });
   }
+  builds.wait();
 }
 
 SearchEngine::SearchEngine(SearchEngine&&) noexcept = default;
