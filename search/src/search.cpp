@@ -2604,15 +2604,19 @@ struct QueryRunner {
       pf += cnt.pruned;
       pc += cnt.clip_pruned;
     };
-    // Candidates of a group the seeding evaluated; their clip bounds.
+    // The candidates the seeding evaluated (by index in `cands`).
     std::vector<std::uint8_t> seeded(cands.size(), 0);
-    // The group's candidates not seeded, with their clip bounds when bounded.
-    auto group_work = [&](const Group& grp, std::vector<Work>& work) {
+    // The group's candidates not seeded (bounds 0).
+    auto unseeded = [&](const Group& grp, std::vector<Work>& work) {
       work.clear();
       for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
         if (!seeded[i])
           work.push_back({0.0, skels[cands[i].first]->clips[cands[i].second].clip, cands[i].first,
                           cands[i].second, i});
+    };
+    // The same with their clip bounds when bounded.
+    auto group_work = [&](const Group& grp, std::vector<Work>& work) {
+      unseeded(grp, work);
       if (!bounded || work.empty()) return;
       // The group's clip bounds: one lane-major tile per side.
       const std::size_t gk = cands[grp.first].first;
@@ -2671,9 +2675,7 @@ struct QueryRunner {
       };
       Scratch& sc = scratch.local();
       if (bounded && safe(grp.lb) > top.tau()) {
-        work.clear();
-        for (std::size_t i = grp.first; i < grp.first + grp.count; ++i)
-          if (!seeded[i]) work.push_back({0.0, 0, cands[i].first, cands[i].second, i});
+        unseeded(grp, work);
         prune_all(0);
       } else {
         group_work(grp, work);
