@@ -215,6 +215,14 @@ struct SkelData {
   mutable FrameArrays fa{};
   std::vector<float> pos_own, com_own, vel_own;
   bool own_frames = false;
+  // Per-joint columns of those arrays for the partial bound of joint-rotation
+  // frames (partial_bounds_columns): column kind * joints + joint holds the
+  // joint's components (w x y z for rotations, x y z for positions) as rows
+  // of col_stride floats, one value per skeleton frame; built on first use
+  // (joint_column: a gather of the array-of-structures rows), then read-only.
+  std::size_t col_stride = 0;
+  mutable std::unique_ptr<std::once_flag[]> col_once;
+  mutable std::unique_ptr<std::unique_ptr<float[]>[]> cols;
   // The index's energy prefix sums of the skeleton's frames (Index::array
   // locks a mutex: fetched once, not per clip); null for a query character.
   const double* prefix_index = nullptr;
@@ -246,6 +254,29 @@ const FrameArrays& frame_arrays(const Index& index, const SkelData& sd) {
     });
   });
   return sd.fa;
+}
+
+// The frame-array columns partial_bounds_columns reads (SkelData::cols).
+enum class JointColumn : std::size_t { local_rotation = 0, world_rotation = 1, position = 2 };
+constexpr std::size_t kJointColumnKinds = 3;
+
+// Column `kind` of joint j of skeleton sd (fa: its frame arrays), gathered on
+// first use; thread-safe.
+const float* joint_column(const SkelData& sd, const FrameArrays& fa, JointColumn kind,
+                          std::size_t j) {
+  const std::size_t nj = sd.model.joint_count();
+  const std::size_t c = static_cast<std::size_t>(kind) * nj + j;
+  std::call_once(sd.col_once[c], [&] {
+    const std::size_t n = sd.sk->frame_count, w = kind == JointColumn::position ? 3 : 4;
+    const float* src = kind == JointColumn::local_rotation   ? fa.lrot
+                       : kind == JointColumn::world_rotation ? fa.rot
+                                                             : fa.pos;
+    auto col = std::make_unique_for_overwrite<float[]>(w * sd.col_stride);
+    for (std::size_t g = 0; g < n; ++g)
+      for (std::size_t a = 0; a < w; ++a) col[a * sd.col_stride + g] = src[(g * nj + j) * w + a];
+    sd.cols[c] = std::move(col);
+  });
+  return sd.cols[c].get();
 }
 
 // The FLANN forest of skeleton sd's frame features (approx mode), built once.
@@ -305,6 +336,10 @@ void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, Sk
   sd.segments = sd.model.segments.size();
   sd.padded = (sd.segments + 7) / 8 * 8;
   sd.segment_of_joint.assign(sd.model.joint_count(), -1);
+  sd.col_stride = (sd.sk->frame_count + 15) / 16 * 16;
+  sd.col_once = std::make_unique<std::once_flag[]>(kJointColumnKinds * sd.model.joint_count());
+  sd.cols =
+      std::make_unique<std::unique_ptr<float[]>[]>(kJointColumnKinds * sd.model.joint_count());
   for (int b : sd.model.segments) {
     const auto j = static_cast<std::size_t>(b);
     sd.masses.push_back(sd.model.masses_kg[j]);
@@ -1094,6 +1129,7 @@ struct Scratch {
   std::vector<std::uint8_t> blk_need;  // and the boxes needed (bit 0: a, bit 1: b)
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   std::vector<double> nq, nf;              // and their squared norms
+  std::vector<float> lanes;                // partial_bounds_columns' per-slot lanes
   std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
   std::vector<Eigen::Quaterniond> sub_r;   // rotations of Q_F
   // Database frames converted for partial_approximate_energy.
@@ -1337,6 +1373,38 @@ struct PartialBoundPlan {
   std::array<bool, 3> given{false, false, false};
   Eigen::Vector3d root_q = Eigen::Vector3d::Zero();
   double mass = 0.0, gravity = 0.0, half_inv_t2 = 0.0;
+  // Joint rotations only (not whole): the same bound in float from per-joint
+  // columns (attach_columns, partial_bounds_columns); empty otherwise.
+  struct ColumnSlot {
+    const float* lrot = nullptr;  // F's local rotation column of the slot's joint
+    int parent = -1;              // parent slot, -1 at the top of a subtree
+    // The query's composite: 0 fixed (mq), 1 the parent's times the given
+    // local rotation, 2 the parent's times F's.
+    std::uint8_t mq_mode = 0;
+    std::array<float, 4> given{};  // the given local rotation (w x y z), its squared norm
+    float ngiven = 0.0f;
+    std::array<float, 4> mq{};  // the fixed composite, its squared norm
+    float nq = 0.0f;
+  };
+  struct ColumnSegment {
+    const float *kb = nullptr, *kr = nullptr;  // scan-table fields 3 and 8
+    float rot_coef = 0.0f;
+    std::size_t slot = 0;
+    // A subtree's top segment (exact translational term): its parent's world
+    // rotation column, its joint's position column, scan-table fields 0..2,
+    // the given local rotation and its squared norm, COM offset, m g, m / (2 T^2).
+    bool top = false;
+    const float* parent_rot = nullptr;
+    const float* pos = nullptr;
+    std::array<const float*, 3> com{};
+    std::array<float, 4> lq{};
+    float nlq = 0.0f;
+    std::array<float, 3> c{};
+    float mg = 0.0f, mh = 0.0f;
+  };
+  std::vector<ColumnSlot> col_slots;
+  std::vector<ColumnSegment> col_segs;
+  std::size_t col_stride = 0;
 };
 
 PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData& sd, double t) {
@@ -1395,6 +1463,66 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
   return p;
 }
 
+// For a plan of joint rotations only: the columns and float constants
+// partial_bounds_columns reads (the frame columns are gathered on first use).
+void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa) {
+  if (p.whole || p.heading || p.com_term || p.sub_joints.empty()) return;
+  const HScanTable& tb = sd.table;
+  auto f4 = [](const Eigen::Quaterniond& q) {
+    return std::array<float, 4>{static_cast<float>(q.w()), static_cast<float>(q.x()),
+                                static_cast<float>(q.y()), static_cast<float>(q.z())};
+  };
+  for (std::size_t t = 0; t < p.sub_joints.size(); ++t) {
+    PartialBoundPlan::ColumnSlot c;
+    c.lrot = joint_column(sd, fa, JointColumn::local_rotation,
+                          static_cast<std::size_t>(p.sub_joints[t]));
+    c.parent = p.sub_parent_slot[t];
+    c.mq_mode = p.mq_fixed[t] ? 0 : p.sub_given[t] != nullptr ? 1 : 2;
+    // A subtree's top joint is given (the subtrees are those of given joints).
+    if (c.parent < 0 && c.mq_mode != 0) {
+      p.col_slots.clear();
+      return;
+    }
+    if (p.sub_given[t] != nullptr) {
+      c.given = f4(*p.sub_given[t]);
+      c.ngiven = static_cast<float>(p.sub_given[t]->coeffs().squaredNorm());
+    }
+    c.mq = f4(p.mq[t]);
+    c.nq = static_cast<float>(p.nq[t]);
+    p.col_slots.push_back(c);
+  }
+  for (std::size_t i = 0; i < p.segs.size(); ++i) {
+    const std::size_t s = p.segs[i];
+    PartialBoundPlan::ColumnSegment c;
+    c.kb = tb.field(s, 3);
+    c.kr = tb.field(s, 8);
+    c.rot_coef = static_cast<float>(p.rot_coef[i]);
+    if (p.sub_slot[i] < 0) {  // not in a given subtree: not this plan
+      p.col_slots.clear();
+      p.col_segs.clear();
+      return;
+    }
+    c.slot = static_cast<std::size_t>(p.sub_slot[i]);
+    c.top = p.top_parent[i] >= 0;
+    if (c.top) {
+      const auto j = static_cast<std::size_t>(sd.model.segments[s]);
+      c.parent_rot = joint_column(sd, fa, JointColumn::world_rotation,
+                                  static_cast<std::size_t>(p.top_parent[i]));
+      c.pos = joint_column(sd, fa, JointColumn::position, j);
+      for (std::size_t a = 0; a < 3; ++a) c.com[a] = tb.field(s, a);
+      const Eigen::Quaterniond& lq = *p.sub_given[c.slot];
+      c.lq = f4(lq);
+      c.nlq = static_cast<float>(lq.coeffs().squaredNorm());
+      for (std::size_t a = 0; a < 3; ++a)
+        c.c[a] = static_cast<float>(p.top_com[i][static_cast<Eigen::Index>(a)]);
+      c.mg = static_cast<float>(p.top_mg[i]);
+      c.mh = static_cast<float>(p.top_mh[i]);
+    }
+    p.col_segs.push_back(c);
+  }
+  p.col_stride = sd.col_stride;
+}
+
 // A lower bound of theta^2, theta in [0, pi] the angle between the rotations
 // of two non-zero quaternions x, y with squared norms nx, ny: with
 // d = |<x, y>| / (|x| |y|) = cos(theta / 2), 1 - d^2 = sin^2(theta / 2) and
@@ -1420,10 +1548,143 @@ double static_translation_h(const HScanTable& tb, std::size_t b, std::size_t g,
   return mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
 }
 
-// Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out.
-void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa,
-                          std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
-  constexpr double kAngleSlack = 1e-4;  // rad: float32 storage and FK rounding of the angles
+constexpr double kAngleSlack = 1e-4;     // rad: float32 storage and FK rounding of the angles
+constexpr std::size_t kBoundLanes = 64;  // frames per pass of partial_bounds_columns
+
+// partial_frame_bounds_reference's bound for a plan with columns (joint
+// rotations only), in float, kBoundLanes frames at a time: the composite
+// rotations of every slot for those frames, then each segment's terms, loop
+// by loop over the frames (vectorised: AVX-512, AVX2 or SSE clone). The
+// same formulas; the float roundings (relative ~1e-6, far below the angle
+// slack and the engine's comparison slack, LB (1 - 1e-4) - 1e-3 J) are
+// covered as in the box and sketch bounds. `lanes`: 10 kBoundLanes floats
+// per slot, scratch.
+MOCAP_SEARCH_MULTIVERSION
+void partial_bounds_columns(const PartialBoundPlan& p, std::size_t g0, std::size_t g1, double* out,
+                            float* lanes) {
+  constexpr std::size_t W = kBoundLanes;
+  constexpr std::size_t kSlot = 10 * W;  // mf (4 W), nf (W), mq (4 W), nq (W)
+  const std::size_t cs = p.col_stride;
+  const float slack2 = static_cast<float>(2.0 * std::numbers::pi * kAngleSlack);
+  alignas(64) float acc[W];
+  for (std::size_t g = g0; g < g1; g += W) {
+    const std::size_t n = std::min(W, g1 - g);
+    for (std::size_t t = 0; t < p.col_slots.size(); ++t) {
+      const PartialBoundPlan::ColumnSlot& sl = p.col_slots[t];
+      float* __restrict mf = lanes + t * kSlot;
+      float* __restrict nf = mf + 4 * W;
+      float* __restrict mq = mf + 5 * W;
+      float* __restrict nq = mf + 9 * W;
+      const float* __restrict lw = sl.lrot + g;
+      const float* __restrict lx = lw + cs;
+      const float* __restrict ly = lw + 2 * cs;
+      const float* __restrict lz = lw + 3 * cs;
+      if (sl.parent < 0) {
+        for (std::size_t i = 0; i < n; ++i) {
+          mf[i] = lw[i];
+          mf[W + i] = lx[i];
+          mf[2 * W + i] = ly[i];
+          mf[3 * W + i] = lz[i];
+          nf[i] = lw[i] * lw[i] + lx[i] * lx[i] + ly[i] * ly[i] + lz[i] * lz[i];
+        }
+      } else {
+        const float* __restrict pf = lanes + static_cast<std::size_t>(sl.parent) * kSlot;
+        for (std::size_t i = 0; i < n; ++i) {
+          const float aw = pf[i], ax = pf[W + i], ay = pf[2 * W + i], az = pf[3 * W + i];
+          const float bw = lw[i], bx = lx[i], by = ly[i], bz = lz[i];
+          mf[i] = aw * bw - ax * bx - ay * by - az * bz;
+          mf[W + i] = aw * bx + ax * bw + ay * bz - az * by;
+          mf[2 * W + i] = aw * by - ax * bz + ay * bw + az * bx;
+          mf[3 * W + i] = aw * bz + ax * by - ay * bx + az * bw;
+          nf[i] = pf[4 * W + i] * (bw * bw + bx * bx + by * by + bz * bz);
+        }
+      }
+      if (sl.mq_mode == 0) {
+        for (std::size_t i = 0; i < n; ++i) {
+          mq[i] = sl.mq[0];
+          mq[W + i] = sl.mq[1];
+          mq[2 * W + i] = sl.mq[2];
+          mq[3 * W + i] = sl.mq[3];
+          nq[i] = sl.nq;
+        }
+      } else {
+        // The parent's composite times the given local rotation or F's.
+        const float* __restrict pq = lanes + static_cast<std::size_t>(sl.parent) * kSlot + 5 * W;
+        const bool given = sl.mq_mode == 1;
+        for (std::size_t i = 0; i < n; ++i) {
+          const float aw = pq[i], ax = pq[W + i], ay = pq[2 * W + i], az = pq[3 * W + i];
+          const float bw = given ? sl.given[0] : lw[i], bx = given ? sl.given[1] : lx[i],
+                      by = given ? sl.given[2] : ly[i], bz = given ? sl.given[3] : lz[i];
+          mq[i] = aw * bw - ax * bx - ay * by - az * bz;
+          mq[W + i] = aw * bx + ax * bw + ay * bz - az * by;
+          mq[2 * W + i] = aw * by - ax * bz + ay * bw + az * bx;
+          mq[3 * W + i] = aw * bz + ax * by - ay * bx + az * bw;
+          nq[i] = pq[4 * W + i] * (given ? sl.ngiven : bw * bw + bx * bx + by * by + bz * bz);
+        }
+      }
+    }
+    for (std::size_t i = 0; i < W; ++i) acc[i] = 0.0f;
+    for (const PartialBoundPlan::ColumnSegment& sg : p.col_segs) {
+      const float* __restrict mf = lanes + sg.slot * kSlot;
+      const float* __restrict nf = mf + 4 * W;
+      const float* __restrict mq = mf + 5 * W;
+      const float* __restrict nq = mf + 9 * W;
+      const float* __restrict kr = sg.kr + g;
+      const float* __restrict kb = sg.kb + g;
+      for (std::size_t i = 0; i < n; ++i) {
+        // quat_angle_sq_lower, then the rotational term as the reference.
+        const float c = mq[i] * mf[i] + mq[W + i] * mf[W + i] + mq[2 * W + i] * mf[2 * W + i] +
+                        mq[3 * W + i] * mf[3 * W + i];
+        const float theta2 = 4.0f * std::max(0.0f, 1.0f - c * c / (nq[i] * nf[i]));
+        const float ku = sg.rot_coef * std::max(0.0f, theta2 - slack2);
+        acc[i] += std::max(kr[i], 2.0f * ku - kr[i]);
+      }
+      if (!sg.top) {
+        for (std::size_t i = 0; i < n; ++i) acc[i] += kb[i];
+        continue;
+      }
+      // static_translation_h with Q_F's COM x_j(F) + R_p(F) L_Q c: the
+      // rotation q = R_p L_Q unnormalised, v = q c q* / |q|^2.
+      const float* __restrict rw = sg.parent_rot + g;
+      const float* __restrict rx = rw + cs;
+      const float* __restrict ry = rw + 2 * cs;
+      const float* __restrict rz = rw + 3 * cs;
+      const float* __restrict px = sg.pos + g;
+      const float* __restrict py = px + cs;
+      const float* __restrict pz = px + 2 * cs;
+      const float* __restrict cx = sg.com[0] + g;
+      const float* __restrict cy = sg.com[1] + g;
+      const float* __restrict cz = sg.com[2] + g;
+      const float lw = sg.lq[0], lx = sg.lq[1], ly = sg.lq[2], lz = sg.lq[3];
+      const float ox = sg.c[0], oy = sg.c[1], oz = sg.c[2];
+      for (std::size_t i = 0; i < n; ++i) {
+        const float aw = rw[i], ax = rx[i], ay = ry[i], az = rz[i];
+        const float qw = aw * lw - ax * lx - ay * ly - az * lz;
+        const float qx = aw * lx + ax * lw + ay * lz - az * ly;
+        const float qy = aw * ly - ax * lz + ay * lw + az * lx;
+        const float qz = aw * lz + ax * ly - ay * lx + az * lw;
+        const float inv = 1.0f / ((aw * aw + ax * ax + ay * ay + az * az) * sg.nlq);
+        const float uu = qx * qx + qy * qy + qz * qz;
+        const float uc = qx * ox + qy * oy + qz * oz;
+        const float k0 = qw * qw - uu;
+        const float vx = (k0 * ox + 2.0f * uc * qx + 2.0f * qw * (qy * oz - qz * oy)) * inv;
+        const float vy = (k0 * oy + 2.0f * uc * qy + 2.0f * qw * (qz * ox - qx * oz)) * inv;
+        const float vz = (k0 * oz + 2.0f * uc * qz + 2.0f * qw * (qx * oy - qy * ox)) * inv;
+        const float dx = (cx[i] - px[i]) - vx, dy = (cy[i] - py[i]) - vy, dz = (cz[i] - pz[i]) - vz;
+        const float ku = sg.mh * (dx * dx + dy * dy + dz * dz);
+        acc[i] += sg.mg * std::fabs(dy) + std::max(kb[i], 2.0f * ku - kb[i]);
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) out[g - g0 + i] = static_cast<double>(acc[i]);
+  }
+}
+
+// Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out, in
+// double from the frame arrays (every kind of partial frame; the reference
+// for partial_bounds_columns).
+void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkelData& sd,
+                                    const FrameArrays& fa, std::size_t g0, std::size_t g1,
+                                    double* out, Scratch& sc) {
   const HScanTable& tb = sd.table;
   const std::size_t nj = sd.model.joint_count();
   const auto root = static_cast<std::size_t>(sd.model.root());
@@ -1541,6 +1802,18 @@ void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const F
     }
     out[g - g0] = trans + rot;
   }
+}
+
+// Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out: from
+// the columns where the plan has them (attach_columns), else the reference.
+void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa,
+                          std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
+  if (p.col_segs.empty()) {
+    partial_frame_bounds_reference(p, sd, fa, g0, g1, out, sc);
+    return;
+  }
+  sc.lanes.resize(p.col_slots.size() * 10 * kBoundLanes);
+  partial_bounds_columns(p, g0, g1, out, sc.lanes.data());
 }
 
 // The joints partial_approximate_energy reads of a database frame (frame_ref).
@@ -2351,9 +2624,9 @@ struct QueryRunner {
       const std::size_t n = sd.sk->frame_count;
       for (std::size_t i = 0; i < q.frames.size(); ++i) {
         if (resolved[k][i].kind != FrameKind::partial || n == 0) continue;
-        const PartialBoundPlan plan =
-            make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
+        PartialBoundPlan plan = make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
         const FrameArrays& fa = frame_arrays(*eng.index, sd);
+        attach_columns(plan, sd, fa);
         std::vector<double>& out = frame_lb[k][i];
         out.resize(n);
         auto chunk = [&](std::size_t g0, std::size_t g1) {
@@ -2830,7 +3103,9 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
 void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
                                 std::vector<double>& lower, std::vector<double>& h,
                                 std::vector<double>* engine_h, std::vector<double>* sketch_lower,
-                                std::vector<double>* chain_lower) const {
+                                std::vector<double>* chain_lower,
+                                std::vector<double>* partial_lower,
+                                std::vector<double>* partial_reference) const {
   const Impl& m = *impl_;
   if (k >= m.skels.size() || i >= q.frames.size())
     throw std::invalid_argument("frame_bounds: no such skeleton or frame");
@@ -2845,10 +3120,16 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
   if (sketch_lower != nullptr) sketch_lower->assign(n, 0.0);
   if (chain_lower != nullptr) chain_lower->assign(n, 0.0);
   Scratch sc;
+  if (partial_reference != nullptr) partial_reference->assign(n, 0.0);
   if (f.kind == FrameKind::partial) {
-    const PartialBoundPlan plan = make_partial_bound_plan(f, sd, q.transition_time_s);
-    partial_frame_bounds(plan, sd, frame_arrays(*m.index, sd), 0, n, lower.data(), sc);
+    PartialBoundPlan plan = make_partial_bound_plan(f, sd, q.transition_time_s);
+    const FrameArrays& fa = frame_arrays(*m.index, sd);
+    if (partial_reference != nullptr)
+      partial_frame_bounds_reference(plan, sd, fa, 0, n, partial_reference->data(), sc);
+    attach_columns(plan, sd, fa);
+    partial_frame_bounds(plan, sd, fa, 0, n, lower.data(), sc);
   }
+  if (partial_lower != nullptr) *partial_lower = lower;
   const BoundQuery bq = make_bound_query(f, sd);
   // The clip and group levels (run_pair's group_bounds and clip_tile_bounds):
   // each is a lower bound for every frame of its clips, so it joins the maximum.

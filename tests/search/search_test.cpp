@@ -692,6 +692,73 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
               worst, checked);
 }
 
+// The engine computes the per-frame bound of joint-rotation frames in float,
+// vectorised over frames, from per-joint columns of the frame arrays
+// (partial_bounds_columns); it equals the double reference
+// (partial_frame_bounds_reference) to float rounding, on every frame of a
+// set-1 index, for subtrees at several depths (a forearm, a shoulder chain
+// with a given grandchild, both legs, a BVH arm), and transition times; and it
+// is not the zero bound. The bound stays <= h: FrameLowerBoundsNeverExceedHSet1.
+TEST(Search, PartialBoundColumnsEqualReferenceSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  std::mt19937 rng(21);
+  auto euler = [&] {
+    return "{\"euler_deg\": [" + random_deg(rng) + ", " + random_deg(rng) + ", " + random_deg(rng) +
+           "], \"order\": \"ZXY\"}";
+  };
+  double worst = 0.0, sum = 0.0;
+  std::size_t checked = 0, positive = 0, differ = 0;
+  for (std::size_t i = 0; i < 8; ++i) {
+    std::string f;
+    const std::string bvh = random_bvh_frame(index, rng);
+    switch (i % 4) {
+      case 0:
+        f = "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
+        break;
+      case 1:
+        f = "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"LeftHand\": " + euler() + "}}";
+        break;
+      case 2:
+        f = "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
+        break;
+      default:
+        f = "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
+        break;
+    }
+    Query q = frame_to_origin_query(f, i);
+    q.transition_time_s = 0.25 + 0.25 * static_cast<double>(i % 4);
+    for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
+      std::vector<double> lower, h, partial, reference;
+      engine.frame_bounds(q, 0, k, lower, h, nullptr, nullptr, nullptr, &partial, &reference);
+      ASSERT_EQ(partial.size(), h.size());
+      ASSERT_EQ(reference.size(), h.size());
+      for (std::size_t g = 0; g < h.size(); ++g) {
+        const double err = std::abs(partial[g] - reference[g]);
+        ASSERT_LE(err, 1e-5 * reference[g] + 1e-5)
+            << "query " << i << " (" << f << ") frame " << g << ": columns " << partial[g]
+            << ", reference " << reference[g];
+        ASSERT_GE(lower[g], partial[g]);  // the engine's bound includes it
+        worst = std::max(worst, err / (reference[g] + 1e-3));
+        sum += reference[g];
+        positive += reference[g] > 1e-3;
+        differ += partial[g] != reference[g];
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 100000u);
+  EXPECT_GT(positive, checked / 2);
+  // The float path is the one in use: its roundings differ from the double's.
+  EXPECT_GT(differ, checked / 10);
+  EXPECT_GT(sum, 0.0);
+  std::printf(
+      "partial bound, columns vs reference: worst relative difference %.3g over %zu frames\n",
+      worst, checked);
+}
+
 // A query character (tables recomputed from the stored poses) ranks and
 // scores like an index built with that character: same clips and frames,
 // scores equal to float rounding of the stored poses (ties within that

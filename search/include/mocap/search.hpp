@@ -155,10 +155,16 @@ class SearchEngine {
   /// (docs/search.md "Joint-rotation frames"). With `sketch_lower` (full frames), also the
   /// per-frame whole-body sketch bound alone and with `chain_lower` the chain sketch bound alone
   /// that the scans use as a filter (0 for other frames; docs/search.md "Chain sketches").
+  /// With `partial_lower` (partial frames), also the per-frame partial bound alone as the engine
+  /// computes it (for joint-rotation frames in float from per-joint columns; docs/search.md
+  /// "Partial queries"), and with `partial_reference` as the double reference computes it (0 for
+  /// other frames).
   void frame_bounds(const Query& query, std::size_t i, std::size_t k, std::vector<double>& lower,
                     std::vector<double>& h, std::vector<double>* engine_h = nullptr,
                     std::vector<double>* sketch_lower = nullptr,
-                    std::vector<double>* chain_lower = nullptr) const;
+                    std::vector<double>* chain_lower = nullptr,
+                    std::vector<double>* partial_lower = nullptr,
+                    std::vector<double>* partial_reference = nullptr) const;
 
   /// Internal tables (search.cpp).
   struct Impl;
