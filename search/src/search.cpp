@@ -211,8 +211,8 @@ struct SkelData {
   std::vector<float> kd_own;  // a query character's kd features (kd points here)
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
   // query character the character-dependent ones are owned).
-  mutable std::once_flag frames_once;
-  mutable FrameArrays fa{};
+  mutable std::once_flag frames_once, frames_all_once;
+  mutable FrameArrays fa{}, fa_all{};
   std::vector<float> pos_own, com_own, vel_own;
   bool own_frames = false;
   // Per-joint columns of those arrays for the partial bound of joint-rotation
@@ -235,25 +235,41 @@ struct SkelData {
   mutable std::unique_ptr<search_detail::KnnIndex> flann;
 };
 
-// The frame arrays of skeleton k (loaded once).
+// The frame arrays of skeleton k that every partial frame reads: joint
+// positions, world and local rotations (com, vel and angvel null; loaded
+// once). Joint-rotation frames (the subtree kernel, the per-frame bound)
+// need no more.
 const FrameArrays& frame_arrays(const Index& index, const SkelData& sd) {
   std::call_once(sd.frames_once, [&] {
     tbb::this_task_arena::isolate([&] {
       const std::uint32_t k = sd.k;
-      sd.fa = {index.array(k, "frames", "joint_positions_m").f32.data(),
-               index.array(k, "frames", "world_rotations").f32.data(),
-               index.array(k, "frames", "segment_com_m").f32.data(),
-               index.array(k, "frames", "segment_com_velocity_mps").f32.data(),
-               index.array(k, "frames", "segment_angular_velocity_radps").f32.data(),
-               index.array(k, "frames", "local_rotations").f32.data()};
-      if (sd.own_frames) {
-        sd.fa.pos = sd.pos_own.data();
-        sd.fa.com = sd.com_own.data();
-        sd.fa.vel = sd.vel_own.data();
-      }
+      sd.fa.pos = sd.own_frames ? sd.pos_own.data()
+                                : index.array(k, "frames", "joint_positions_m").f32.data();
+      sd.fa.rot = index.array(k, "frames", "world_rotations").f32.data();
+      sd.fa.lrot = index.array(k, "frames", "local_rotations").f32.data();
     });
   });
   return sd.fa;
+}
+
+// All frame arrays of skeleton k, with the segments' COM, velocities and
+// angular velocities (partial_approximate_energy through frame_ref: frames
+// that move the whole body; loaded once).
+const FrameArrays& frame_arrays_all(const Index& index, const SkelData& sd) {
+  const FrameArrays& base = frame_arrays(index, sd);
+  std::call_once(sd.frames_all_once, [&] {
+    tbb::this_task_arena::isolate([&] {
+      const std::uint32_t k = sd.k;
+      sd.fa_all = base;
+      sd.fa_all.com =
+          sd.own_frames ? sd.com_own.data() : index.array(k, "frames", "segment_com_m").f32.data();
+      sd.fa_all.vel = sd.own_frames
+                          ? sd.vel_own.data()
+                          : index.array(k, "frames", "segment_com_velocity_mps").f32.data();
+      sd.fa_all.angvel = index.array(k, "frames", "segment_angular_velocity_radps").f32.data();
+    });
+  });
+  return sd.fa_all;
 }
 
 // The frame-array columns partial_bounds_columns reads (SkelData::cols).
@@ -1329,11 +1345,11 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
     if (q.given[2]) sc.shifted_partial.spec.root_position_m[2] = (*xz)[1];
     pq = &sc.shifted_partial;
   }
-  const FrameArrays& fa = frame_arrays(index, sd);
   if (!q.subtree.empty()) {  // joint rotations only: no root component to shift
-    subtree_energy(q, sd, fa, g0, g1, out, sc, skip);
+    subtree_energy(q, sd, frame_arrays(index, sd), g0, g1, out, sc, skip);
     return;
   }
+  const FrameArrays& fa = frame_arrays_all(index, sd);
   for (std::size_t i = 0; i < n; ++i) {
     if (skip != nullptr && skip[i]) continue;
     const FrameRef r = frame_ref(sd, fa, g0 + i, sc, q.need_joints, q.local_joints);
@@ -3233,23 +3249,54 @@ std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
   return {std::move(e)};
 }
 
-void SearchEngine::prepare(const SearchOptions& options, bool partial_frames) const {
+void SearchEngine::prepare(const SearchOptions& options, bool partial_frames,
+                           bool whole_body_frames) const {
   for (const auto& sd : impl_->skels) {
-    if (partial_frames) frame_arrays(*impl_->index, *sd);
+    if (whole_body_frames)
+      frame_arrays_all(*impl_->index, *sd);
+    else if (partial_frames)
+      frame_arrays(*impl_->index, *sd);
     if (options.mode == SearchMode::approx) ensure_forest(*sd, options);
   }
 }
+
+namespace {
+// Which frame arrays a query frame reads: the positions and rotations
+// (partial frames other than root positions alone: joint rotations, a
+// heading), and all of them (frames surely moving the whole body other than
+// by a root position alone: a heading, or a root position with joint
+// rotations; partial_approximate_energy). A frame giving joint rotations
+// alone moves the whole body when one is the root's: the other arrays are
+// then loaded on first use.
+std::pair<bool, bool> frame_arrays_read(const QueryFrameSpec& f) {
+  if (f.bvh && f.only.empty()) return {false, false};
+  bool root_position = false, heading = f.root_heading_deg.has_value(), joints = !f.joints.empty();
+  for (const auto& c : f.root_position_m) root_position = root_position || c.has_value();
+  for (const std::string& o : f.only) {
+    if (o == "root_position" || o == "root_position_xz")
+      root_position = true;
+    else if (o == "root_heading")
+      heading = true;
+    else
+      joints = true;
+  }
+  return {heading || joints, heading || (root_position && joints)};
+}
+}  // namespace
 
 std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
     const std::function<void(std::size_t, std::size_t)>& progress) {
   // A frame that is not a whole BVH frame is partial (or may be, per skeleton).
-  bool partial = false;
+  bool partial = false, whole_body = false;
   for (const BatchEntry& e : batch)
     if (e.query)
-      for (const QueryFrameSpec& f : e.query->frames)
-        partial = partial || !f.bvh || !f.only.empty();
-  engine.prepare(options, partial);
+      for (const QueryFrameSpec& f : e.query->frames) {
+        const auto [p, w] = frame_arrays_read(f);
+        partial = partial || p;
+        whole_body = whole_body || w;
+      }
+  engine.prepare(options, partial, whole_body);
   std::vector<QueryOutcome> out(batch.size());
   std::mutex progress_mutex;
   std::size_t done = 0;

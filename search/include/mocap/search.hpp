@@ -139,10 +139,14 @@ class SearchEngine {
 
   /// Loads up front what queries will need and run() would otherwise load on
   /// first use (shared by all later queries): with `partial_frames`, the
-  /// per-frame arrays that partial query frames read; in approx mode, the
-  /// FLANN forests. A batch calls it before its first query, so that each
+  /// per-frame arrays that partial query frames read (joint positions, world
+  /// and local rotations), with `whole_body_frames` also those that frames
+  /// moving the whole body read (a heading, a root position with joint
+  /// rotations: segment COMs, velocities, angular velocities); in approx mode,
+  /// the FLANN forests. A batch calls it before its first query, so that each
   /// query's stats.time_ms is the query alone. Thread-safe; idempotent.
-  void prepare(const SearchOptions& options, bool partial_frames) const;
+  void prepare(const SearchOptions& options, bool partial_frames,
+               bool whole_body_frames = false) const;
 
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
   /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
