@@ -267,6 +267,7 @@ class BvhParser {
     if (ec != std::errc() || ptr != count_tok.data() + count_tok.size() || count > 6)
       fail(line, "expected a channel count 0..6 after CHANNELS, found " + show(count_tok));
     std::size_t listed = 0;
+    joint.channels.reserve(count);  // one allocation per joint (query frames parse headers often)
     for (;;) {
       skip_blanks();
       const std::string_view name = rest_token_on_line();
