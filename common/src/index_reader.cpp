@@ -538,12 +538,21 @@ Index Index::open(const fs::path& path, const IndexOpenOptions& options) {
   return Index(std::move(impl));
 }
 
-const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group, std::string_view field) const {
+namespace {
+
+struct ArraySpec {
+  IndexFieldSpec spec;
+  std::uint64_t rows = 0;
+};
+
+// The field spec and row count of array (skeleton, group, field); throws on unknown names.
+ArraySpec array_spec(const fs::path& path, const std::vector<IndexSkeleton>& skeletons,
+                     std::uint32_t skeleton, std::string_view group, std::string_view field) {
   std::span<const IndexFieldSpec> table;
   std::uint64_t rows = 0;
-  if (skeleton >= impl_->skeletons.size())
-    throw InputError(impl_->path.string(), 0, "skeleton " + std::to_string(skeleton) + " out of range");
-  const IndexSkeleton& s = impl_->skeletons[skeleton];
+  if (skeleton >= skeletons.size())
+    throw InputError(path.string(), 0, "skeleton " + std::to_string(skeleton) + " out of range");
+  const IndexSkeleton& s = skeletons[skeleton];
   if (group == "frames") {
     table = kFrameFields;
     rows = s.frame_count;
@@ -557,29 +566,47 @@ const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group, s
     table = kClipBoundFields;
     rows = s.clips.size();
   } else {
-    throw InputError(impl_->path.string(), 0, "unknown array group '" + std::string(group) + "'");
+    throw InputError(path.string(), 0, "unknown array group '" + std::string(group) + "'");
   }
   const int fi = find_field(table, field);
-  if (fi < 0) throw InputError(impl_->path.string(), 0, "unknown field '" + std::string(field) + "' in " + std::string(group));
-  const IndexFieldSpec& spec = table[static_cast<std::size_t>(fi)];
+  if (fi < 0)
+    throw InputError(path.string(), 0,
+                     "unknown field '" + std::string(field) + "' in " + std::string(group));
+  return {table[static_cast<std::size_t>(fi)], rows};
+}
+
+// Opens the dataset of an array and checks its shape (library mutex held by the caller).
+h5::Dataset open_array(const h5::File& file, const IndexSkeleton& s, std::uint32_t skeleton,
+                       std::string_view group, std::string_view field, const ArraySpec& a) {
+  h5::Dataset d = file.root()
+                      .open_group("skeletons")
+                      .open_group(std::to_string(skeleton))
+                      .open_group(std::string(group))
+                      .open_dataset(std::string(field));
+  std::vector<hsize_t> want{a.rows};
+  for (auto v : row_dims(a.spec.shape, s.skeleton.joint_count(), s.segments.size()))
+    want.push_back(v);
+  if (d.shape() != want)
+    throw InputError(d.file(), 0, d.path() + ": shape does not match the clip table");
+  return d;
+}
+
+}  // namespace
+
+const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group,
+                               std::string_view field) const {
+  const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, group, field);
+  const IndexFieldSpec& spec = as.spec;
+  const IndexSkeleton& s = impl_->skeletons[skeleton];
 
   std::lock_guard own(impl_->mutex);
   auto key = std::make_tuple(skeleton, std::string(group), std::string(field));
   if (auto it = impl_->arrays.find(key); it != impl_->arrays.end()) return *it->second;
   std::lock_guard lib(h5::library_mutex());
-  const h5::Dataset d = impl_->file.root()
-                            .open_group("skeletons")
-                            .open_group(std::to_string(skeleton))
-                            .open_group(std::string(group))
-                            .open_dataset(std::string(field));
-  const std::size_t J = s.skeleton.joint_count();
-  const std::size_t S = s.segments.size();
-  std::vector<hsize_t> want{rows};
-  for (auto v : row_dims(spec.shape, J, S)) want.push_back(v);
-  if (d.shape() != want) throw InputError(d.file(), 0, d.path() + ": shape does not match the clip table");
+  const h5::Dataset d = open_array(impl_->file, s, skeleton, group, field, as);
   auto a = std::make_unique<IndexArray>();
-  a->rows = rows;
-  a->row_elements = row_elements(spec.shape, J, S);
+  a->rows = as.rows;
+  a->row_elements = row_elements(spec.shape, s.skeleton.joint_count(), s.segments.size());
   Xxh64 h;
   if (spec.dtype == IndexDType::f32) {
     a->f32 = d.read_all<float>();
@@ -593,6 +620,51 @@ const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group, s
   const IndexArray& ref = *a;
   impl_->arrays.emplace(std::move(key), std::move(a));
   return ref;
+}
+
+void Index::stream_rows(
+    std::uint32_t skeleton, std::string_view group, std::string_view field,
+    std::uint64_t rows_per_block,
+    const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const {
+  const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, group, field);
+  const IndexSkeleton& s = impl_->skeletons[skeleton];
+  if (as.spec.dtype != IndexDType::f32)
+    throw InputError(impl_->path.string(), 0,
+                     "stream_rows: '" + std::string(field) + "' is not a float array");
+  const std::size_t per_row =
+      row_elements(as.spec.shape, s.skeleton.joint_count(), s.segments.size());
+  rows_per_block = std::max<std::uint64_t>(rows_per_block, 1);
+  std::optional<h5::Dataset> d;
+  std::string expected;
+  {
+    std::lock_guard lib(h5::library_mutex());
+    d.emplace(open_array(impl_->file, s, skeleton, group, field, as));
+    expected = d->string_attribute("checksum_xxh64");
+  }
+  // The dataset closes under the library mutex, also when fn throws.
+  struct Close {
+    std::optional<h5::Dataset>& d;
+    ~Close() {
+      std::lock_guard lib(h5::library_mutex());
+      d.reset();
+    }
+  } close{d};
+  std::vector<float> buf;
+  Xxh64 h;
+  for (std::uint64_t r = 0; r < as.rows; r += rows_per_block) {
+    const std::uint64_t n = std::min(rows_per_block, as.rows - r);
+    buf.resize(static_cast<std::size_t>(n) * per_row);
+    {
+      std::lock_guard lib(h5::library_mutex());
+      d->read_rows_into<float>(r, n, buf.data());
+    }
+    h.update(buf.data(), buf.size() * sizeof(float));
+    fn(r, n, buf.data());
+  }
+  if (hex64(h.digest()) != expected)
+    throw InputError(impl_->path.string(), 0,
+                     "/skeletons/" + std::to_string(skeleton) + "/" + std::string(group) + "/" +
+                         std::string(field) + ": checksum mismatch (the index is damaged)");
 }
 
 std::span<const float> Index::clip_frames(std::size_t clip, std::string_view field) const {

@@ -207,8 +207,10 @@ struct SkelData {
   std::vector<std::uint32_t> chain_of_segment;
   std::vector<double> chain_mass;
   std::vector<float> chain_sketch;
-  const float* kd = nullptr;  // [N][S*3]
-  std::vector<float> kd_own;  // a query character's kd features (kd points here)
+  // A query character's kd features [N][S*3] (kd points to them; null for
+  // the index's character: ensure_forest reads the index's on first use).
+  const float* kd = nullptr;
+  std::vector<float> kd_own;
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
   // query character the character-dependent ones are owned).
   mutable std::once_flag frames_once, frames_all_once;
@@ -295,12 +297,17 @@ const float* joint_column(const SkelData& sd, const FrameArrays& fa, JointColumn
   return sd.cols[c].get();
 }
 
-// The FLANN forest of skeleton sd's frame features (approx mode), built once.
-void ensure_forest(const SkelData& sd, const SearchOptions& opt) {
+// The FLANN forest of skeleton sd's frame features (approx mode), built once
+// (the index's kd_features, read then: exact and brute never need them).
+void ensure_forest(const Index& index, const SkelData& sd, const SearchOptions& opt) {
   const std::size_t n = sd.sk->frame_count, dim = sd.segments * 3;
   if (n == 0) return;
   std::call_once(sd.flann_once, [&] {
-    sd.flann = std::make_unique<search_detail::KnnIndex>(sd.kd, n, dim, opt.approx_trees);
+    tbb::this_task_arena::isolate([&] {
+      const float* kd =
+          sd.kd != nullptr ? sd.kd : index.array(sd.k, "frames", "kd_features").f32.data();
+      sd.flann = std::make_unique<search_detail::KnnIndex>(kd, n, dim, opt.approx_trees);
+    });
   });
 }
 
@@ -1196,29 +1203,32 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
   m.skels.resize(nk);
   tbb::task_group builds;
   for (std::uint32_t k = 0; k < nk; ++k) {
-    const IndexArray* hs = &index.array(k, "frames", "h_scan");
     const IndexArray* rp = &index.array(k, "frames", "root_position_m");
-    const float* kd = index.array(k, "frames", "kd_features").f32.data();
     const double* prefix = index.array(k, "frames", "energy_prefix_J").f64.data();
-    builds.run([&m, &index, k, hs, rp, kd, prefix] {
+    builds.run([&m, &index, k, rp, prefix] {
       auto sd = std::make_unique<SkelData>();
       init_skel_data(index, k, index.dynamics_model(k), *sd);
       const std::size_t n = sd->sk->frame_count, s = sd->segments;
-      // h_scan [N][S][9] (one row per frame) -> field-major HScanTable.
+      // h_scan [N][S][9] (one row per frame) -> field-major HScanTable, read
+      // in blocks of rows (the array itself is not kept: 0.3 GB on set 2).
       const std::size_t stride = sd->table.stride;
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
-                        [&](const tbb::blocked_range<std::size_t>& rg) {
-                          for (std::size_t f = rg.begin(); f != rg.end(); ++f) {
-                            const float* row = hs->f32.data() + f * s * 9;
-                            for (std::size_t b = 0; b < s; ++b)
-                              for (std::size_t q = 0; q < 9; ++q)
-                                sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
-                          }
+      index.stream_rows(k, "frames", "h_scan", 8192,
+                        [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+                          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
+                                            [&](const tbb::blocked_range<std::size_t>& rg) {
+                                              for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+                                                const float* row = rows + i * s * 9;
+                                                const std::size_t f = first + i;
+                                                for (std::size_t b = 0; b < s; ++b)
+                                                  for (std::size_t q = 0; q < 9; ++q)
+                                                    sd->table.values[(b * 9 + q) * stride + f] =
+                                                        row[b * 9 + q];
+                                              }
+                                            });
                         });
       for (std::size_t f = 0; f < n; ++f)
         for (std::size_t a = 0; a < 3; ++a)
           sd->table.root_positions[a * stride + f] = rp->f32[f * 3 + a];
-      sd->kd = kd;
       sd->prefix_index = prefix;
       build_bound_tables(*sd);
       m.skels[k] = std::move(sd);
@@ -2726,7 +2736,7 @@ struct QueryRunner {
       const SkelData& sd = *skels[k];
       const std::size_t n = sd.sk->frame_count;
       if (n == 0) continue;
-      ensure_forest(sd, opt);
+      ensure_forest(*eng.index, sd, opt);
       const std::size_t knn = std::min<std::size_t>(
           n, static_cast<std::size_t>(opt.approx_neighbours_per_result) * q.top);
       std::set<std::size_t> rows;
@@ -3256,7 +3266,7 @@ void SearchEngine::prepare(const SearchOptions& options, bool partial_frames,
       frame_arrays_all(*impl_->index, *sd);
     else if (partial_frames)
       frame_arrays(*impl_->index, *sd);
-    if (options.mode == SearchMode::approx) ensure_forest(*sd, options);
+    if (options.mode == SearchMode::approx) ensure_forest(*impl_->index, *sd, options);
   }
 }
 

@@ -265,3 +265,71 @@ TEST(IndexReader, ArrayErrorsNameTheProblem) {
   EXPECT_NE(error_of([&] { index.array(0, "nonsense", "kd_min"); }).find("unknown array group"), std::string::npos);
   EXPECT_NE(error_of([&] { index.array(7, "frames", "kd_features"); }).find("out of range"), std::string::npos);
 }
+
+// Streaming the rows of an array (Index::stream_rows: the search engine
+// builds its scan table from h_scan without keeping the array) gives the
+// rows of array(), in order, for any block size, and names bad requests.
+TEST(IndexReader, StreamedRowsEqualTheArray) {
+  const Index index = Index::open(golden());
+  for (std::uint32_t k = 0; k < index.skeletons().size(); ++k)
+    for (const char* field : {"h_scan", "joint_positions_m", "root_position_m"}) {
+      const IndexArray& a = index.array(k, "frames", field);
+      ASSERT_GT(a.rows, 1u);
+      for (std::uint64_t block :
+           {std::uint64_t{1}, std::uint64_t{7}, a.rows - 1, a.rows, a.rows + 5}) {
+        std::vector<float> got;
+        std::uint64_t next = 0;
+        index.stream_rows(k, "frames", field, block,
+                          [&](std::uint64_t first, std::uint64_t count, const float* v) {
+                            EXPECT_EQ(first, next);
+                            EXPECT_LE(count, block);
+                            next = first + count;
+                            got.insert(got.end(), v, v + count * a.row_elements);
+                          });
+        EXPECT_EQ(next, a.rows) << field << " block " << block;
+        EXPECT_EQ(got, a.f32) << field << " block " << block;
+      }
+    }
+  auto none = [](std::uint64_t, std::uint64_t, const float*) {};
+  EXPECT_NE(error_of([&] {
+              index.stream_rows(0, "frames", "no_such_field", 8, none);
+            }).find("unknown field"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { index.stream_rows(7, "frames", "h_scan", 8, none); }).find("out of range"),
+      std::string::npos);
+  EXPECT_NE(error_of([&] {
+              index.stream_rows(0, "frames", "energy_prefix_J", 8, none);
+            }).find("not a float array"),
+            std::string::npos);
+}
+
+// A damaged array read by streaming fails its checksum after the last block,
+// naming the dataset, like array() does.
+TEST(IndexReader, StreamedRowsCatchDamage) {
+  const GoldenCopy copy("stream");
+  const fs::path& p = copy.file;
+  {
+    h5::File f = h5::File::open(p, true);
+    h5::Dataset d = f.root()
+                        .open_group("skeletons")
+                        .open_group("0")
+                        .open_group("frames")
+                        .open_dataset("h_scan");
+    std::vector<float> v = d.read_all<float>();
+    v[v.size() / 2] += 1.0f;
+    d.write_all<float>(v);
+    f.close();
+  }
+  seal_index_file(p);
+  const Index index = Index::open(p);
+  std::uint64_t rows = 0;
+  const std::string e = error_of([&] {
+    index.stream_rows(0, "frames", "h_scan", 5,
+                      [&](std::uint64_t, std::uint64_t count, const float*) { rows += count; });
+  });
+  EXPECT_EQ(rows, index.skeletons()[0].frame_count);  // every block was read first
+  EXPECT_NE(e.find("/skeletons/0/frames/h_scan: checksum mismatch"), std::string::npos) << e;
+  EXPECT_NE(error_of([&] { index.array(0, "frames", "h_scan"); }).find("checksum mismatch"),
+            std::string::npos);
+}

@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -267,6 +268,15 @@ class Index {
   /// "clip_bounds", field a name from the matching table. Loaded on first use
   /// (validated against its checksum), then shared.
   const IndexArray& array(std::uint32_t skeleton, std::string_view group, std::string_view field) const;
+  /// The rows of a float array (group and field as for array()) read in
+  /// blocks of `rows_per_block` rows, in order: fn(first_row, row_count,
+  /// values) with row_count x row_elements values, valid during the call.
+  /// Nothing is kept; after the last block the rows' checksum is compared
+  /// (InputError on a mismatch: a consumer keeps nothing it read until the
+  /// call returns). Thread-safe; the HDF5 library is not locked during fn.
+  void stream_rows(std::uint32_t skeleton, std::string_view group, std::string_view field,
+                   std::uint64_t rows_per_block,
+                   const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const;
   /// A clip's rows of a frame field (f32 fields).
   std::span<const float> clip_frames(std::size_t clip, std::string_view field) const;
   /// A clip's energy prefix sums P (frame_count values, P[0] = 0, joules):
