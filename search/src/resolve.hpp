@@ -61,6 +61,10 @@ struct ResolvedFrame {
     int parent_slot = -1;  // slot of the parent in `subtree`, -1 outside
     bool given = false;    // the query's local rotation, else F's
     Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
+    // The engine's per-joint columns of F's frame arrays (rows of the
+    // skeleton's column stride): the parent's world rotation, the joint's
+    // local rotation (null when given), position, and the parent's position.
+    const float *parent_rot = nullptr, *lrot = nullptr, *pos = nullptr, *parent_pos = nullptr;
   };
   /// Segments of the subtrees (joints with mass), with their h-scan constants.
   struct SubtreeSegment {

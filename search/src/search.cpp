@@ -1153,8 +1153,7 @@ struct Scratch {
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   std::vector<double> nq, nf;              // and their squared norms
   std::vector<float> lanes;                // partial_bounds_columns' per-slot lanes
-  std::vector<Eigen::Vector3d> sub_x;      // subtree_energy: joint positions and
-  std::vector<Eigen::Quaterniond> sub_r;   // rotations of Q_F
+  std::vector<double> subtree_lanes;       // subtree_energy's lane arrays
   // Database frames converted for partial_approximate_energy.
   std::vector<Eigen::Vector3d> pos, com, vel, angvel, zero, ltrans;
   std::vector<Eigen::Quaterniond> rot, lrot;
@@ -1304,9 +1303,8 @@ FrameRef frame_ref(const SkelData& sd, const FrameArrays& fa, std::size_t g, Scr
   return r;
 }
 
-void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArrays& fa,
-                    std::size_t g0, std::size_t g1, double* out, Scratch& sc,
-                    const std::uint8_t* skip = nullptr);
+void subtree_energy(const ResolvedFrame& q, const SkelData& sd, std::size_t g0, std::size_t g1,
+                    double* out, Scratch& sc, const std::uint8_t* skip = nullptr);
 
 // h(Q -> F) for skeleton frames [g0, g1) into out. With `shift` (relative
 // mode) the query's given x/z root components are placed at shift (world).
@@ -1356,7 +1354,7 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
     pq = &sc.shifted_partial;
   }
   if (!q.subtree.empty()) {  // joint rotations only: no root component to shift
-    subtree_energy(q, sd, frame_arrays(index, sd), g0, g1, out, sc, skip);
+    subtree_energy(q, sd, g0, g1, out, sc, skip);
     return;
   }
   const FrameArrays& fa = frame_arrays_all(index, sd);
@@ -1860,8 +1858,9 @@ void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {
 }
 
 // Prepares q.subtree / q.subtree_segments for partial frames that give
-// joint rotations only (docs/search.md "Joint-rotation frames").
-void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, double t) {
+// joint rotations only (docs/search.md "Joint-rotation frames"), with the
+// frame-array columns subtree_energy reads (loaded on first use).
+void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, const Index& index, double t) {
   q.subtree.clear();
   q.subtree_segments.clear();
   if (q.kind != FrameKind::partial || q.partial.moves_whole_body ||
@@ -1887,6 +1886,13 @@ void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, double t) {
     slot[j] = static_cast<int>(q.subtree.size());
     q.subtree.push_back(sj);
   }
+  const FrameArrays& fa = frame_arrays(index, sd);
+  for (ResolvedFrame::SubtreeJoint& sj : q.subtree) {
+    sj.parent_rot = joint_column(sd, fa, JointColumn::world_rotation, sj.parent);
+    if (!sj.given) sj.lrot = joint_column(sd, fa, JointColumn::local_rotation, sj.joint);
+    sj.pos = joint_column(sd, fa, JointColumn::position, sj.joint);
+    if (sj.parent_slot >= 0) sj.parent_pos = joint_column(sd, fa, JointColumn::position, sj.parent);
+  }
   const double half_inv_t2 = 0.5 / (t * t);
   for (int jj : pq.affected_joints) {
     const auto j = static_cast<std::size_t>(jj);
@@ -1911,58 +1917,191 @@ void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, double t) {
 // against F's scan-table fields (COM, KE, principal orientation, KE_rot).
 // Frames with skip[i] != 0 are left alone. docs/search.md "Joint-rotation
 // frames"; test Search.SubtreeEnergyEqualsPartialEnergySet1.
-void subtree_energy(const ResolvedFrame& q, const SkelData& sd, const FrameArrays& fa,
-                    std::size_t g0, std::size_t g1, double* out, Scratch& sc,
-                    const std::uint8_t* skip) {
-  const std::size_t nj = sd.model.joint_count();
+//
+// Vectorised over frames: kSubtreeLanes frames at a time, every input copied
+// into lane arrays first (a short last group padded with identity poses), so
+// that every frame takes the same instructions wherever it falls (the value
+// of a frame does not depend on the range it is evaluated in: exact and
+// brute stay bit-identical). `lanes`: subtree_lane_doubles(q) doubles.
+constexpr std::size_t kSubtreeLanes = 16;
+std::size_t subtree_lane_doubles(const ResolvedFrame& q) {
+  return (q.subtree.size() * 7 + 24) * kSubtreeLanes;
+}
+
+MOCAP_SEARCH_MULTIVERSION
+void subtree_energy_lanes(const ResolvedFrame& q, const SkelData& sd, std::size_t g0,
+                          std::size_t g1, double* out, double* lanes, const std::uint8_t* skip) {
+  constexpr std::size_t W = kSubtreeLanes;
+  const std::size_t cs = sd.col_stride;
   const HScanTable& tb = sd.table;
-  sc.sub_x.resize(q.subtree.size());
-  sc.sub_r.resize(q.subtree.size());
-  auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
-  auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
-  for (std::size_t g = g0; g < g1; ++g) {
-    if (skip != nullptr && skip[g - g0]) continue;
-    for (std::size_t t = 0; t < q.subtree.size(); ++t) {
+  const std::size_t ns = q.subtree.size();
+  // Per slot: the joint's position (3 W) and world rotation (4 W) in Q_F;
+  // then scratch rows: the parent's rotation (4 W), the local rotation (4 W),
+  // two positions (6 W), the table fields of a segment (9 W), the total (W).
+  double* const pr = lanes + ns * 7 * W;
+  double* const lr = pr + 4 * W;
+  double* const p0 = lr + 4 * W;
+  double* const p1 = p0 + 3 * W;
+  double* const fld = p1 + 3 * W;
+  double* const total = fld + 9 * W;
+  // Copies rows of a column group (count rows of `stride`) for the lanes, padding with `pad`.
+  auto load = [&](const float* col, std::size_t stride, std::size_t rows, std::size_t g,
+                  std::size_t n, double* dst, const double* pad) {
+    for (std::size_t c = 0; c < rows; ++c) {
+      const float* src = col + c * stride + g;
+      for (std::size_t i = 0; i < n; ++i) dst[c * W + i] = static_cast<double>(src[i]);
+      for (std::size_t i = n; i < W; ++i) dst[c * W + i] = pad[c];
+    }
+  };
+  static constexpr double kIdentity[4] = {1.0, 0.0, 0.0, 0.0};
+  static constexpr double kZero[9] = {};
+  for (std::size_t g = g0; g < g1; g += W) {
+    const std::size_t n = std::min(W, g1 - g);
+    if (skip != nullptr) {
+      bool any = false;
+      for (std::size_t i = 0; i < n; ++i) any = any || skip[g - g0 + i] == 0;
+      if (!any) continue;
+    }
+    for (std::size_t t = 0; t < ns; ++t) {
       const ResolvedFrame::SubtreeJoint& sj = q.subtree[t];
-      const std::size_t ij = g * nj + sj.joint, ip = g * nj + sj.parent;
-      const Eigen::Quaterniond rf_p = q4(fa.rot + ip * 4);
-      const Eigen::Quaterniond local = sj.given ? sj.local : q4(fa.lrot + ij * 4);
+      double* const x = lanes + t * 7 * W;  // x, y, z rows
+      double* const r = x + 3 * W;          // w, x, y, z rows
+      // F's parent rotation and the joint's local rotation, normalised (Eigen's normalized()).
+      load(sj.parent_rot, cs, 4, g, n, pr, kIdentity);
+      if (sj.given) {
+        const Eigen::Quaterniond& l = sj.local;
+        for (std::size_t i = 0; i < W; ++i) {
+          lr[i] = l.w();
+          lr[W + i] = l.x();
+          lr[2 * W + i] = l.y();
+          lr[3 * W + i] = l.z();
+        }
+      } else {
+        load(sj.lrot, cs, 4, g, n, lr, kIdentity);
+      }
+      for (double* qv : {pr, lr}) {
+        if (qv == lr && sj.given) break;
+        for (std::size_t i = 0; i < W; ++i) {
+          const double nn =
+              std::sqrt(qv[i] * qv[i] + qv[W + i] * qv[W + i] + qv[2 * W + i] * qv[2 * W + i] +
+                        qv[3 * W + i] * qv[3 * W + i]);
+          qv[i] /= nn;
+          qv[W + i] /= nn;
+          qv[2 * W + i] /= nn;
+          qv[3 * W + i] /= nn;
+        }
+      }
+      load(sj.pos, cs, 3, g, n, p0, kZero);
+      // a * b into d (quaternions, Eigen's product)
+      auto qmul = [&](const double* a, const double* b, double* d) {
+        for (std::size_t i = 0; i < W; ++i) {
+          const double aw = a[i], ax = a[W + i], ay = a[2 * W + i], az = a[3 * W + i];
+          const double bw = b[i], bx = b[W + i], by = b[2 * W + i], bz = b[3 * W + i];
+          d[i] = aw * bw - ax * bx - ay * by - az * bz;
+          d[W + i] = aw * bx + ax * bw + ay * bz - az * by;
+          d[2 * W + i] = aw * by + ay * bw + az * bx - ax * bz;
+          d[3 * W + i] = aw * bz + az * bw + ax * by - ay * bx;
+        }
+      };
       if (sj.parent_slot < 0) {
         // The parent is F's: so is the joint's position.
-        sc.sub_x[t] = v3(fa.pos + ij * 3);
-        sc.sub_r[t] = rf_p * local;
+        for (std::size_t i = 0; i < 3 * W; ++i) x[i] = p0[i];
+        qmul(pr, lr, r);
       } else {
-        // F's local translation of the joint (in F's frame of the parent), on Q_F's parent.
-        const Eigen::Vector3d o = rf_p.conjugate() * (v3(fa.pos + ij * 3) - v3(fa.pos + ip * 3));
+        // F's local translation of the joint (in F's frame of the parent),
+        // o = conj(R_p) (x_j - x_p), on Q_F's parent: x = x_ps + R_ps o.
+        load(sj.parent_pos, cs, 3, g, n, p1, kZero);
         const auto ps = static_cast<std::size_t>(sj.parent_slot);
-        sc.sub_x[t] = sc.sub_x[ps] + sc.sub_r[ps] * o;
-        sc.sub_r[t] = sc.sub_r[ps] * local;
+        const double* const xp = lanes + ps * 7 * W;
+        const double* const rp = xp + 3 * W;
+        for (std::size_t i = 0; i < W; ++i) {
+          // Eigen's q * v: uv = 2 (u x v); v + w uv + u x uv, with q = conj(R_p).
+          const double vx = p0[i] - p1[i], vy = p0[W + i] - p1[W + i],
+                       vz = p0[2 * W + i] - p1[2 * W + i];
+          const double w = pr[i], ux = -pr[W + i], uy = -pr[2 * W + i], uz = -pr[3 * W + i];
+          double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+          cx += cx;
+          cy += cy;
+          cz += cz;
+          const double ox = vx + w * cx + (uy * cz - uz * cy);
+          const double oy = vy + w * cy + (uz * cx - ux * cz);
+          const double oz = vz + w * cz + (ux * cy - uy * cx);
+          // x_ps + R_ps o
+          const double rw = rp[i], rx = rp[W + i], ry = rp[2 * W + i], rz = rp[3 * W + i];
+          double dx = ry * oz - rz * oy, dy = rz * ox - rx * oz, dz = rx * oy - ry * ox;
+          dx += dx;
+          dy += dy;
+          dz += dz;
+          x[i] = xp[i] + (ox + rw * dx + (ry * dz - rz * dy));
+          x[W + i] = xp[W + i] + (oy + rw * dy + (rz * dx - rx * dz));
+          x[2 * W + i] = xp[2 * W + i] + (oz + rw * dz + (rx * dy - ry * dx));
+        }
+        qmul(rp, lr, r);
       }
     }
-    double total = 0.0;
+    for (std::size_t i = 0; i < W; ++i) total[i] = 0.0;
     for (const ResolvedFrame::SubtreeSegment& sg : q.subtree_segments) {
-      const Eigen::Vector3d ca = sc.sub_x[sg.slot] + sc.sub_r[sg.slot] * sg.com_local;
-      const Eigen::Quaterniond a = (sc.sub_r[sg.slot] * sg.principal).normalized().conjugate();
+      const double* const x = lanes + sg.slot * 7 * W;
+      const double* const r = x + 3 * W;
       const std::size_t b = sg.segment;
-      const double trans = static_translation_h(tb, b, g, ca, sg.mg, sg.mh);
-      const double bw = tb.field(b, 4)[g], bx = tb.field(b, 5)[g], by = tb.field(b, 6)[g],
-                   bz = tb.field(b, 7)[g];
-      // r = conj(q_A P) (q_B P), K_w = |log r|_D^2 / (2 T^2) (the scan's formula).
-      const double rw = a.w() * bw - a.x() * bx - a.y() * by - a.z() * bz;
-      const double rx = a.w() * bx + bw * a.x() + a.y() * bz - a.z() * by;
-      const double ry = a.w() * by + bw * a.y() + a.z() * bx - a.x() * bz;
-      const double rz = a.w() * bz + bw * a.z() + a.x() * by - a.y() * bx;
-      const double kbr = tb.field(b, 8)[g];
-      const double sd2 = sg.d[0] * rx * rx + sg.d[1] * ry * ry + sg.d[2] * rz * rz;
-      // log_norm_factor <= pi^2 (+1.6e-8): when 9.88 sd2 <= K_B^rot, K_w <= K_B^rot and
-      // the term is K_B^rot whatever the factor (the same value, without the polynomial).
-      double rot = kbr;
-      if (9.88 * sd2 > kbr)
-        rot = std::max(kbr, 2.0 * (log_norm_factor(std::max(0.0, 1.0 - std::abs(rw))) * sd2) - kbr);
-      total += trans + rot;
+      for (std::size_t k = 0; k < HScanTable::kFields; ++k) {
+        const float* src = tb.field(b, k) + g;
+        for (std::size_t i = 0; i < n; ++i) fld[k * W + i] = static_cast<double>(src[i]);
+        for (std::size_t i = n; i < W; ++i) fld[k * W + i] = k == 4 ? 1.0 : 0.0;
+      }
+      const double cx = sg.com_local.x(), cy = sg.com_local.y(), cz = sg.com_local.z();
+      const double qw = sg.principal.w(), qx = sg.principal.x(), qy = sg.principal.y(),
+                   qz = sg.principal.z();
+      for (std::size_t i = 0; i < W; ++i) {
+        const double rw = r[i], rx = r[W + i], ry = r[2 * W + i], rz = r[3 * W + i];
+        // ca = x + r * com_local (Eigen's q * v)
+        double ux = ry * cz - rz * cy, uy = rz * cx - rx * cz, uz = rx * cy - ry * cx;
+        ux += ux;
+        uy += uy;
+        uz += uz;
+        const double cax = x[i] + (cx + rw * ux + (ry * uz - rz * uy));
+        const double cay = x[W + i] + (cy + rw * uy + (rz * ux - rx * uz));
+        const double caz = x[2 * W + i] + (cz + rw * uz + (rx * uy - ry * ux));
+        // static_translation_h
+        const double dx = fld[i] - cax, dy = fld[W + i] - cay, dz = fld[2 * W + i] - caz;
+        const double ku = sg.mh * (dx * dx + dy * dy + dz * dz);
+        const double kb = fld[3 * W + i];
+        const double trans = sg.mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
+        // a = conj(normalised(r * principal))
+        double aw = rw * qw - rx * qx - ry * qy - rz * qz;
+        double ax = rw * qx + rx * qw + ry * qz - rz * qy;
+        double ay = rw * qy + ry * qw + rz * qx - rx * qz;
+        double az = rw * qz + rz * qw + rx * qy - ry * qx;
+        const double an = std::sqrt(aw * aw + ax * ax + ay * ay + az * az);
+        aw /= an;
+        ax = -(ax / an);
+        ay = -(ay / an);
+        az = -(az / an);
+        const double bw = fld[4 * W + i], bx = fld[5 * W + i], by = fld[6 * W + i],
+                     bz = fld[7 * W + i];
+        // r = conj(q_A P) (q_B P), K_w = |log r|_D^2 / (2 T^2) (the scan's formula).
+        const double tw = aw * bw - ax * bx - ay * by - az * bz;
+        const double tx = aw * bx + bw * ax + ay * bz - az * by;
+        const double ty = aw * by + bw * ay + az * bx - ax * bz;
+        const double tz = aw * bz + bw * az + ax * by - ay * bx;
+        const double kbr = fld[8 * W + i];
+        const double sd2 = sg.d[0] * tx * tx + sg.d[1] * ty * ty + sg.d[2] * tz * tz;
+        // log_norm_factor <= pi^2 (+1.6e-8): when 9.88 sd2 <= K_B^rot, K_w <= K_B^rot and
+        // the term is K_B^rot whatever the factor (the same value, without the polynomial).
+        const double full =
+            std::max(kbr, 2.0 * (log_norm_factor(std::max(0.0, 1.0 - std::abs(tw))) * sd2) - kbr);
+        total[i] += trans + (9.88 * sd2 > kbr ? full : kbr);
+      }
     }
-    out[g - g0] = total;
+    for (std::size_t i = 0; i < n; ++i)
+      if (skip == nullptr || skip[g - g0 + i] == 0) out[g - g0 + i] = total[i];
   }
+}
+
+void subtree_energy(const ResolvedFrame& q, const SkelData& sd, std::size_t g0, std::size_t g1,
+                    double* out, Scratch& sc, const std::uint8_t* skip) {
+  sc.subtree_lanes.resize(subtree_lane_doubles(q));
+  subtree_energy_lanes(q, sd, g0, g1, out, sc.subtree_lanes.data(), skip);
 }
 
 struct Entry {
@@ -3071,7 +3210,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& opt) const {
           q, i, *skels[k]->sk, skels[k]->model, q.transition_time_s, m.t_index, m.bvh_cache,
           m.index->info().unit_option, &files[i]));
       set_needed_joints(run.resolved[k].back(), skels[k]->model);
-      set_subtree_plan(run.resolved[k].back(), *skels[k], q.transition_time_s);
+      set_subtree_plan(run.resolved[k].back(), *skels[k], *m.index, q.transition_time_s);
       run.bounds[k].push_back(make_bound_query(run.resolved[k].back(), *skels[k]));
     }
   run.prepare_caches();
@@ -3202,9 +3341,8 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
     }
   if (engine_h != nullptr) {
     *engine_h = h;
-    set_subtree_plan(f, sd, q.transition_time_s);
-    if (!f.subtree.empty())
-      subtree_energy(f, sd, frame_arrays(*m.index, sd), 0, n, engine_h->data(), sc);
+    set_subtree_plan(f, sd, *m.index, q.transition_time_s);
+    if (!f.subtree.empty()) subtree_energy(f, sd, 0, n, engine_h->data(), sc);
   }
 }
 
