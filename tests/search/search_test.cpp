@@ -125,6 +125,27 @@ Query frame_to_origin_query(const std::string& frame, std::size_t i) {
                "}");
 }
 
+// Joint-rotation query frame i (by i % 4) of the subtree tests: a forearm, a
+// shoulder with `below` (a joint further down its arm), both upper legs, or
+// the right arm of `bvh` (a "bvh"/"frame" pair); random Euler angles.
+std::string joint_rotation_frame(std::size_t i, std::mt19937& rng, const std::string& bvh,
+                                 const std::string& below) {
+  auto euler = [&] {
+    return "{\"euler_deg\": [" + random_deg(rng) + ", " + random_deg(rng) + ", " + random_deg(rng) +
+           "], \"order\": \"ZXY\"}";
+  };
+  switch (i % 4) {
+    case 0:
+      return "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
+    case 1:
+      return "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"" + below + "\": " + euler() + "}}";
+    case 2:
+      return "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
+    default:
+      return "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
+  }
+}
+
 }  // namespace
 
 TEST(RunningMinimum, EqualsQuadraticReference) {
@@ -646,29 +667,11 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
   const Index index = Index::open(set1_index());
   const SearchEngine engine(index);
   std::mt19937 rng(7);
-  auto deg = [&] { return random_deg(rng); };
-  auto euler = [&] {
-    return "{\"euler_deg\": [" + deg() + ", " + deg() + ", " + deg() + "], \"order\": \"ZXY\"}";
-  };
   double worst = 0.0, sum = 0.0;
   std::size_t checked = 0;
   for (std::size_t i = 0; i < 8; ++i) {
-    std::string f;
     const std::string bvh = random_bvh_frame(index, rng);  // drawn every time: same sequence
-    switch (i % 4) {
-      case 0:
-        f = "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
-        break;
-      case 1:
-        f = "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"LeftForeArm\": " + euler() + "}}";
-        break;
-      case 2:
-        f = "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
-        break;
-      default:
-        f = "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
-        break;
-    }
+    const std::string f = joint_rotation_frame(i, rng, bvh, "LeftForeArm");
     const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
       std::vector<double> lower, h, engine_h;
@@ -705,29 +708,11 @@ TEST(Search, PartialBoundColumnsEqualReferenceSet1) {
   const Index index = Index::open(set1_index());
   const SearchEngine engine(index);
   std::mt19937 rng(21);
-  auto euler = [&] {
-    return "{\"euler_deg\": [" + random_deg(rng) + ", " + random_deg(rng) + ", " + random_deg(rng) +
-           "], \"order\": \"ZXY\"}";
-  };
   double worst = 0.0, sum = 0.0;
   std::size_t checked = 0, positive = 0, differ = 0;
   for (std::size_t i = 0; i < 8; ++i) {
-    std::string f;
     const std::string bvh = random_bvh_frame(index, rng);
-    switch (i % 4) {
-      case 0:
-        f = "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
-        break;
-      case 1:
-        f = "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"LeftHand\": " + euler() + "}}";
-        break;
-      case 2:
-        f = "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
-        break;
-      default:
-        f = "{" + bvh + ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]}";
-        break;
-    }
+    const std::string f = joint_rotation_frame(i, rng, bvh, "LeftHand");
     Query q = frame_to_origin_query(f, i);
     q.transition_time_s = 0.25 + 0.25 * static_cast<double>(i % 4);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
