@@ -217,8 +217,9 @@ struct SkelData {
   mutable FrameArrays fa{}, fa_all{};
   std::vector<float> pos_own, com_own, vel_own;
   bool own_frames = false;
-  // Per-joint columns of those arrays for the partial bound of joint-rotation
-  // frames (partial_bounds_columns): column kind * joints + joint holds the
+  // Per-joint columns of those arrays for joint-rotation frames (their
+  // per-frame bound, partial_bounds_columns, and the subtree kernel,
+  // subtree_energy_lanes): column kind * joints + joint holds the
   // joint's components (w x y z for rotations, x y z for positions) as rows
   // of col_stride floats, one value per skeleton frame; built on first use
   // (joint_column: a gather of the array-of-structures rows), then read-only.
@@ -274,7 +275,7 @@ const FrameArrays& frame_arrays_all(const Index& index, const SkelData& sd) {
   return sd.fa_all;
 }
 
-// The frame-array columns partial_bounds_columns reads (SkelData::cols).
+// The frame-array columns of joint-rotation frames (SkelData::cols).
 enum class JointColumn : std::size_t { local_rotation = 0, world_rotation = 1, position = 2 };
 constexpr std::size_t kJointColumnKinds = 3;
 
@@ -1211,20 +1212,19 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>())
       // h_scan [N][S][9] (one row per frame) -> field-major HScanTable, read
       // in blocks of rows (the array itself is not kept: 0.3 GB on set 2).
       const std::size_t stride = sd->table.stride;
-      index.stream_rows(k, "frames", "h_scan", 8192,
-                        [&](std::uint64_t first, std::uint64_t count, const float* rows) {
-                          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
-                                            [&](const tbb::blocked_range<std::size_t>& rg) {
-                                              for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-                                                const float* row = rows + i * s * 9;
-                                                const std::size_t f = first + i;
-                                                for (std::size_t b = 0; b < s; ++b)
-                                                  for (std::size_t q = 0; q < 9; ++q)
-                                                    sd->table.values[(b * 9 + q) * stride + f] =
-                                                        row[b * 9 + q];
-                                              }
-                                            });
-                        });
+      auto transpose = [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
+                          [&](const tbb::blocked_range<std::size_t>& rg) {
+                            for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+                              const float* row = rows + i * s * 9;
+                              const std::size_t f = first + i;
+                              for (std::size_t b = 0; b < s; ++b)
+                                for (std::size_t q = 0; q < 9; ++q)
+                                  sd->table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
+                            }
+                          });
+      };
+      index.stream_rows(k, "frames", "h_scan", 8192, transpose);
       for (std::size_t f = 0; f < n; ++f)
         for (std::size_t a = 0; a < 3; ++a)
           sd->table.root_positions[a * stride + f] = rp->f32[f * 3 + a];
