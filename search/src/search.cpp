@@ -1400,7 +1400,8 @@ struct PartialBoundPlan {
   // Joint rotations only (not whole): the same bound in float from per-joint
   // columns (attach_columns, partial_bounds_columns); empty otherwise.
   struct ColumnSlot {
-    const float* lrot = nullptr;  // F's local rotation column of the slot's joint
+    const float* lrot =
+        nullptr;  // F's local rotation column of the slot's joint; null: not computed
     int parent = -1;              // parent slot, -1 at the top of a subtree
     // The query's composite: 0 fixed (mq), 1 the parent's times the given
     // local rotation, 2 the parent's times F's.
@@ -1414,16 +1415,12 @@ struct PartialBoundPlan {
     const float *kb = nullptr, *kr = nullptr;  // scan-table fields 3 and 8
     float rot_coef = 0.0f;
     std::size_t slot = 0;
-    // A subtree's top segment (exact translational term): its parent's world
-    // rotation column, its joint's position column, scan-table fields 0..2,
-    // the given local rotation and its squared norm, COM offset, m g, m / (2 T^2).
+    // A subtree's top segment (its translational term): its parent's world
+    // rotation column, the COM offset c and L_Q c (L_Q the given local
+    // rotation), m g, m / (2 T^2).
     bool top = false;
     const float* parent_rot = nullptr;
-    const float* pos = nullptr;
-    std::array<const float*, 3> com{};
-    std::array<float, 4> lq{};
-    float nlq = 0.0f;
-    std::array<float, 3> c{};
+    std::array<float, 3> c{}, lq_c{};
     float mg = 0.0f, mh = 0.0f;
   };
   std::vector<ColumnSlot> col_slots;
@@ -1496,10 +1493,23 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& 
     return std::array<float, 4>{static_cast<float>(q.w()), static_cast<float>(q.x()),
                                 static_cast<float>(q.y()), static_cast<float>(q.z())};
   };
-  for (std::size_t t = 0; t < p.sub_joints.size(); ++t) {
+  // A slot whose local rotation is F's in Q_F as well (neither given nor
+  // below a given one on its chain: mode 2) has its parent slot's angle, as
+  // right-multiplying both composites by the same rotation keeps the angle
+  // between them (and scales the inner product and both squared norms by
+  // |l|^2): it is computed only where a slot below needs its composites.
+  const std::size_t ns = p.sub_joints.size();
+  std::vector<std::uint8_t> needed(ns, 0);
+  for (std::size_t t = ns; t-- > 0;) {
+    needed[t] = needed[t] || p.mq_fixed[t] || p.sub_given[t] != nullptr;
+    if (needed[t] && p.sub_parent_slot[t] >= 0)
+      needed[static_cast<std::size_t>(p.sub_parent_slot[t])] = 1;
+  }
+  for (std::size_t t = 0; t < ns; ++t) {
     PartialBoundPlan::ColumnSlot c;
-    c.lrot = joint_column(sd, fa, JointColumn::local_rotation,
-                          static_cast<std::size_t>(p.sub_joints[t]));
+    if (needed[t])
+      c.lrot = joint_column(sd, fa, JointColumn::local_rotation,
+                            static_cast<std::size_t>(p.sub_joints[t]));
     c.parent = p.sub_parent_slot[t];
     c.mq_mode = p.mq_fixed[t] ? 0 : p.sub_given[t] != nullptr ? 1 : 2;
     // A subtree's top joint is given (the subtrees are those of given joints).
@@ -1527,18 +1537,17 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& 
       return;
     }
     c.slot = static_cast<std::size_t>(p.sub_slot[i]);
+    while (!needed[c.slot]) c.slot = static_cast<std::size_t>(p.sub_parent_slot[c.slot]);
     c.top = p.top_parent[i] >= 0;
     if (c.top) {
-      const auto j = static_cast<std::size_t>(sd.model.segments[s]);
+      // The top joint's slot is given and fixed: its F composite is F's local rotation.
       c.parent_rot = joint_column(sd, fa, JointColumn::world_rotation,
                                   static_cast<std::size_t>(p.top_parent[i]));
-      c.pos = joint_column(sd, fa, JointColumn::position, j);
-      for (std::size_t a = 0; a < 3; ++a) c.com[a] = tb.field(s, a);
-      const Eigen::Quaterniond& lq = *p.sub_given[c.slot];
-      c.lq = f4(lq);
-      c.nlq = static_cast<float>(lq.coeffs().squaredNorm());
-      for (std::size_t a = 0; a < 3; ++a)
+      const Eigen::Vector3d lqc = p.sub_given[c.slot]->normalized() * p.top_com[i];
+      for (std::size_t a = 0; a < 3; ++a) {
         c.c[a] = static_cast<float>(p.top_com[i][static_cast<Eigen::Index>(a)]);
+        c.lq_c[a] = static_cast<float>(lqc[static_cast<Eigen::Index>(a)]);
+      }
       c.mg = static_cast<float>(p.top_mg[i]);
       c.mh = static_cast<float>(p.top_mh[i]);
     }
@@ -1595,6 +1604,7 @@ void partial_bounds_columns(const PartialBoundPlan& p, std::size_t g0, std::size
     const std::size_t n = std::min(W, g1 - g);
     for (std::size_t t = 0; t < p.col_slots.size(); ++t) {
       const PartialBoundPlan::ColumnSlot& sl = p.col_slots[t];
+      if (sl.lrot == nullptr) continue;
       float* __restrict mf = lanes + t * kSlot;
       float* __restrict nf = mf + 4 * W;
       float* __restrict mq = mf + 5 * W;
@@ -1667,35 +1677,35 @@ void partial_bounds_columns(const PartialBoundPlan& p, std::size_t g0, std::size
         for (std::size_t i = 0; i < n; ++i) acc[i] += kb[i];
         continue;
       }
-      // static_translation_h with Q_F's COM x_j(F) + R_p(F) L_Q c: the
-      // rotation q = R_p L_Q unnormalised, v = q c q* / |q|^2.
+      // static_translation_h with Q_F's COM x_j(F) + R_p(F) L_Q c against F's
+      // x_j(F) + R_p(F) L_F c: d = R_p (L_F c - L_Q c), so |d| = |L_F c - L_Q c|,
+      // and d_y needs R_p's rotation of that vector. L_F is the top slot's F
+      // composite (mf, unnormalised: v = q c q* / |q|^2), R_p unnormalised too.
+      // The stored COM and joint position agree with this to float rounding
+      // (~1e-6 m, ~1e-5 J here), covered by the engine's comparison slack.
       const float* __restrict rw = sg.parent_rot + g;
       const float* __restrict rx = rw + cs;
       const float* __restrict ry = rw + 2 * cs;
       const float* __restrict rz = rw + 3 * cs;
-      const float* __restrict px = sg.pos + g;
-      const float* __restrict py = px + cs;
-      const float* __restrict pz = px + 2 * cs;
-      const float* __restrict cx = sg.com[0] + g;
-      const float* __restrict cy = sg.com[1] + g;
-      const float* __restrict cz = sg.com[2] + g;
-      const float lw = sg.lq[0], lx = sg.lq[1], ly = sg.lq[2], lz = sg.lq[3];
       const float ox = sg.c[0], oy = sg.c[1], oz = sg.c[2];
       for (std::size_t i = 0; i < n; ++i) {
-        const float aw = rw[i], ax = rx[i], ay = ry[i], az = rz[i];
-        const float qw = aw * lw - ax * lx - ay * ly - az * lz;
-        const float qx = aw * lx + ax * lw + ay * lz - az * ly;
-        const float qy = aw * ly - ax * lz + ay * lw + az * lx;
-        const float qz = aw * lz + ax * ly - ay * lx + az * lw;
-        const float inv = 1.0f / ((aw * aw + ax * ax + ay * ay + az * az) * sg.nlq);
+        const float qw = mf[i], qx = mf[W + i], qy = mf[2 * W + i], qz = mf[3 * W + i];
         const float uu = qx * qx + qy * qy + qz * qz;
         const float uc = qx * ox + qy * oy + qz * oz;
         const float k0 = qw * qw - uu;
-        const float vx = (k0 * ox + 2.0f * uc * qx + 2.0f * qw * (qy * oz - qz * oy)) * inv;
-        const float vy = (k0 * oy + 2.0f * uc * qy + 2.0f * qw * (qz * ox - qx * oz)) * inv;
-        const float vz = (k0 * oz + 2.0f * uc * qz + 2.0f * qw * (qx * oy - qy * ox)) * inv;
-        const float dx = (cx[i] - px[i]) - vx, dy = (cy[i] - py[i]) - vy, dz = (cz[i] - pz[i]) - vz;
-        const float ku = sg.mh * (dx * dx + dy * dy + dz * dz);
+        const float inv = 1.0f / nf[i];
+        const float ex =
+            (k0 * ox + 2.0f * uc * qx + 2.0f * qw * (qy * oz - qz * oy)) * inv - sg.lq_c[0];
+        const float ey =
+            (k0 * oy + 2.0f * uc * qy + 2.0f * qw * (qz * ox - qx * oz)) * inv - sg.lq_c[1];
+        const float ez =
+            (k0 * oz + 2.0f * uc * qz + 2.0f * qw * (qx * oy - qy * ox)) * inv - sg.lq_c[2];
+        const float aw = rw[i], ax = rx[i], ay = ry[i], az = rz[i];
+        const float ae = ax * ex + ay * ey + az * ez;
+        const float dy = ((aw * aw - (ax * ax + ay * ay + az * az)) * ey + 2.0f * ae * ay +
+                          2.0f * aw * (az * ex - ax * ez)) /
+                         (aw * aw + ax * ax + ay * ay + az * az);
+        const float ku = sg.mh * (ex * ex + ey * ey + ez * ez);
         acc[i] += sg.mg * std::fabs(dy) + std::max(kb[i], 2.0f * ku - kb[i]);
       }
     }
