@@ -213,18 +213,19 @@ struct SkelData {
   std::vector<float> kd_own;
   // Frame arrays for partial queries (index arrays, loaded on first use; for a
   // query character the character-dependent ones are owned).
-  mutable std::once_flag frames_once, frames_all_once;
-  mutable FrameArrays fa{}, fa_all{};
+  mutable std::once_flag frames_once;
+  mutable FrameArrays fa{};
   std::vector<float> pos_own, com_own, vel_own;
   bool own_frames = false;
-  // Per-joint columns of those arrays for joint-rotation frames (their
+  // Per-joint columns of the frame arrays for joint-rotation frames (their
   // per-frame bound, partial_bounds_columns, and the subtree kernel,
   // subtree_energy_lanes): column kind * joints + joint holds the
   // joint's components (w x y z for rotations, x y z for positions) as rows
-  // of col_stride floats, one value per skeleton frame; built on first use
-  // (joint_column: a gather of the array-of-structures rows), then read-only.
+  // of col_stride floats, one value per skeleton frame. Made on first use
+  // (ensure_columns, under col_mutex: streamed from the index array, the
+  // array itself not kept), then read-only.
   std::size_t col_stride = 0;
-  mutable std::unique_ptr<std::once_flag[]> col_once;
+  mutable std::mutex col_mutex;
   mutable std::unique_ptr<std::unique_ptr<float[]>[]> cols;
   // The index's energy prefix sums of the skeleton's frames (Index::array
   // locks a mutex: fetched once, not per clip); null for a query character.
@@ -238,64 +239,81 @@ struct SkelData {
   mutable std::unique_ptr<search_detail::KnnIndex> flann;
 };
 
-// The frame arrays of skeleton k that every partial frame reads: joint
-// positions, world and local rotations (com, vel and angvel null; loaded
-// once). Joint-rotation frames (the subtree kernel, the per-frame bound)
-// need no more.
+// The frame arrays of skeleton k (loaded once): what
+// partial_approximate_energy reads through frame_ref, for partial frames that
+// move the whole body (a heading, a root position with joint rotations, a
+// root rotation). Joint-rotation frames read per-joint columns instead
+// (ensure_columns).
 const FrameArrays& frame_arrays(const Index& index, const SkelData& sd) {
   std::call_once(sd.frames_once, [&] {
     tbb::this_task_arena::isolate([&] {
       const std::uint32_t k = sd.k;
-      sd.fa.pos = sd.own_frames ? sd.pos_own.data()
-                                : index.array(k, "frames", "joint_positions_m").f32.data();
-      sd.fa.rot = index.array(k, "frames", "world_rotations").f32.data();
-      sd.fa.lrot = index.array(k, "frames", "local_rotations").f32.data();
+      sd.fa = {index.array(k, "frames", "joint_positions_m").f32.data(),
+               index.array(k, "frames", "world_rotations").f32.data(),
+               index.array(k, "frames", "segment_com_m").f32.data(),
+               index.array(k, "frames", "segment_com_velocity_mps").f32.data(),
+               index.array(k, "frames", "segment_angular_velocity_radps").f32.data(),
+               index.array(k, "frames", "local_rotations").f32.data()};
+      if (sd.own_frames) {
+        sd.fa.pos = sd.pos_own.data();
+        sd.fa.com = sd.com_own.data();
+        sd.fa.vel = sd.vel_own.data();
+      }
     });
   });
   return sd.fa;
-}
-
-// All frame arrays of skeleton k, with the segments' COM, velocities and
-// angular velocities (partial_approximate_energy through frame_ref: frames
-// that move the whole body; loaded once).
-const FrameArrays& frame_arrays_all(const Index& index, const SkelData& sd) {
-  const FrameArrays& base = frame_arrays(index, sd);
-  std::call_once(sd.frames_all_once, [&] {
-    tbb::this_task_arena::isolate([&] {
-      const std::uint32_t k = sd.k;
-      sd.fa_all = base;
-      sd.fa_all.com =
-          sd.own_frames ? sd.com_own.data() : index.array(k, "frames", "segment_com_m").f32.data();
-      sd.fa_all.vel = sd.own_frames
-                          ? sd.vel_own.data()
-                          : index.array(k, "frames", "segment_com_velocity_mps").f32.data();
-      sd.fa_all.angvel = index.array(k, "frames", "segment_angular_velocity_radps").f32.data();
-    });
-  });
-  return sd.fa_all;
 }
 
 // The frame-array columns of joint-rotation frames (SkelData::cols).
 enum class JointColumn : std::size_t { local_rotation = 0, world_rotation = 1, position = 2 };
 constexpr std::size_t kJointColumnKinds = 3;
 
-// Column `kind` of joint j of skeleton sd (fa: its frame arrays), gathered on
-// first use; thread-safe.
-const float* joint_column(const SkelData& sd, const FrameArrays& fa, JointColumn kind,
-                          std::size_t j) {
-  const std::size_t nj = sd.model.joint_count();
-  const std::size_t c = static_cast<std::size_t>(kind) * nj + j;
-  std::call_once(sd.col_once[c], [&] {
-    const std::size_t n = sd.sk->frame_count, w = kind == JointColumn::position ? 3 : 4;
-    const float* src = kind == JointColumn::local_rotation   ? fa.lrot
-                       : kind == JointColumn::world_rotation ? fa.rot
-                                                             : fa.pos;
-    auto col = std::make_unique_for_overwrite<float[]>(w * sd.col_stride);
-    for (std::size_t g = 0; g < n; ++g)
-      for (std::size_t a = 0; a < w; ++a) col[a * sd.col_stride + g] = src[(g * nj + j) * w + a];
-    sd.cols[c] = std::move(col);
-  });
-  return sd.cols[c].get();
+// Makes columns `kind` of `joints` of skeleton sd available: one pass over
+// the index array streams in the rows (Index::stream_rows: blocks of 8,192
+// frames, checksum compared) and keeps the missing joints' columns; a query
+// character's positions come from its own array. Thread-safe.
+void ensure_columns(const Index& index, const SkelData& sd, JointColumn kind,
+                    const std::vector<std::size_t>& joints) {
+  const std::size_t nj = sd.model.joint_count(), n = sd.sk->frame_count;
+  const std::size_t w = kind == JointColumn::position ? 3 : 4;
+  const std::size_t base = static_cast<std::size_t>(kind) * nj;
+  std::lock_guard lock(sd.col_mutex);
+  std::vector<std::size_t> missing;
+  for (std::size_t j : joints)
+    if (!sd.cols[base + j] && std::find(missing.begin(), missing.end(), j) == missing.end())
+      missing.push_back(j);
+  if (missing.empty()) return;
+  std::vector<float*> out;
+  for (std::size_t j : missing) {
+    sd.cols[base + j] = std::make_unique_for_overwrite<float[]>(w * sd.col_stride);
+    out.push_back(sd.cols[base + j].get());
+  }
+  auto take = [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+    for (std::size_t m = 0; m < missing.size(); ++m)
+      for (std::size_t a = 0; a < w; ++a) {
+        float* col = out[m] + a * sd.col_stride + first;
+        const float* src = rows + missing[m] * w + a;
+        for (std::size_t i = 0; i < count; ++i) col[i] = src[i * nj * w];
+      }
+  };
+  try {
+    if (kind == JointColumn::position && sd.own_frames) {
+      take(0, n, sd.pos_own.data());
+    } else {
+      const char* field = kind == JointColumn::local_rotation   ? "local_rotations"
+                          : kind == JointColumn::world_rotation ? "world_rotations"
+                                                                : "joint_positions_m";
+      index.stream_rows(sd.k, "frames", field, 8192, take);
+    }
+  } catch (...) {
+    for (std::size_t j : missing) sd.cols[base + j].reset();  // never half-made
+    throw;
+  }
+}
+
+// Column `kind` of joint j of skeleton sd (after ensure_columns).
+const float* joint_column(const SkelData& sd, JointColumn kind, std::size_t j) {
+  return sd.cols[static_cast<std::size_t>(kind) * sd.model.joint_count() + j].get();
 }
 
 // The FLANN forest of skeleton sd's frame features (approx mode), built once
@@ -361,7 +379,6 @@ void init_skel_data(const Index& index, std::uint32_t k, DynamicsModel model, Sk
   sd.padded = (sd.segments + 7) / 8 * 8;
   sd.segment_of_joint.assign(sd.model.joint_count(), -1);
   sd.col_stride = (sd.sk->frame_count + 15) / 16 * 16;
-  sd.col_once = std::make_unique<std::once_flag[]>(kJointColumnKinds * sd.model.joint_count());
   sd.cols =
       std::make_unique<std::unique_ptr<float[]>[]>(kJointColumnKinds * sd.model.joint_count());
   for (int b : sd.model.segments) {
@@ -1357,7 +1374,7 @@ void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, do
     subtree_energy(q, sd, g0, g1, out, sc, skip);
     return;
   }
-  const FrameArrays& fa = frame_arrays_all(index, sd);
+  const FrameArrays& fa = frame_arrays(index, sd);
   for (std::size_t i = 0; i < n; ++i) {
     if (skip != nullptr && skip[i]) continue;
     const FrameRef r = frame_ref(sd, fa, g0 + i, sc, q.need_joints, q.local_joints);
@@ -1486,7 +1503,7 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
 
 // For a plan of joint rotations only: the columns and float constants
 // partial_bounds_columns reads (the frame columns are gathered on first use).
-void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa) {
+void attach_columns(PartialBoundPlan& p, const SkelData& sd, const Index& index) {
   if (p.whole || p.heading || p.com_term || p.sub_joints.empty()) return;
   const HScanTable& tb = sd.table;
   auto f4 = [](const Eigen::Quaterniond& q) {
@@ -1505,11 +1522,18 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& 
     if (needed[t] && p.sub_parent_slot[t] >= 0)
       needed[static_cast<std::size_t>(p.sub_parent_slot[t])] = 1;
   }
+  std::vector<std::size_t> lrot_joints, rot_joints;
+  for (std::size_t t = 0; t < ns; ++t)
+    if (needed[t]) lrot_joints.push_back(static_cast<std::size_t>(p.sub_joints[t]));
+  for (int par : p.top_parent)
+    if (par >= 0) rot_joints.push_back(static_cast<std::size_t>(par));
+  ensure_columns(index, sd, JointColumn::local_rotation, lrot_joints);
+  ensure_columns(index, sd, JointColumn::world_rotation, rot_joints);
   for (std::size_t t = 0; t < ns; ++t) {
     PartialBoundPlan::ColumnSlot c;
     if (needed[t])
-      c.lrot = joint_column(sd, fa, JointColumn::local_rotation,
-                            static_cast<std::size_t>(p.sub_joints[t]));
+      c.lrot =
+          joint_column(sd, JointColumn::local_rotation, static_cast<std::size_t>(p.sub_joints[t]));
     c.parent = p.sub_parent_slot[t];
     c.mq_mode = p.mq_fixed[t] ? 0 : p.sub_given[t] != nullptr ? 1 : 2;
     // A subtree's top joint is given (the subtrees are those of given joints).
@@ -1541,8 +1565,8 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const FrameArrays& 
     c.top = p.top_parent[i] >= 0;
     if (c.top) {
       // The top joint's slot is given and fixed: its F composite is F's local rotation.
-      c.parent_rot = joint_column(sd, fa, JointColumn::world_rotation,
-                                  static_cast<std::size_t>(p.top_parent[i]));
+      c.parent_rot =
+          joint_column(sd, JointColumn::world_rotation, static_cast<std::size_t>(p.top_parent[i]));
       const Eigen::Vector3d lqc = p.sub_given[c.slot]->normalized() * p.top_com[i];
       for (std::size_t a = 0; a < 3; ++a) {
         c.c[a] = static_cast<float>(p.top_com[i][static_cast<Eigen::Index>(a)]);
@@ -1839,11 +1863,12 @@ void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkelData& s
 }
 
 // Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out: from
-// the columns where the plan has them (attach_columns), else the reference.
-void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays& fa,
+// the columns where the plan has them (attach_columns), else the reference
+// (fa: the frame arrays, frame_arrays_all).
+void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays* fa,
                           std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
   if (p.col_segs.empty()) {
-    partial_frame_bounds_reference(p, sd, fa, g0, g1, out, sc);
+    partial_frame_bounds_reference(p, sd, *fa, g0, g1, out, sc);
     return;
   }
   sc.lanes.resize(p.col_slots.size() * 10 * kBoundLanes);
@@ -1896,12 +1921,21 @@ void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, const Index& index, 
     slot[j] = static_cast<int>(q.subtree.size());
     q.subtree.push_back(sj);
   }
-  const FrameArrays& fa = frame_arrays(index, sd);
+  std::vector<std::size_t> rot_joints, lrot_joints, pos_joints;
+  for (const ResolvedFrame::SubtreeJoint& sj : q.subtree) {
+    rot_joints.push_back(sj.parent);
+    if (!sj.given) lrot_joints.push_back(sj.joint);
+    pos_joints.push_back(sj.joint);
+    if (sj.parent_slot >= 0) pos_joints.push_back(sj.parent);
+  }
+  ensure_columns(index, sd, JointColumn::world_rotation, rot_joints);
+  ensure_columns(index, sd, JointColumn::local_rotation, lrot_joints);
+  ensure_columns(index, sd, JointColumn::position, pos_joints);
   for (ResolvedFrame::SubtreeJoint& sj : q.subtree) {
-    sj.parent_rot = joint_column(sd, fa, JointColumn::world_rotation, sj.parent);
-    if (!sj.given) sj.lrot = joint_column(sd, fa, JointColumn::local_rotation, sj.joint);
-    sj.pos = joint_column(sd, fa, JointColumn::position, sj.joint);
-    if (sj.parent_slot >= 0) sj.parent_pos = joint_column(sd, fa, JointColumn::position, sj.parent);
+    sj.parent_rot = joint_column(sd, JointColumn::world_rotation, sj.parent);
+    if (!sj.given) sj.lrot = joint_column(sd, JointColumn::local_rotation, sj.joint);
+    sj.pos = joint_column(sd, JointColumn::position, sj.joint);
+    if (sj.parent_slot >= 0) sj.parent_pos = joint_column(sd, JointColumn::position, sj.parent);
   }
   const double half_inv_t2 = 0.5 / (t * t);
   for (int jj : pq.affected_joints) {
@@ -2800,8 +2834,9 @@ struct QueryRunner {
       for (std::size_t i = 0; i < q.frames.size(); ++i) {
         if (resolved[k][i].kind != FrameKind::partial || n == 0) continue;
         PartialBoundPlan plan = make_partial_bound_plan(resolved[k][i], sd, q.transition_time_s);
-        const FrameArrays& fa = frame_arrays(*eng.index, sd);
-        attach_columns(plan, sd, fa);
+        attach_columns(plan, sd, *eng.index);
+        // The reference (frames the columns do not serve) reads the frame arrays.
+        const FrameArrays* fa = plan.col_segs.empty() ? &frame_arrays(*eng.index, sd) : nullptr;
         std::vector<double>& out = frame_lb[k][i];
         out.resize(n);
         auto chunk = [&](std::size_t g0, std::size_t g1) {
@@ -3301,8 +3336,8 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
     const FrameArrays& fa = frame_arrays(*m.index, sd);
     if (partial_reference != nullptr)
       partial_frame_bounds_reference(plan, sd, fa, 0, n, partial_reference->data(), sc);
-    attach_columns(plan, sd, fa);
-    partial_frame_bounds(plan, sd, fa, 0, n, lower.data(), sc);
+    attach_columns(plan, sd, *m.index);
+    partial_frame_bounds(plan, sd, &fa, 0, n, lower.data(), sc);
   }
   if (partial_lower != nullptr) *partial_lower = lower;
   const BoundQuery bq = make_bound_query(f, sd);
@@ -3407,27 +3442,23 @@ std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
   return {std::move(e)};
 }
 
-void SearchEngine::prepare(const SearchOptions& options, bool partial_frames,
-                           bool whole_body_frames) const {
+void SearchEngine::prepare(const SearchOptions& options, bool whole_body_frames) const {
   for (const auto& sd : impl_->skels) {
-    if (whole_body_frames)
-      frame_arrays_all(*impl_->index, *sd);
-    else if (partial_frames)
-      frame_arrays(*impl_->index, *sd);
+    if (whole_body_frames) frame_arrays(*impl_->index, *sd);
     if (options.mode == SearchMode::approx) ensure_forest(*impl_->index, *sd, options);
   }
 }
 
 namespace {
-// Which frame arrays a query frame reads: the positions and rotations
-// (partial frames other than root positions alone: joint rotations, a
-// heading), and all of them (frames surely moving the whole body other than
-// by a root position alone: a heading, or a root position with joint
-// rotations; partial_approximate_energy). A frame giving joint rotations
-// alone moves the whole body when one is the root's: the other arrays are
-// then loaded on first use.
-std::pair<bool, bool> frame_arrays_read(const QueryFrameSpec& f) {
-  if (f.bvh && f.only.empty()) return {false, false};
+// Whether a query frame surely moves the whole body other than by a root
+// position alone (a heading, or a root position with joint rotations), so
+// that partial_approximate_energy reads the frame arrays. A frame giving
+// joint rotations alone moves the whole body when one is the root's: the
+// arrays are then loaded on first use. Full frames, root positions alone and
+// joint rotations alone read none (joint rotations: per-joint columns,
+// streamed on first use).
+bool reads_frame_arrays(const QueryFrameSpec& f) {
+  if (f.bvh && f.only.empty()) return false;
   bool root_position = false, heading = f.root_heading_deg.has_value(), joints = !f.joints.empty();
   for (const auto& c : f.root_position_m) root_position = root_position || c.has_value();
   for (const std::string& o : f.only) {
@@ -3438,23 +3469,19 @@ std::pair<bool, bool> frame_arrays_read(const QueryFrameSpec& f) {
     else
       joints = true;
   }
-  return {heading || joints, heading || (root_position && joints)};
+  return heading || (root_position && joints);
 }
 }  // namespace
 
 std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
     const std::function<void(std::size_t, std::size_t)>& progress) {
-  // A frame that is not a whole BVH frame is partial (or may be, per skeleton).
-  bool partial = false, whole_body = false;
+  bool whole_body = false;
   for (const BatchEntry& e : batch)
     if (e.query)
-      for (const QueryFrameSpec& f : e.query->frames) {
-        const auto [p, w] = frame_arrays_read(f);
-        partial = partial || p;
-        whole_body = whole_body || w;
-      }
-  engine.prepare(options, partial, whole_body);
+      for (const QueryFrameSpec& f : e.query->frames)
+        whole_body = whole_body || reads_frame_arrays(f);
+  engine.prepare(options, whole_body);
   std::vector<QueryOutcome> out(batch.size());
   std::mutex progress_mutex;
   std::size_t done = 0;
