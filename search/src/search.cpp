@@ -1505,6 +1505,12 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
 // partial_bounds_columns reads (the frame columns are gathered on first use).
 void attach_columns(PartialBoundPlan& p, const SkelData& sd, const Index& index) {
   if (p.whole || p.heading || p.com_term || p.sub_joints.empty()) return;
+  // A subtree's top joint is given (the subtrees are those of given joints),
+  // and every listed segment lies in a subtree: else the reference serves.
+  for (std::size_t t = 0; t < p.sub_joints.size(); ++t)
+    if (p.sub_parent_slot[t] < 0 && !p.mq_fixed[t]) return;
+  for (int sl : p.sub_slot)
+    if (sl < 0) return;
   const HScanTable& tb = sd.table;
   auto f4 = [](const Eigen::Quaterniond& q) {
     return std::array<float, 4>{static_cast<float>(q.w()), static_cast<float>(q.x()),
@@ -1536,11 +1542,6 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const Index& index)
           joint_column(sd, JointColumn::local_rotation, static_cast<std::size_t>(p.sub_joints[t]));
     c.parent = p.sub_parent_slot[t];
     c.mq_mode = p.mq_fixed[t] ? 0 : p.sub_given[t] != nullptr ? 1 : 2;
-    // A subtree's top joint is given (the subtrees are those of given joints).
-    if (c.parent < 0 && c.mq_mode != 0) {
-      p.col_slots.clear();
-      return;
-    }
     if (p.sub_given[t] != nullptr) {
       c.given = f4(*p.sub_given[t]);
       c.ngiven = static_cast<float>(p.sub_given[t]->coeffs().squaredNorm());
@@ -1555,11 +1556,6 @@ void attach_columns(PartialBoundPlan& p, const SkelData& sd, const Index& index)
     c.kb = tb.field(s, 3);
     c.kr = tb.field(s, 8);
     c.rot_coef = static_cast<float>(p.rot_coef[i]);
-    if (p.sub_slot[i] < 0) {  // not in a given subtree: not this plan
-      p.col_slots.clear();
-      p.col_segs.clear();
-      return;
-    }
     c.slot = static_cast<std::size_t>(p.sub_slot[i]);
     while (!needed[c.slot]) c.slot = static_cast<std::size_t>(p.sub_parent_slot[c.slot]);
     c.top = p.top_parent[i] >= 0;
