@@ -16,6 +16,7 @@
 #include <string>
 
 #include "mocap/error.hpp"
+#include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
 #include "mocap/query.hpp"
 #include "mocap/query_pose.hpp"
@@ -742,6 +743,50 @@ TEST(Search, PartialBoundColumnsEqualReferenceSet1) {
   std::printf(
       "partial bound, columns vs reference: worst relative difference %.3g over %zu frames\n",
       worst, checked);
+}
+
+// Joint-rotation frames stream columns of the frame arrays on first use
+// (ensure_columns): a damaged local_rotations array fails those queries with
+// the dataset named, every time (no half-made column is kept), while the
+// engine loads and full-frame queries of the same batch are answered.
+TEST(Search, DamagedFrameArrayFailsOnlyTheQueriesReadingIt) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const fs::path copy = test::temp_dir("search-damaged") / "set1.h5";
+  fs::copy_file(set1_index(), copy, fs::copy_options::overwrite_existing);
+  {
+    h5::File f = h5::File::open(copy, true);
+    h5::Dataset d =
+        f.root().open_group("skeletons").open_group("0").open_group("frames").open_dataset(
+            "local_rotations");
+    std::vector<float> v = d.read_all<float>();
+    v[v.size() / 3] = -v[v.size() / 3] + 0.5f;
+    d.write_all<float>(v);
+    f.close();
+  }
+  seal_index_file(copy);
+  const Index index = Index::open(copy);
+  const SearchEngine engine(index);
+  std::mt19937 rng(5);
+  const std::string a = random_bvh_frame(index, rng), b = random_bvh_frame(index, rng);
+  const std::string arm = ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]";
+  const std::vector<BatchEntry> batch = {
+      {"full", parse("{\"id\": \"full\", \"frames\": [{" + a + "}, {" + b + "}]}"), ""},
+      {"arm", parse("{\"id\": \"arm\", \"frames\": [{" + a + arm + "}, {" + b + arm + "}]}"), ""}};
+  SearchOptions opt;
+  // Three rounds: a query frame streams its columns in two requests (the
+  // kernel's joints, then the bound's), so a kept half-made column would let
+  // the third round through.
+  for (int round = 0; round < 3; ++round) {
+    const auto out = run_query_batch(engine, batch, opt);
+    ASSERT_EQ(out.size(), 2u);
+    EXPECT_FALSE(out[0].error.has_value()) << *out[0].error;
+    EXPECT_FALSE(out[0].pairs.empty());
+    ASSERT_TRUE(out[1].error.has_value()) << "round " << round;
+    EXPECT_NE(out[1].error->find("/skeletons/0/frames/local_rotations: checksum mismatch"),
+              std::string::npos)
+        << *out[1].error;
+  }
 }
 
 // A query character (tables recomputed from the stored poses) ranks and
