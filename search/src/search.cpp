@@ -1502,7 +1502,7 @@ PartialBoundPlan make_partial_bound_plan(const ResolvedFrame& q, const SkelData&
 }
 
 // For a plan of joint rotations only: the columns and float constants
-// partial_bounds_columns reads (the frame columns are gathered on first use).
+// partial_bounds_columns reads (the frame columns are streamed on first use).
 void attach_columns(PartialBoundPlan& p, const SkelData& sd, const Index& index) {
   if (p.whole || p.heading || p.com_term || p.sub_joints.empty()) return;
   // A subtree's top joint is given (the subtrees are those of given joints),
@@ -1860,7 +1860,7 @@ void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkelData& s
 
 // Lower bound of h(Q_F -> F) for skeleton frames [g0, g1) into out: from
 // the columns where the plan has them (attach_columns), else the reference
-// (fa: the frame arrays, frame_arrays_all).
+// (fa: the frame arrays, frame_arrays).
 void partial_frame_bounds(const PartialBoundPlan& p, const SkelData& sd, const FrameArrays* fa,
                           std::size_t g0, std::size_t g1, double* out, Scratch& sc) {
   if (p.col_segs.empty()) {
@@ -1920,7 +1920,9 @@ void set_subtree_plan(ResolvedFrame& q, const SkelData& sd, const Index& index, 
   std::vector<std::size_t> rot_joints, lrot_joints, pos_joints;
   for (const ResolvedFrame::SubtreeJoint& sj : q.subtree) {
     rot_joints.push_back(sj.parent);
-    if (!sj.given) lrot_joints.push_back(sj.joint);
+    // Given joints too: the per-frame bound (attach_columns) reads F's local
+    // rotation of those, and one pass over the array serves both.
+    lrot_joints.push_back(sj.joint);
     pos_joints.push_back(sj.joint);
     if (sj.parent_slot >= 0) pos_joints.push_back(sj.parent);
   }

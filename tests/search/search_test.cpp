@@ -774,9 +774,7 @@ TEST(Search, DamagedFrameArrayFailsOnlyTheQueriesReadingIt) {
       {"full", parse("{\"id\": \"full\", \"frames\": [{" + a + "}, {" + b + "}]}"), ""},
       {"arm", parse("{\"id\": \"arm\", \"frames\": [{" + a + arm + "}, {" + b + arm + "}]}"), ""}};
   SearchOptions opt;
-  // Three rounds: a query frame streams its columns in two requests (the
-  // kernel's joints, then the bound's), so a kept half-made column would let
-  // the third round through.
+  // Three rounds: a kept half-made column would let a later round through.
   for (int round = 0; round < 3; ++round) {
     const auto out = run_query_batch(engine, batch, opt);
     ASSERT_EQ(out.size(), 2u);
