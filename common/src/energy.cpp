@@ -480,13 +480,13 @@ void root_scan_kernel(const float* __restrict values, const float* __restrict ro
 
 }  // namespace
 
-void scan_approximate_energy(const HScanTable& table, const HScanQuery& query, std::size_t begin,
+void scan_approximate_energy(const HScanView& table, const HScanQuery& query, std::size_t begin,
                              std::size_t end, float* out) {
   if (query.segment_count != table.segment_count)
     throw std::invalid_argument("scan query and table were made for different character models");
   if (begin > end || end > table.frame_count)
     throw std::out_of_range("scan frame range out of the table");
-  scan_kernel(table.values.data(), table.stride, table.segment_count, query.constants.data(), begin,
+  scan_kernel(table.values, table.stride, table.segment_count, query.constants.data(), begin,
               end - begin, out);
 }
 
@@ -508,14 +508,14 @@ HScanRootQuery make_h_scan_root_query(const DynamicsModel& model,
   return q;
 }
 
-void scan_root_translation_energy(const HScanTable& table, const HScanRootQuery& query,
+void scan_root_translation_energy(const HScanView& table, const HScanRootQuery& query,
                                   std::size_t begin, std::size_t end, float* out) {
   if (query.masses.size() != table.segment_count)
     throw std::invalid_argument("scan query and table were made for different character models");
   if (begin > end || end > table.frame_count)
     throw std::out_of_range("scan frame range out of the table");
-  root_scan_kernel(table.values.data(), table.root_positions.data(), table.stride,
-                   table.segment_count, query.masses.data(), query, begin, end - begin, out);
+  root_scan_kernel(table.values, table.root_positions, table.stride, table.segment_count,
+                   query.masses.data(), query, begin, end - begin, out);
 }
 
 std::vector<NamedEnergyTerm> energy_term_names(const DynamicsModel& model) {

@@ -15,6 +15,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -32,6 +33,7 @@
 #include "mocap/energy.hpp"
 #include "mocap/error.hpp"
 #include "mocap/half.hpp"
+#include "mocap/memory.hpp"
 #include "mocap/newton_euler.hpp"
 #include "resolve.hpp"
 
@@ -167,10 +169,20 @@ struct SkelData {
   std::vector<int> segment_of_joint;     // joint -> segment index, -1 if massless
   std::vector<ClipInfo> clips;           // by row
   std::vector<std::uint32_t> frame_row;  // skeleton frame -> clip row
-  // The scan table again, one small table per 16-frame block (the blocks of
+  // The scan table again, one tile per 16-frame block (the blocks of
   // block_bounds): a block's 16 x S x 9 values are contiguous, so scanning a
-  // block reads 12 KB in one stream instead of S x 9 rows far apart.
-  std::vector<HScanTable> tiles;
+  // block reads 12 KB in one stream instead of S x 9 rows far apart. Block
+  // `row`'s tile is HScanTable's layout with stride kBlock at
+  // tile_values[tile_offset + row * tile_floats] (64-byte aligned, on huge
+  // pages: assign_huge), its root rows at tile_roots[root_offset + row * 3 kBlock].
+  std::vector<float> tile_values, tile_roots;
+  std::size_t tile_floats = 0, tile_offset = 0, root_offset = 0;
+  // Block `row`'s tile, `frames` frames of it (<= kBlock).
+  HScanView tile(std::size_t row, std::size_t frames) const {
+    return {tile_values.data() + tile_offset + row * tile_floats,
+            tile_roots.data() + root_offset + row * 3 * kBlock, frames, kBlock,
+            model.segments.size()};
+  }
   // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules
   // (clip_bounds and clip_root only while the tables are built: clip_soa holds them).
   // The blocks' rows are kept as IEEE half floats rounded outwards (block_box:
@@ -442,9 +454,20 @@ void build_bound_tables(SkelData& sd) {
   sd.block_root.assign(blocks * 6, 0.0f);
   sd.clip_bounds.assign(sd.clips.size() * w, 0.0f);
   sd.clip_root.assign(sd.clips.size() * 6, 0.0f);
-  sd.tiles.assign(blocks, HScanTable{});
-  sd.sketch.assign(blocks * kSketchFields * kBlock, 0.0f);
-  sd.chain_sketch.assign(blocks * sd.chains * kSketchFields * kBlock, 0.0f);
+  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
+  constexpr std::size_t kLine = 64 / sizeof(float);
+  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
+  auto line_offset = [](const std::vector<float>& v) {
+    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
+    return (kLine - a % kLine) % kLine;
+  };
+  sd.tile_floats = real * HScanTable::kFields * kBlock;
+  assign_huge(sd.tile_values, blocks * sd.tile_floats + kLine, 0.0f);
+  assign_huge(sd.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
+  sd.tile_offset = line_offset(sd.tile_values);
+  sd.root_offset = line_offset(sd.tile_roots);
+  assign_huge(sd.sketch, blocks * kSketchFields * kBlock, 0.0f);
+  assign_huge(sd.chain_sketch, blocks * sd.chains * kSketchFields * kBlock, 0.0f);
   const HScanTable& tb = sd.table;
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
@@ -483,16 +506,18 @@ void build_bound_tables(SkelData& sd) {
       init(row, root);
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
-      HScanTable& tile = sd.tiles[ci.block_start + bl];
-      init_h_scan_table(sd.model, g1 - g0, tile);
+      float* tile_values =
+          sd.tile_values.data() + sd.tile_offset + (ci.block_start + bl) * sd.tile_floats;
+      float* tile_roots =
+          sd.tile_roots.data() + sd.root_offset + (ci.block_start + bl) * 3 * kBlock;
       for (std::size_t f = 0; f < real * HScanTable::kFields; ++f)
         std::copy(tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g0),
                   tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g1),
-                  tile.values.begin() + static_cast<std::ptrdiff_t>(f * tile.stride));
+                  tile_values + f * kBlock);
       for (std::size_t a = 0; a < 3; ++a)
         std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
                   tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
-                  tile.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tile.stride));
+                  tile_roots + a * kBlock);
       float* sketch = sd.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
       float* chain =
           sd.chain_sketch.data() + (ci.block_start + bl) * sd.chains * kSketchFields * kBlock;
@@ -532,7 +557,7 @@ void build_bound_tables(SkelData& sd) {
     }
   });
   // The blocks' rows as halves rounded outwards; the float rows are not needed any more.
-  sd.block_box.resize(sd.block_bounds.size());
+  assign_huge(sd.block_box, sd.block_bounds.size(), std::uint16_t{0});
   tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t row) {
     for (std::size_t i = 0; i < w; ++i)
       sd.block_box[row * w + i] =
@@ -1328,11 +1353,11 @@ void subtree_energy(const ResolvedFrame& q, const SkelData& sd, std::size_t g0, 
 void evaluate(const ResolvedFrame& q, const SkelData& sd, const Index& index, double t,
               std::size_t g0, std::size_t g1, double* out, Scratch& sc,
               const std::optional<Eigen::Vector2d>& xz = std::nullopt,
-              const std::uint8_t* skip = nullptr, const HScanTable* tile = nullptr) {
+              const std::uint8_t* skip = nullptr, const HScanView* tile = nullptr) {
   const std::size_t n = g1 - g0;
   if (n == 0) return;
   // A whole block in world mode: scan its tile (same values, contiguous).
-  const HScanTable& table = tile != nullptr && !xz ? *tile : sd.table;
+  const HScanView table = tile != nullptr && !xz ? *tile : sd.table.view();
   const std::size_t b0 = tile != nullptr && !xz ? 0 : g0;
   if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
     sc.fbuf.resize(n);
@@ -2251,8 +2276,9 @@ void scan_whole_chunk(const PairContext& c, const ClipInfo& ci, const ResolvedFr
       return;
     }
   }
+  const HScanView tile = sd.tile(row, f1 - f0);
   evaluate(q, sd, *c.eng->index, c.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0, sc,
-           std::nullopt, nullptr, &sd.tiles[row]);
+           std::nullopt, nullptr, &tile);
   cnt.evaluated += f1 - f0;
   if (cd != nullptr) {
     std::copy(dst + f0, dst + f1, cv + f0);
@@ -3379,8 +3405,9 @@ void SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_t k,
           if (chain_lower != nullptr) (*chain_lower)[g] = chain[l];
         }
       }
+      const HScanView tile = sd.tile(row, g1 - g0);
       evaluate(f, sd, *m.index, q.transition_time_s, g0, g1, h.data() + g0, sc, std::nullopt,
-               nullptr, &sd.tiles[row]);
+               nullptr, &tile);
     }
   if (engine_h != nullptr) {
     *engine_h = h;

@@ -392,6 +392,52 @@ TEST(HScan, AgreesWithReferenceForStaticAndMovingQueries) {
   EXPECT_THROW(scan_approximate_energy(table, self, 10, frames + 1, out.data()), std::out_of_range);
 }
 
+// A view of blocks copied out of a table (the search engine's tiles: stride
+// 16, rows elsewhere) scans to the very values of the table.
+TEST(HScan, ViewOfCopiedBlocksEqualsTheTable) {
+  const auto t = make_test_body();
+  std::mt19937 rng(12);
+  const std::size_t frames = 37;  // two whole blocks and a short one
+  HScanTable table;
+  init_h_scan_table(t.model, frames, table);
+  for (std::size_t f = 0; f < frames; ++f)
+    set_h_scan_frame(t.model, random_state(t, rng, 1.5, 2.0).view(), f, table);
+  const std::size_t rows = table.segment_count * HScanTable::kFields;
+  std::vector<float> all(frames), part(16);
+  for (int qi = 0; qi < 3; ++qi) {
+    const BodyState q = random_state(t, rng, 1.5, 2.0);
+    const HScanQuery hq = make_h_scan_query(t.model, q.view(), 0.5);
+    PartialPoseSpec s;
+    s.root_position_m = {0.2 * qi, std::nullopt, 0.1};
+    const HScanRootQuery rq = make_h_scan_root_query(t.model, s.root_position_m, 0.5);
+    for (int root = 0; root < 2; ++root) {
+      if (root == 0)
+        scan_approximate_energy(table, hq, 0, frames, all.data());
+      else
+        scan_root_translation_energy(table, rq, 0, frames, all.data());
+      for (std::size_t g0 = 0; g0 < frames; g0 += 16) {
+        const std::size_t n = std::min<std::size_t>(16, frames - g0);
+        // Garbage in the unused frames of the block: never read.
+        std::vector<float> values(rows * 16, 1e30f), roots(3 * 16, 1e30f);
+        for (std::size_t r = 0; r < rows; ++r)
+          std::copy_n(table.values.begin() + static_cast<std::ptrdiff_t>(r * table.stride + g0), n,
+                      values.begin() + static_cast<std::ptrdiff_t>(r * 16));
+        for (std::size_t a = 0; a < 3; ++a)
+          std::copy_n(
+              table.root_positions.begin() + static_cast<std::ptrdiff_t>(a * table.stride + g0), n,
+              roots.begin() + static_cast<std::ptrdiff_t>(a * 16));
+        const HScanView view{values.data(), roots.data(), n, 16, table.segment_count};
+        if (root == 0)
+          scan_approximate_energy(view, hq, 0, n, part.data());
+        else
+          scan_root_translation_energy(view, rq, 0, n, part.data());
+        for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(part[i], all[g0 + i]) << qi << " " << g0 + i;
+        EXPECT_THROW(scan_approximate_energy(view, hq, 0, n + 1, part.data()), std::out_of_range);
+      }
+    }
+  }
+}
+
 TEST(HScan, LargeRotationsAreAccurate) {
   // Rotations up to pi: the polynomial for theta^2 / sin^2(theta/2) covers [0, 1].
   const Skeleton s = test::make_skeleton({"a"}, {-1}, {{0, 0, 0}});

@@ -182,7 +182,23 @@ struct HScanTable {
   const float* field(std::size_t segment, std::size_t k) const {
     return values.data() + (segment * kFields + k) * stride;
   }
+  /// The table as a view (below).
+  struct HScanView view() const;
 };
+
+/// HScanTable's layout over storage kept elsewhere (one block of a larger
+/// array, say): the same fields, rows of `stride` floats; read-only.
+struct HScanView {
+  const float* values = nullptr;          // segment_count * kFields rows
+  const float* root_positions = nullptr;  // 3 rows
+  std::size_t frame_count = 0;
+  std::size_t stride = 0;
+  std::size_t segment_count = 0;
+};
+
+inline HScanView HScanTable::view() const {
+  return {values.data(), root_positions.data(), frame_count, stride, segment_count};
+}
 
 /// Allocates a zeroed table for `frame_count` frames.
 void init_h_scan_table(const DynamicsModel& model, std::size_t frame_count, HScanTable& table);
@@ -222,8 +238,12 @@ HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
                              double transition_time_s);
 /// out[i] = h(query, frame begin + i) for frames [begin, end), joules (float).
 /// Agrees with approximate_energy to float precision (test).
-void scan_approximate_energy(const HScanTable& table, const HScanQuery& query, std::size_t begin,
+void scan_approximate_energy(const HScanView& table, const HScanQuery& query, std::size_t begin,
                              std::size_t end, float* out);
+inline void scan_approximate_energy(const HScanTable& table, const HScanQuery& query,
+                                    std::size_t begin, std::size_t end, float* out) {
+  scan_approximate_energy(table.view(), query, begin, end, out);
+}
 
 /// A partial query giving only root position components (no heading, no joint
 /// rotations): Q_F is F translated by delta = given components of
@@ -239,8 +259,12 @@ struct HScanRootQuery {
 HScanRootQuery make_h_scan_root_query(const DynamicsModel& model,
                                       const std::array<std::optional<double>, 3>& root_position_m,
                                       double transition_time_s);
-void scan_root_translation_energy(const HScanTable& table, const HScanRootQuery& query,
+void scan_root_translation_energy(const HScanView& table, const HScanRootQuery& query,
                                   std::size_t begin, std::size_t end, float* out);
+inline void scan_root_translation_energy(const HScanTable& table, const HScanRootQuery& query,
+                                         std::size_t begin, std::size_t end, float* out) {
+  scan_root_translation_energy(table.view(), query, begin, end, out);
+}
 
 // ---------------------------------------------------------------------------
 // Naming terms (reports, the energy command)
