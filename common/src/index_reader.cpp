@@ -635,11 +635,13 @@ void Index::stream_rows(
       row_elements(as.spec.shape, s.skeleton.joint_count(), s.segments.size());
   rows_per_block = std::max<std::uint64_t>(rows_per_block, 1);
   std::optional<h5::Dataset> d;
-  std::string expected;
+  std::string expected, file, where;
   {
     std::lock_guard lib(h5::library_mutex());
     d.emplace(open_array(impl_->file, s, skeleton, group, field, as));
     expected = d->string_attribute("checksum_xxh64");
+    file = d->file();
+    where = d->path();
   }
   // The dataset closes under the library mutex, also when fn throws.
   struct Close {
@@ -661,10 +663,9 @@ void Index::stream_rows(
     h.update(buf.data(), buf.size() * sizeof(float));
     fn(r, n, buf.data());
   }
+  // The same message as array()'s.
   if (hex64(h.digest()) != expected)
-    throw InputError(impl_->path.string(), 0,
-                     "/skeletons/" + std::to_string(skeleton) + "/" + std::string(group) + "/" +
-                         std::string(field) + ": checksum mismatch (the index is damaged)");
+    throw InputError(file, 0, where + ": checksum mismatch (the index is damaged)");
 }
 
 std::span<const float> Index::clip_frames(std::size_t clip, std::string_view field) const {

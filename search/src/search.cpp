@@ -1442,8 +1442,8 @@ struct PartialBoundPlan {
   // Joint rotations only (not whole): the same bound in float from per-joint
   // columns (attach_columns, partial_bounds_columns); empty otherwise.
   struct ColumnSlot {
-    const float* lrot =
-        nullptr;  // F's local rotation column of the slot's joint; null: not computed
+    // F's local rotation column of the slot's joint; null: not computed.
+    const float* lrot = nullptr;
     int parent = -1;              // parent slot, -1 at the top of a subtree
     // The query's composite: 0 fixed (mq), 1 the parent's times the given
     // local rotation, 2 the parent's times F's.

@@ -1,12 +1,13 @@
 #pragma once
 // Large read-mostly tables and the page size they live on.
 //
-// The engine's tables (scan tiles, sketches, block boxes, frame arrays) are
-// hundreds of MB read at random: with 4 KiB pages nearly every tile a query
-// scans costs a TLB miss and a page walk. On Linux with transparent huge
-// pages in "madvise" mode (the Debian default) memory must ask for 2 MiB
-// pages; assign_huge does, for the 2 MiB-aligned part of a vector's storage,
-// before its pages are first written (docs/search.md "Huge pages").
+// The search engine's tables (scan tiles, sketches, chain sketches, block
+// boxes) are hundreds of MB read at random: with 4 KiB pages nearly every
+// tile a query scans costs a TLB miss and a page walk. On Linux with
+// transparent huge pages in "madvise" mode (the Debian default) memory must
+// ask for 2 MiB pages; assign_huge does, for the 2 MiB-aligned part of a
+// vector's storage, before its pages are first written (docs/search.md
+// "Tiles in one array, on huge pages").
 #include <cstddef>
 #include <vector>
 

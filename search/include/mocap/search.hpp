@@ -138,7 +138,7 @@ class SearchEngine {
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
 
   /// Loads up front what queries will need and run() would otherwise load on
-  /// first use (shared by all later queries): with `frame_arrays`, the
+  /// first use (shared by all later queries): with `whole_body_frames`, the
   /// per-frame arrays that partial frames moving the whole body read (a
   /// heading, a root position with joint rotations); in approx mode, the FLANN
   /// forests. A batch calls it before its first query, so that each query's
@@ -146,7 +146,7 @@ class SearchEngine {
   /// read per-joint columns of those arrays, streamed from the index the first
   /// time a query needs a joint: that query's time includes it, about 0.1 s on
   /// set 2.) Thread-safe; idempotent.
-  void prepare(const SearchOptions& options, bool frame_arrays) const;
+  void prepare(const SearchOptions& options, bool whole_body_frames) const;
 
   /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
   /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
