@@ -3,8 +3,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,6 +13,7 @@
 #include <optional>
 #include <random>
 #include <span>
+#include <stdexcept>
 #include <system_error>
 
 #include "mocap/error.hpp"
@@ -143,7 +144,7 @@ std::optional<Channel> channel_from_name(std::string_view s) {
 class BvhParser {
  public:
   BvhParser(std::string_view text, const std::string& source)
-      : p_(text.data()), end_(text.data() + text.size()), source_(source) {}
+      : begin_(text.data()), p_(text.data()), end_(text.data() + text.size()), source_(source) {}
 
   // Only frames [first, first + count) are read (parse_bvh_window): the frame
   // lines before them are skipped to their newline unread, those after them
@@ -156,6 +157,14 @@ class BvhParser {
   std::size_t declared_frames() const { return declared_; }
 
   RawClip parse() {
+    RawClip clip = parse_head();
+    parse_motion(clip);
+    return clip;
+  }
+
+  // Through the MOTION keyword: the joints and channel_count. The parser then
+  // stands right after MOTION (head_bytes() into the text, on line line()).
+  RawClip parse_head() {
     RawClip clip;
     clip.source = source_;
     // UTF-8 byte order mark.
@@ -165,6 +174,18 @@ class BvhParser {
     const std::string_view first = token();
     if (first != "HIERARCHY") fail(token_line_, "expected HIERARCHY, found " + show(first));
     parse_hierarchy(clip);
+    return clip;
+  }
+  std::size_t head_bytes() const { return static_cast<std::size_t>(p_ - begin_); }
+  std::size_t line() const { return line_; }
+
+  // The motion section of a text whose first `known.prefix.size()` bytes are
+  // known's hierarchy (known.heads(text)): as parse() from there on.
+  RawClip parse_after(const BvhHierarchy& known) {
+    RawClip clip = known.clip;
+    clip.source = source_;
+    p_ = begin_ + known.prefix.size();
+    line_ = known.motion_line;
     parse_motion(clip);
     return clip;
   }
@@ -544,6 +565,7 @@ class BvhParser {
     clip.values.resize(clip.frame_count * cc);
   }
 
+  const char* begin_;
   const char* p_;
   const char* end_;
   bool window_ = false;
@@ -611,14 +633,45 @@ RawClip parse_bvh(std::string_view text, const std::string& source) {
 }
 
 BvhWindow parse_bvh_window(std::string_view text, const std::string& source, std::size_t first,
-                           std::size_t count) {
+                           std::size_t count, BvhHierarchy* hierarchy) {
   BvhParser parser(text, source);
   parser.set_window(first, count);
   BvhWindow out;
-  out.clip = parser.parse();
+  if (hierarchy == nullptr) {
+    out.clip = parser.parse();
+  } else {
+    hierarchy->clip = parser.parse_head();
+    hierarchy->clip.source.clear();
+    hierarchy->prefix.assign(text.substr(0, parser.head_bytes()));
+    hierarchy->motion_line = parser.line();
+    out.clip = parser.parse_after(*hierarchy);
+  }
   out.first_frame = std::min(first, parser.declared_frames());
   out.file_frame_count = parser.declared_frames();
   return out;
+}
+
+BvhWindow parse_bvh_window(std::string_view text, const std::string& source,
+                           const BvhHierarchy& known, std::size_t first, std::size_t count) {
+  if (!known.heads(text))
+    throw std::invalid_argument("parse_bvh_window: " + source +
+                                " does not begin with the given hierarchy");
+  BvhParser parser(text, source);
+  parser.set_window(first, count);
+  BvhWindow out;
+  out.clip = parser.parse_after(known);
+  out.first_frame = std::min(first, parser.declared_frames());
+  out.file_frame_count = parser.declared_frames();
+  return out;
+}
+
+bool BvhHierarchy::heads(std::string_view text) const {
+  // MOTION ends the prefix; a token goes on to the next blank or newline, so
+  // the text's hierarchy is the prefix's only when one of those (or the end)
+  // follows it.
+  return !prefix.empty() && text.size() >= prefix.size() &&
+         std::memcmp(text.data(), prefix.data(), prefix.size()) == 0 &&
+         (text.size() == prefix.size() || is_space(text[prefix.size()]));
 }
 
 RawClip read_bvh_file(const std::filesystem::path& path) {

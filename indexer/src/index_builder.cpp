@@ -30,6 +30,7 @@
 #include "mocap/bvh.hpp"
 #include "mocap/collection.hpp"
 #include "mocap/error.hpp"
+#include "mocap/file.hpp"
 #include "mocap/hdf5.hpp"
 
 namespace mocap {
@@ -599,21 +600,6 @@ class IndexWriter {
 
 // ---------------------------------------------------------------------------
 // Files
-
-struct FileStat {
-  std::uint64_t size = 0;
-  std::int64_t mtime_ns = 0;
-};
-
-std::optional<FileStat> stat_file(const fs::path& p, std::string& error) {
-  struct stat st {};
-  if (::stat(p.c_str(), &st) != 0) {
-    error = std::strerror(errno);
-    return std::nullopt;
-  }
-  return FileStat{static_cast<std::uint64_t>(st.st_size),
-                  static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec};
-}
 
 /// Whole file into memory; false with `error` set on failure.
 bool read_file(const fs::path& p, std::string& out, std::string& error) {

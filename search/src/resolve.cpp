@@ -20,6 +20,8 @@ constexpr std::size_t kBvhCacheEntries = 256;
 // Verified texts of indexed files kept (QueryBvhCache::get_frames): a
 // set-2 clip's text is about 100 KB.
 constexpr std::size_t kVerifiedTexts = 16;
+// Distinct hierarchies kept (QueryBvhCache::hierarchy_of): set 2 has 3.
+constexpr std::size_t kHierarchies = 8;
 
 std::string field(std::size_t i) { return fmt::format("frames[{}]", i); }
 
@@ -93,22 +95,36 @@ std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& 
 
 }  // namespace
 
+namespace {
+
+FileStat stat_or_throw(const std::filesystem::path& path) {
+  std::string error;
+  const std::optional<FileStat> st = stat_file(path, error);
+  if (!st) throw InputError(path.string(), 0, "cannot read the BVH file: " + error);
+  return *st;
+}
+
+}  // namespace
+
 std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::path& path,
                                                const std::string& unit_option) {
-  std::error_code ec;
-  const auto mtime = std::filesystem::last_write_time(path, ec);
-  const auto size = ec ? 0 : std::filesystem::file_size(path, ec);
-  if (ec) throw InputError(path.string(), 0, "cannot read the BVH file: " + ec.message());
+  const FileStat st = stat_or_throw(path);
   const std::string key = unit_option + "|" + path.string();
   {
     std::lock_guard lock(mutex_);
     auto it = entries_.find(key);
-    if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size) return it->second;
+    if (it != entries_.end() && it->second->stat == st) return it->second;
   }
   auto loaded = whole_file(read_bvh_file(path), unit_option);
-  loaded->mtime = mtime;
-  loaded->size = size;
+  loaded->stat = st;
   return store(key, std::move(loaded));
+}
+
+std::shared_ptr<const BvhHierarchy> QueryBvhCache::hierarchy_of(std::string_view text) {
+  std::lock_guard lock(mutex_);
+  for (const auto& h : hierarchies_)
+    if (h->heads(text)) return h;
+  return nullptr;
 }
 
 void QueryBvhCache::use_index(const Index& index) {
@@ -126,59 +142,56 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
   if (known_.empty() || unit_option != known_unit_option_) return get(path, unit_option);
   const auto it_known = known_.find(std::filesystem::absolute(path).lexically_normal().string());
   if (it_known == known_.end()) return get(path, unit_option);
-  std::error_code ec;
-  const auto mtime = std::filesystem::last_write_time(path, ec);
-  const auto size = ec ? 0 : std::filesystem::file_size(path, ec);
-  if (ec) throw InputError(path.string(), 0, "cannot read the BVH file: " + ec.message());
-  if (size != it_known->second.size) return get(path, unit_option);
+  const FileStat st = stat_or_throw(path);
+  if (st.size != it_known->second.size) return get(path, unit_option);
   const std::string key = unit_option + "|" + path.string();
   const std::string window_key = fmt::format("{}@{}/{}", key, frame, radius);
-  std::shared_ptr<const std::string> verified;
+  std::shared_ptr<const FileBytes> verified;
   {
     std::lock_guard lock(mutex_);
     for (const std::string* k : {&key, &window_key}) {
       auto it = entries_.find(*k);
-      if (it != entries_.end() && it->second->mtime == mtime && it->second->size == size)
-        return it->second;
+      if (it != entries_.end() && it->second->stat == st) return it->second;
     }
     auto it = verified_.find(key);
-    if (it != verified_.end() && it->second.mtime == mtime && it->second.size == size)
-      verified = it->second.text;
+    if (it != verified_.end() && it->second.stat == st) verified = it->second.text;
   }
-  std::shared_ptr<std::string> read;
+  std::shared_ptr<const FileBytes> read;
   if (!verified) {
-    read = std::make_shared<std::string>();
-    std::string& text = *read;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
-    text.resize(static_cast<std::size_t>(size));
-    in.read(text.data(), static_cast<std::streamsize>(size));
-    text.resize(static_cast<std::size_t>(in.gcount()));
-    if (in.bad()) throw InputError(path.string(), 0, "cannot read file");
-    if (xxh64(text.data(), text.size()) == it_known->second.hash) {
+    read = std::make_shared<const FileBytes>(read_file_bytes(path, st.size));
+    if (xxh64(read->view().data(), read->size()) == it_known->second.hash) {
       verified = read;
       std::lock_guard lock(mutex_);
       if (verified_.size() >= kVerifiedTexts) verified_.clear();
-      verified_[key] = {mtime, size, verified};
+      verified_[key] = {st, verified};
     }
   }
   std::shared_ptr<QueryBvhFile> loaded;
   if (verified) {
-    const std::string& text = *verified;
-    // The indexer parsed these bytes: the window's lines are all that is needed.
+    const std::string_view text = verified->view();
+    // The indexer parsed these bytes: the window's lines are all that is
+    // needed, and the hierarchy when no earlier file began with it.
     const std::size_t first = frame >= radius ? frame - radius : 0;
-    const BvhWindow w = parse_bvh_window(text, path.string(), first, frame - first + radius + 1);
+    const std::size_t count = frame - first + radius + 1;
+    BvhWindow w;
+    if (const auto known = hierarchy_of(text)) {
+      w = parse_bvh_window(text, path.string(), *known, first, count);
+    } else {
+      auto parsed = std::make_shared<BvhHierarchy>();
+      w = parse_bvh_window(text, path.string(), first, count, parsed.get());
+      std::lock_guard lock(mutex_);
+      if (hierarchies_.size() >= kHierarchies) hierarchies_.clear();
+      hierarchies_.push_back(std::move(parsed));
+    }
     loaded = std::make_shared<QueryBvhFile>();
     loaded->motion = clip_motion_from_raw(w.clip, it_known->second.unit_scale_m);
     loaded->first_frame = w.first_frame;
     loaded->file_frame_count = w.file_frame_count;
-    loaded->mtime = mtime;
-    loaded->size = size;
+    loaded->stat = st;
     return store(window_key, std::move(loaded));
   }
-  loaded = whole_file(parse_bvh(*read, path.string()), unit_option);
-  loaded->mtime = mtime;
-  loaded->size = size;
+  loaded = whole_file(parse_bvh(read->view(), path.string()), unit_option);
+  loaded->stat = st;
   return store(key, std::move(loaded));
 }
 

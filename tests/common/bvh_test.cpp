@@ -672,5 +672,125 @@ TEST(BvhWindow, EqualsWholeParseOnRealFiles) {
   }
 }
 
+// ---------------------------------------------------------------------------
+// Hierarchies: a text parsed after a known hierarchy gives exactly what a
+// whole parse gives; heads() accepts only texts whose tokens are the same.
+// ---------------------------------------------------------------------------
+
+void expect_same_window(const BvhWindow& a, const BvhWindow& b) {
+  EXPECT_EQ(a.first_frame, b.first_frame);
+  EXPECT_EQ(a.file_frame_count, b.file_frame_count);
+  EXPECT_EQ(a.clip.source, b.clip.source);
+  EXPECT_EQ(a.clip.frame_time_s, b.clip.frame_time_s);
+  EXPECT_EQ(a.clip.frame_count, b.clip.frame_count);
+  EXPECT_EQ(a.clip.channel_count, b.clip.channel_count);
+  EXPECT_EQ(a.clip.values, b.clip.values);
+  ASSERT_EQ(a.clip.joints.size(), b.clip.joints.size());
+  for (std::size_t j = 0; j < a.clip.joints.size(); ++j) {
+    const RawJoint& x = a.clip.joints[j];
+    const RawJoint& y = b.clip.joints[j];
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.parent, y.parent);
+    EXPECT_EQ(x.offset, y.offset);
+    EXPECT_EQ(x.channels, y.channels);
+    EXPECT_EQ(x.first_column, y.first_column);
+    EXPECT_EQ(x.has_end_site, y.has_end_site);
+    EXPECT_EQ(x.end_site, y.end_site);
+  }
+}
+
+TEST(BvhHierarchy, HeadsOnlyTextsWithTheSameTokens) {
+  const BvhHierarchy empty;
+  EXPECT_FALSE(empty.heads(""));
+  EXPECT_FALSE(empty.heads(two_joints("Frames: 0\nFrame Time: 0.1\n")));
+  const std::string text = two_joints("Frames: 1\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n");
+  BvhHierarchy h;
+  (void)parse_bvh_window(text, "a.bvh", 0, 1, &h);
+  ASSERT_EQ(h.prefix, text.substr(0, text.find("MOTION") + 6));
+  EXPECT_EQ(h.motion_line, 16u);
+  EXPECT_TRUE(h.clip.source.empty());
+  EXPECT_EQ(h.clip.frame_count, 0u);
+  EXPECT_TRUE(h.clip.values.empty());
+  EXPECT_EQ(h.clip.channel_count, 9u);
+  EXPECT_TRUE(h.heads(text));
+  EXPECT_TRUE(h.heads(h.prefix));                 // MOTION at the very end
+  EXPECT_TRUE(h.heads(h.prefix + " Frames: 0"));  // a blank after it
+  EXPECT_FALSE(h.heads(h.prefix + "X\n"));        // another token: "MOTIONX"
+  EXPECT_FALSE(h.heads(h.prefix.substr(0, 20)));  // shorter than the prefix
+  std::string other = text;
+  other[other.find("OFFSET 0 10 0") + 9] = '2';  // one byte of the hierarchy differs
+  EXPECT_FALSE(h.heads(other));
+  EXPECT_FALSE(h.heads("\xEF\xBB\xBF" + text));  // a byte order mark is part of the prefix
+  EXPECT_THROW((void)parse_bvh_window(other, "b.bvh", h, 0, 1), std::invalid_argument);
+}
+
+TEST(BvhHierarchy, KnownHierarchyParsesAsTheWholeText) {
+  const std::string a = two_joints(
+      "Frames: 4\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n\n1.5 2 3 4 5 6 7 8 9.25\n"
+      "-1 -2 -3 -4 -5 -6 -7 -8 -9\r\n1e-3 2 3 4 5 6 7 8 +9\n");
+  const std::string b =
+      two_joints("Frames:2\nFrame Time: 0.05\n9 8 7 6 5 4 3 2 1\n0 0 0 0 0 0 0 0 0\n");
+  BvhHierarchy h;
+  expect_same_window(parse_bvh_window(a, "a.bvh", 1, 2, &h), parse_bvh_window(a, "a.bvh", 1, 2));
+  for (std::size_t first = 0; first <= 5; ++first)
+    for (std::size_t count : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{9}}) {
+      expect_same_window(parse_bvh_window(a, "a.bvh", h, first, count),
+                         parse_bvh_window(a, "a.bvh", first, count));
+      expect_same_window(parse_bvh_window(b, "b.bvh", h, first, count),
+                         parse_bvh_window(b, "b.bvh", first, count));
+    }
+  // Errors after the hierarchy name the same file and line as a whole parse.
+  const std::string bad =
+      two_joints("Frames: 2\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n1 2 3 x 5 6 7 8 9\n");
+  ASSERT_TRUE(h.heads(bad));
+  std::string known_message, whole_message;
+  try {
+    (void)parse_bvh_window(bad, "bad.bvh", h, 0, 2);
+  } catch (const InputError& e) {
+    known_message = e.what();
+  }
+  try {
+    (void)parse_bvh_window(bad, "bad.bvh", 0, 2);
+  } catch (const InputError& e) {
+    whole_message = e.what();
+  }
+  EXPECT_NE(known_message.find("bad.bvh:20"), std::string::npos) << known_message;
+  EXPECT_EQ(known_message, whole_message);
+}
+
+TEST(BvhHierarchy, OneHierarchyServesOtherFilesOfTheSkeleton) {
+  MOCAP_REQUIRE_DATA();
+  const auto read = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string text(static_cast<std::size_t>(fs::file_size(path)), '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    return text;
+  };
+  // Set 1's 174 files have 5 distinct hierarchies: each file is read after
+  // the one of an earlier file that heads it, when there is one.
+  std::vector<BvhHierarchy> known;
+  std::size_t reused = 0;
+  for (const auto& entry : fs::directory_iterator(test::data_dir() / "bandai-namco-1" / "data")) {
+    if (entry.path().extension() != ".bvh") continue;
+    const std::string text = read(entry.path());
+    const std::string name = entry.path().filename().string();
+    const std::size_t first = 20;
+    const BvhWindow whole = parse_bvh_window(text, name, first, 5);
+    const auto h = std::find_if(known.begin(), known.end(),
+                                [&](const BvhHierarchy& k) { return k.heads(text); });
+    if (h == known.end()) {
+      expect_same_window(parse_bvh_window(text, name, first, 5, &known.emplace_back()), whole);
+      ASSERT_TRUE(known.back().heads(text)) << name;
+    } else {
+      expect_same_window(parse_bvh_window(text, name, *h, first, 5), whole);
+      ++reused;
+    }
+  }
+  EXPECT_EQ(known.size(), 5u);
+  EXPECT_EQ(reused, 169u);
+  for (const BvhHierarchy& h : known)
+    EXPECT_FALSE(h.heads(read(test::data_dir() / "cmu" / "131_02.bvh")));
+}
+
 }  // namespace
 }  // namespace mocap

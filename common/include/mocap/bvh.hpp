@@ -25,6 +25,20 @@ namespace mocap {
 /// Parses BVH text. `source` names the text in error messages.
 RawClip parse_bvh(std::string_view text, const std::string& source);
 
+/// The hierarchy section of a BVH text, as parsed (parse_bvh_window).
+struct BvhHierarchy {
+  /// The text's bytes from its start through the MOTION keyword.
+  std::string prefix;
+  /// Line (1-based) the text is on right after MOTION.
+  std::size_t motion_line = 1;
+  /// Joints and channel_count; no frames, empty source.
+  RawClip clip;
+  /// True when `text` begins with `prefix` and a blank, a newline or the end
+  /// follows it: its hierarchy then parses to `clip`, byte for byte the same
+  /// tokens. False for an empty prefix.
+  bool heads(std::string_view text) const;
+};
+
 /// Frames [first_frame, first_frame + clip.frame_count) of a BVH text.
 struct BvhWindow {
   RawClip clip;  // the header, and only the window's frames (clip.frame_count of them)
@@ -38,8 +52,18 @@ struct BvhWindow {
 /// and those after it are not looked at, so errors there go unnoticed: meant
 /// for text known to parse (e.g. a file whose bytes hash to an index's
 /// content hash). Errors in what it reads throw as parse_bvh does.
+/// With `hierarchy` given, it also receives the text's hierarchy, for texts
+/// that begin with the same bytes (the overload below).
 BvhWindow parse_bvh_window(std::string_view text, const std::string& source, std::size_t first,
-                           std::size_t count);
+                           std::size_t count, BvhHierarchy* hierarchy = nullptr);
+
+/// parse_bvh_window of a text that `known` heads (known.heads(text), else
+/// std::invalid_argument): the hierarchy is not parsed again, the result is
+/// the same (line numbers in messages included). A library's files of one
+/// skeleton usually share their hierarchy bytes, so a reader of many of them
+/// parses it once.
+BvhWindow parse_bvh_window(std::string_view text, const std::string& source,
+                           const BvhHierarchy& known, std::size_t first, std::size_t count);
 
 /// Reads and parses a file; unreadable files throw InputError(path, 0, reason).
 RawClip read_bvh_file(const std::filesystem::path& path);

@@ -15,8 +15,10 @@
 #include <string>
 #include <vector>
 
+#include "mocap/bvh.hpp"
 #include "mocap/dynamics.hpp"
 #include "mocap/energy.hpp"
+#include "mocap/file.hpp"
 #include "mocap/index.hpp"
 #include "mocap/kinematics.hpp"
 #include "mocap/query.hpp"
@@ -28,8 +30,8 @@ namespace mocap {
 struct QueryBvhFile {
   /// Frames [first_frame, first_frame + motion.frame_count) of the file.
   ClipMotion motion;
-  std::filesystem::file_time_type mtime;
-  std::uintmax_t size = 0;
+  /// The file's size and modification time when it was read.
+  FileStat stat;
   std::size_t first_frame = 0;
   /// Frames in the file.
   std::size_t file_frame_count = 0;
@@ -52,8 +54,9 @@ class QueryBvhCache {
   /// the index given to use_index (same lexically normal absolute path, same
   /// size, its bytes hash to the clip's content XXH64) and `unit_option` is
   /// the index's, the indexer has parsed these very bytes and detected their
-  /// unit: only the header and the window's frame lines are parsed
-  /// (parse_bvh_window) and the clip's unit is used. Otherwise it is get()
+  /// unit: only the window's frame lines are parsed (parse_bvh_window), the
+  /// hierarchy only when no earlier file began with the same hierarchy bytes,
+  /// and the clip's unit is used. Otherwise it is get()
   /// (every frame). A frame past the file's end gives an empty window
   /// (file_frame_count says how many frames there are). The verified bytes
   /// of the last few such files are kept, so another frame of the same
@@ -74,14 +77,17 @@ class QueryBvhCache {
   // the file's other frames (a query's frames often come from one file); an
   // entry serves while the file's size and modification time are unchanged.
   struct VerifiedText {
-    std::filesystem::file_time_type mtime;
-    std::uintmax_t size = 0;
-    std::shared_ptr<const std::string> text;
+    FileStat stat;
+    std::shared_ptr<const FileBytes> text;
   };
+  // The hierarchy a verified text begins with, looked up among the last few
+  // distinct ones (a library's files of one skeleton share it).
+  std::shared_ptr<const BvhHierarchy> hierarchy_of(std::string_view text);
   std::mutex mutex_;
   std::map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
   std::map<std::string, VerifiedText> verified_;  // by path as given (bounded)
   std::map<std::string, KnownFile> known_;  // by path; set before concurrent use
+  std::vector<std::shared_ptr<const BvhHierarchy>> hierarchies_;  // bounded
   std::string known_unit_option_;
 };
 

@@ -1,0 +1,43 @@
+#pragma once
+// Source files as the tools read them: one stat(2) for size and modification
+// time, and whole-file reads into a buffer that is not zero-filled first (the
+// search resolves a query frame by reading its BVH file: docs/search.md
+// "Resolving a query frame").
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace mocap {
+
+/// What stat(2) says of a file (links followed).
+struct FileStat {
+  std::uint64_t size = 0;
+  /// Modification time, nanoseconds since the Unix epoch.
+  std::int64_t mtime_ns = 0;
+  bool operator==(const FileStat&) const = default;
+};
+
+/// stat(2) of `path`; nullopt with `error` set to the system's reason when it fails.
+std::optional<FileStat> stat_file(const std::filesystem::path& path, std::string& error);
+
+/// Bytes read from a file; immutable once read.
+class FileBytes {
+ public:
+  std::string_view view() const { return {data_.get(), size_}; }
+  std::size_t size() const { return size_; }
+
+ private:
+  friend FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes);
+  std::unique_ptr<char[]> data_;
+  std::size_t size_ = 0;
+};
+
+/// The first `max_bytes` bytes of the file, or all of it when it is shorter
+/// (pass the size stat_file gave to read the whole file with one allocation).
+/// Throws InputError(path, 0, reason) when it cannot be opened or read.
+FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes);
+
+}  // namespace mocap
