@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <fstream>
 #include <numbers>
 
 #include "mocap/body.hpp"
@@ -92,10 +91,6 @@ std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& 
   loaded->file_frame_count = loaded->motion.frame_count;
   return loaded;
 }
-
-}  // namespace
-
-namespace {
 
 FileStat stat_or_throw(const std::filesystem::path& path) {
   std::string error;

@@ -1,8 +1,8 @@
 #pragma once
 // Source files as the tools read them: one stat(2) for size and modification
 // time, and whole-file reads into a buffer that is not zero-filled first (the
-// search resolves a query frame by reading its BVH file: docs/search.md
-// "Resolving a query frame").
+// search reads a query frame's BVH file: docs/search.md "Query frames from
+// indexed files").
 #include <cstdint>
 #include <filesystem>
 #include <memory>
