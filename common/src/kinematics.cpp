@@ -106,7 +106,9 @@ void end_site_positions(const Skeleton& skel, const WorldPose& world,
                                   : world.positions_m[j];
 }
 
-ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m) {
+namespace {
+
+ClipMotion motion_from_raw(const RawClip& clip, double scale_m, bool world) {
   ClipMotion m;
   m.skeleton = build_skeleton(clip, scale_m);
   m.frame_time_s = clip.frame_time_s;
@@ -115,8 +117,10 @@ ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m) {
   const std::size_t total = n * clip.frame_count;
   m.local_translations_m.resize(total);
   m.local_rotations.resize(total);
-  m.world_positions_m.resize(total);
-  m.world_rotations.resize(total);
+  if (world) {
+    m.world_positions_m.resize(total);
+    m.world_rotations.resize(total);
+  }
   const Skeleton& skel = m.skeleton;
   auto body = [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t f = r.begin(); f != r.end(); ++f) {
@@ -124,8 +128,9 @@ ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m) {
       const std::size_t base = f * n;
       for (std::size_t j = 0; j < n; ++j)
         local_transform(skel, j, row, m.local_translations_m[base + j], m.local_rotations[base + j]);
-      fk_into(skel, &m.local_translations_m[base], &m.local_rotations[base],
-              &m.world_positions_m[base], &m.world_rotations[base]);
+      if (world)
+        fk_into(skel, &m.local_translations_m[base], &m.local_rotations[base],
+                &m.world_positions_m[base], &m.world_rotations[base]);
     }
   };
   // Small clips are cheaper serially than the task overhead.
@@ -134,6 +139,16 @@ ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m) {
   else
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, clip.frame_count, 64), body);
   return m;
+}
+
+}  // namespace
+
+ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m) {
+  return motion_from_raw(clip, scale_m, true);
+}
+
+ClipMotion clip_locals_from_raw(const RawClip& clip, double scale_m) {
+  return motion_from_raw(clip, scale_m, false);
 }
 
 }  // namespace mocap

@@ -87,7 +87,7 @@ std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& 
   if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
   const LengthUnit u = unit ? *unit : detect_unit(raw);
   auto loaded = std::make_shared<QueryBvhFile>();
-  loaded->motion = clip_motion_from_raw(raw, unit_scale_m(u));
+  loaded->motion = clip_locals_from_raw(raw, unit_scale_m(u));
   loaded->file_frame_count = loaded->motion.frame_count;
   return loaded;
 }
@@ -179,7 +179,7 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
       hierarchies_.push_back(std::move(parsed));
     }
     loaded = std::make_shared<QueryBvhFile>();
-    loaded->motion = clip_motion_from_raw(w.clip, it_known->second.unit_scale_m);
+    loaded->motion = clip_locals_from_raw(w.clip, it_known->second.unit_scale_m);
     loaded->first_frame = w.first_frame;
     loaded->file_frame_count = w.file_frame_count;
     loaded->stat = st;

@@ -167,6 +167,20 @@ TEST(ForwardKinematicsTest, ClipMotionEqualsPerFrameReference) {
       EXPECT_EQ(m.rotation(f, j).coeffs(), world.rotations[j].coeffs());
     }
   }
+  // Without the forward kinematics: the same skeleton and local poses, no world poses.
+  const ClipMotion l = clip_locals_from_raw(clip, 0.01);
+  EXPECT_EQ(l.frame_count, m.frame_count);
+  EXPECT_EQ(l.frame_time_s, m.frame_time_s);
+  EXPECT_EQ(l.skeleton.names, m.skeleton.names);
+  EXPECT_EQ(l.skeleton.parents, m.skeleton.parents);
+  ASSERT_EQ(l.local_rotations.size(), m.local_rotations.size());
+  ASSERT_EQ(l.local_translations_m.size(), m.local_translations_m.size());
+  for (std::size_t i = 0; i < l.local_rotations.size(); ++i) {
+    ASSERT_EQ(l.local_rotations[i].coeffs(), m.local_rotations[i].coeffs());
+    ASSERT_EQ(l.local_translations_m[i], m.local_translations_m[i]);
+  }
+  EXPECT_TRUE(l.world_positions_m.empty());
+  EXPECT_TRUE(l.world_rotations.empty());
 }
 
 }  // namespace

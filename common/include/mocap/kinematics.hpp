@@ -67,4 +67,10 @@ struct ClipMotion {
 /// kinematics on all frames (TBB-parallel over frames when it pays).
 ClipMotion clip_motion_from_raw(const RawClip& clip, double scale_m);
 
+/// clip_motion_from_raw without the forward kinematics: the skeleton, frame
+/// time and local poses (the same values); world_positions_m and
+/// world_rotations are left empty. For readers that pose the frames on
+/// another skeleton (the search's query frames).
+ClipMotion clip_locals_from_raw(const RawClip& clip, double scale_m);
+
 }  // namespace mocap

@@ -25,10 +25,12 @@
 
 namespace mocap {
 
-/// A BVH file read for queries (file skeleton, local and world pose per
-/// frame): all its frames, or a window of them (QueryBvhCache::get_frames).
+/// A BVH file read for queries (file skeleton, local pose per frame): all
+/// its frames, or a window of them (QueryBvhCache::get_frames).
 struct QueryBvhFile {
-  /// Frames [first_frame, first_frame + motion.frame_count) of the file.
+  /// Frames [first_frame, first_frame + motion.frame_count) of the file:
+  /// local poses only (clip_locals_from_raw; the world arrays are empty, as
+  /// the frames are posed on the index's skeletons).
   ClipMotion motion;
   /// The file's size and modification time when it was read.
   FileStat stat;
