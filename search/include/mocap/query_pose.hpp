@@ -9,10 +9,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "mocap/bvh.hpp"
@@ -86,9 +86,9 @@ class QueryBvhCache {
   // distinct ones (a library's files of one skeleton share it).
   std::shared_ptr<const BvhHierarchy> hierarchy_of(std::string_view text);
   std::mutex mutex_;
-  std::map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
-  std::map<std::string, VerifiedText> verified_;  // by path as given (bounded)
-  std::map<std::string, KnownFile> known_;  // by path; set before concurrent use
+  std::unordered_map<std::string, std::shared_ptr<const QueryBvhFile>> entries_;
+  std::unordered_map<std::string, VerifiedText> verified_;  // by path as given (bounded)
+  std::unordered_map<std::string, KnownFile> known_;        // by path; set before concurrent use
   std::vector<std::shared_ptr<const BvhHierarchy>> hierarchies_;  // bounded
   std::string known_unit_option_;
 };
