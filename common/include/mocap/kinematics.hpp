@@ -44,7 +44,9 @@ void forward_kinematics(const Skeleton& skel, const LocalPose& local, WorldPose&
 void end_site_positions(const Skeleton& skel, const WorldPose& world,
                         std::vector<Eigen::Vector3d>& out);
 
-/// A clip's whole motion, local and world, flat and frame-major.
+/// A clip's whole motion, local and world, flat and frame-major. The world
+/// arrays are empty when it holds local poses only (clip_locals_from_raw);
+/// position() and rotation() then must not be called.
 struct ClipMotion {
   Skeleton skeleton;
   double frame_time_s = 0.0;
