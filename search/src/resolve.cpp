@@ -135,7 +135,11 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
                                                               std::size_t frame,
                                                               std::size_t radius) {
   if (known_.empty() || unit_option != known_unit_option_) return get(path, unit_option);
-  const auto it_known = known_.find(std::filesystem::absolute(path).lexically_normal().string());
+  // The index's paths are absolute and lexically normal: a path given that
+  // way is found as it is, any other after normalising it.
+  auto it_known = known_.find(path.string());
+  if (it_known == known_.end())
+    it_known = known_.find(std::filesystem::absolute(path).lexically_normal().string());
   if (it_known == known_.end()) return get(path, unit_option);
   const FileStat st = stat_or_throw(path);
   if (st.size != it_known->second.size) return get(path, unit_option);

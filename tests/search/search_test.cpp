@@ -294,6 +294,13 @@ TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
   const auto c = windowed.get_frames(copy, index.info().unit_option, 5, 2);
   EXPECT_EQ(c->first_frame, 0u);
   EXPECT_EQ(c->motion.frame_count, index.clips()[0].frame_count);
+  // Another spelling of an indexed path (not lexically normal) is the same
+  // file: read through its window.
+  const fs::path indexed(index.clips()[0].path);
+  const auto o = windowed.get_frames(indexed.parent_path() / "." / indexed.filename(),
+                                     index.info().unit_option, 5, 2);
+  EXPECT_EQ(o->first_frame, 3u);
+  EXPECT_EQ(o->motion.frame_count, 5u);
 }
 
 // A query frame's file fetched once (resolve_query_pose's `file` slot, as
