@@ -188,6 +188,14 @@ void BM_SupplementAStar(benchmark::State& st) {
 }
 BENCHMARK(BM_SupplementAStar)->Unit(benchmark::kMillisecond)->MinTime(3.0);
 
+// The search followed by the refinement (mocap-synth --refine N).
+void BM_SupplementAStarRefined(benchmark::State& st) {
+  SupplementParams params;
+  params.refine_iterations = static_cast<std::size_t>(st.range(0));
+  run_gaps(st, [&](const Gap& g) { return supplement_astar(g.problem, params); });
+}
+BENCHMARK(BM_SupplementAStarRefined)->Arg(30)->Unit(benchmark::kMillisecond)->MinTime(10.0);
+
 void BM_SlerpTransition(benchmark::State& st) {
   run_gaps(st, [](const Gap& g) { return slerp_transition(g.problem, g.astar_frames); });
 }

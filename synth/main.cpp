@@ -2,6 +2,7 @@
 //   mocap-synth --index INDEX.h5 --query Q.json [--results R.jsonl] [--pick PAIR:RANK ...]
 //               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
+//               [--refine N]
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <filesystem>
@@ -45,6 +46,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--cost-threshold", options.params.cost_threshold_J,
                  "T_c: stop when the step cost to the goal is below this (J)")
+      ->capture_default_str();
+  app.add_option("--refine", options.params.refine_iterations,
+                 "after the A* search, at most N iterations lowering g on the whole transition "
+                 "(about 4 ms each; 0: none)")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
   CLI11_PARSE(app, argc, argv);

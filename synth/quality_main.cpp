@@ -86,6 +86,11 @@ int main(int argc, char** argv) {
   bool no_plant = false, no_choose = false;
   app.add_flag("--no-choose-length", no_choose, "plan with the length estimate instead of choosing the length");
   app.add_flag("--no-plant-feet", no_plant, "no contact-aware (foot planting) proposals");
+  app.add_option(
+         "--refine", params.refine_iterations,
+         "refinement iterations after the search (docs/synthesis.md \"Refinement\"); 0: none")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
+      ->capture_default_str();
   app.add_option("--json", json_path, "write all measures as JSON");
   CLI11_PARSE(app, argc, argv);
   params.plant_feet = !no_plant;
@@ -197,11 +202,20 @@ int main(int argc, char** argv) {
                   ma.energy_J, ms_.energy_J, mi.energy_J, ma.energy_J / ms_.energy_J, ma.foot_sliding_m,
                   ms_.foot_sliding_m, ma.range_violations, ms_.range_violations,
                   ma.peak_angular_speed_radps, ms);
-      rows.push_back({{"from", file_name(cx.path)}, {"from_frame", a}, {"to", file_name(cy.path)},
-                      {"to_frame", b}, {"astar", measures_json(ma)}, {"slerp", measures_json(ms_)},
-                      {"inertialize", measures_json(mi)}, {"astar_ms", ms}, {"astar_cpu_ms", cpu_ms},
-                      {"stop_reason", stats.stop_reason}, {"estimated_frames", stats.estimated_frames},
-                      {"energy_evaluations", stats.energy_evaluations}});
+      rows.push_back({{"from", file_name(cx.path)},
+                      {"from_frame", a},
+                      {"to", file_name(cy.path)},
+                      {"to_frame", b},
+                      {"astar", measures_json(ma)},
+                      {"slerp", measures_json(ms_)},
+                      {"inertialize", measures_json(mi)},
+                      {"astar_ms", ms},
+                      {"astar_cpu_ms", cpu_ms},
+                      {"stop_reason", stats.stop_reason},
+                      {"estimated_frames", stats.estimated_frames},
+                      {"energy_evaluations", stats.energy_evaluations},
+                      {"refine_steps", stats.refine_steps},
+                      {"refine_gain_J", stats.refine_gain_J}});
     }
     auto median_of = [](std::vector<double> v) {
       std::sort(v.begin(), v.end());
@@ -239,15 +253,25 @@ int main(int argc, char** argv) {
     if (!json_path.empty()) {
       nlohmann::json out = {{"gaps", rows},
                             {"summary",
-                             {{"gaps", specs.size()}, {"astar_lower_g", lower},
-                              {"mean_g_astar_J", sum_a / n}, {"mean_g_slerp_J", sum_s / n},
-                              {"mean_g_inertialize_J", sum_i / n}, {"ratio_mean_g", sum_a / sum_s},
-                              {"foot_sliding_astar_m", slide_a}, {"foot_sliding_slerp_m", slide_s},
-                              {"foot_sliding_inertialize_m", slide_i}, {"median_ms", median}, {"median_cpu_ms", cpu_median},
+                             {{"gaps", specs.size()},
+                              {"astar_lower_g", lower},
+                              {"mean_g_astar_J", sum_a / n},
+                              {"mean_g_slerp_J", sum_s / n},
+                              {"mean_g_inertialize_J", sum_i / n},
+                              {"ratio_mean_g", sum_a / sum_s},
+                              {"foot_sliding_astar_m", slide_a},
+                              {"foot_sliding_slerp_m", slide_s},
+                              {"foot_sliding_inertialize_m", slide_i},
+                              {"median_ms", median},
+                              {"median_cpu_ms", cpu_median},
                               {"max_ms", sorted.back()}}},
-                            {"params", {{"max_states", params.max_states}, {"cost_threshold_J", params.cost_threshold_J},
-                                        {"exact_lookahead", params.exact_lookahead},
-                                        {"from_fraction", from_fraction}, {"to_fraction", to_fraction}}}};
+                            {"params",
+                             {{"max_states", params.max_states},
+                              {"cost_threshold_J", params.cost_threshold_J},
+                              {"exact_lookahead", params.exact_lookahead},
+                              {"refine_iterations", params.refine_iterations},
+                              {"from_fraction", from_fraction},
+                              {"to_fraction", to_fraction}}}};
       std::ofstream(json_path) << out.dump(2) << "\n";
     }
     return 0;

@@ -114,8 +114,12 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                          {"time_ms", t.time_ms}};
     tj.update(measures_json(t.measures));
     if (t.method == TransitionMethod::astar)
-      tj["search"] = {{"iterations", t.stats.iterations}, {"energy_evaluations", t.stats.energy_evaluations},
-                      {"estimated_frames", t.stats.estimated_frames}, {"stop_reason", t.stats.stop_reason}};
+      tj["search"] = {{"iterations", t.stats.iterations},
+                      {"energy_evaluations", t.stats.energy_evaluations},
+                      {"estimated_frames", t.stats.estimated_frames},
+                      {"stop_reason", t.stats.stop_reason},
+                      {"refine_steps", t.stats.refine_steps},
+                      {"refine_gain_J", t.stats.refine_gain_J}};
     nlohmann::json bl = nlohmann::json::object();
     for (const auto& [m, ms] : t.baselines) bl[transition_method_name(m)] = measures_json(ms);
     tj["baselines_same_length"] = bl;
@@ -132,7 +136,8 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                  {"g_total_J", total}, {"step_energies_J", result.step_energies_J}};
   j["parameters"] = {{"transition", transition_method_name(options.method)},
                      {"max_states", options.params.max_states},
-                     {"cost_threshold_J", options.params.cost_threshold_J}};
+                     {"cost_threshold_J", options.params.cost_threshold_J},
+                     {"refine_iterations", options.params.refine_iterations}};
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return j.dump(2) + "\n";
 }

@@ -215,36 +215,94 @@ bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegCha
   return true;
 }
 
-// g of the transition `frames` (measure_transition's energy_J, without the
-// other measures), reusing the scratch of `ws`.
-struct PathScratch {
+// The sequence S_-1, S_0, frames..., S_G, S_G+1 with its world poses, states
+// (rates by central differences), inverse dynamics and the g of every step
+// S_0 -> ... -> S_G: g of a transition (measure_transition's energy_J
+// without the other measures), and what the refinement's finite
+// differences recompute locally.
+struct PathCache {
   std::vector<WorldPose> world;
   std::vector<BodyState> states;
   std::vector<NewtonEulerData> ids;
+  std::vector<double> steps;  // steps[k]: g(state k -> state k + 1), k = 1 .. L-3
   NewtonEulerWorkspace ws;
-};
-double path_energy(const GapProblem& gap, const std::vector<SynthFrame>& frames, PathScratch& sc) {
-  const SynthSkeleton& sk = *gap.skeleton;
-  const double dt = gap.frame_time_s;
-  const std::size_t L = frames.size() + 4;
-  if (sc.world.size() < L) sc.world.resize(L);
-  if (sc.states.size() < L) sc.states.resize(L);
-  if (sc.ids.size() < L) sc.ids.resize(L);
-  synth_world_pose(sk, gap.before, sc.world[0]);
-  synth_world_pose(sk, gap.start, sc.world[1]);
-  for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], sc.world[2 + i]);
-  synth_world_pose(sk, gap.goal, sc.world[L - 2]);
-  synth_world_pose(sk, gap.after, sc.world[L - 1]);
-  for (std::size_t k = 1; k + 1 < L; ++k) {
-    const PoseView p = pose_view(sc.world[k - 1]), c = pose_view(sc.world[k]), x = pose_view(sc.world[k + 1]);
-    sequence_state(sk.model, &p, c, &x, dt, sc.states[k]);
-    inverse_dynamics(sk.model, sc.states[k].view(), sc.ids[k]);
+  std::size_t L = 0;
+  // Scratch of delta().
+  WorldPose w_changed;
+  std::array<BodyState, 3> s_changed;
+  std::array<NewtonEulerData, 3> id_changed;
+
+  // Builds the cache for `frames`; returns the transition's g.
+  double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+    const SynthSkeleton& sk = *gap.skeleton;
+    L = frames.size() + 4;
+    if (world.size() < L) world.resize(L);
+    if (states.size() < L) states.resize(L);
+    if (ids.size() < L) ids.resize(L);
+    steps.assign(L, 0.0);
+    synth_world_pose(sk, gap.before, world[0]);
+    synth_world_pose(sk, gap.start, world[1]);
+    for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], world[2 + i]);
+    synth_world_pose(sk, gap.goal, world[L - 2]);
+    synth_world_pose(sk, gap.after, world[L - 1]);
+    for (std::size_t k = 1; k + 1 < L; ++k) {
+      state_at(gap, k, L, world[0], states[k]);
+      inverse_dynamics(sk.model, states[k].view(), ids[k]);
+    }
+    double g = 0.0;
+    for (std::size_t k = 1; k + 2 < L; ++k) {
+      steps[k] = full_energy(sk.model, states[k].view(), states[k + 1].view(), gap.frame_time_s,
+                             ids[k], ids[k + 1], ws);
+      g += steps[k];
+    }
+    return g;
   }
-  double g = 0.0;
-  for (std::size_t k = 1; k + 2 < L; ++k)
-    g += full_energy(sk.model, sc.states[k].view(), sc.states[k + 1].view(), dt, sc.ids[k], sc.ids[k + 1], sc.ws);
-  return g;
-}
+
+  // Foot sliding of the cached transition (measure_transition's).
+  double foot_sliding(const GapProblem& gap) const {
+    double sum = 0.0;
+    for (std::size_t k = 1; k + 2 < L; ++k)
+      sum += step_foot_sliding(*gap.skeleton, world[k], world[k + 1], gap.frame_time_s);
+    return sum;
+  }
+
+  // Change of the transition's g when inserted frame i becomes `changed`:
+  // only states i+1 .. i+3 (its own and its neighbours' rates) and the steps
+  // touching them are recomputed.
+  double delta(const GapProblem& gap, std::size_t i, const SynthFrame& changed) {
+    const SynthSkeleton& sk = *gap.skeleton;
+    const std::size_t s = i + 2;  // sequence index of frame i
+    synth_world_pose(sk, changed, w_changed);
+    for (std::size_t d = 0; d < 3; ++d) {
+      state_at(gap, s - 1 + d, s, w_changed, s_changed[d]);
+      inverse_dynamics(sk.model, s_changed[d].view(), id_changed[d]);
+    }
+    const auto changed_state = [&](std::size_t k) { return k + 1 >= s && k <= s + 1; };
+    const std::size_t k0 = std::max<std::size_t>(1, s - 2), k1 = std::min(L - 3, s + 1);
+    double before = 0.0, after = 0.0;
+    for (std::size_t k = k0; k <= k1; ++k) {
+      before += steps[k];
+      const BodyState& a = changed_state(k) ? s_changed[k + 1 - s] : states[k];
+      const BodyState& b = changed_state(k + 1) ? s_changed[k + 2 - s] : states[k + 1];
+      const NewtonEulerData& ia = changed_state(k) ? id_changed[k + 1 - s] : ids[k];
+      const NewtonEulerData& ib = changed_state(k + 1) ? id_changed[k + 2 - s] : ids[k + 1];
+      after += full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, ws);
+    }
+    return after - before;
+  }
+
+  // State k of the sequence, its rates by central differences, with
+  // `changed` in place of the world pose at `changed_index` (none when that
+  // is L).
+  void state_at(const GapProblem& gap, std::size_t k, std::size_t changed_index,
+                const WorldPose& changed, BodyState& out) const {
+    const auto pose = [&](std::size_t q) {
+      return pose_view(q == changed_index ? changed : world[q]);
+    };
+    const PoseView p = pose(k - 1), c = pose(k), x = pose(k + 1);
+    sequence_state(gap.skeleton->model, &p, c, &x, gap.frame_time_s, out);
+  }
+};
 
 }  // namespace
 
@@ -280,10 +338,10 @@ std::size_t choose_transition_frames(const GapProblem& gap, const SupplementPara
   std::vector<std::size_t> grid{1};
   for (std::size_t m = 2; m < hi; m = std::max(m + 1, m + m / 5)) grid.push_back(m);
   if (hi > 1) grid.push_back(hi);
-  PathScratch sc;
+  PathCache sc;
   std::vector<double> energy(hi + 1, -1.0);
   auto eval = [&](std::size_t m) {
-    if (energy[m] < 0.0) energy[m] = path_energy(gap, slerp_transition(gap, m), sc);
+    if (energy[m] < 0.0) energy[m] = sc.build(gap, slerp_transition(gap, m));
     return energy[m];
   };
   std::size_t best = grid[0];
@@ -538,6 +596,123 @@ std::vector<SynthFrame> astar_search(const GapProblem& gap, const SupplementPara
 
 }  // namespace
 
+RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
+                               std::size_t iterations, double foot_sliding_limit_m) {
+  check_gap(gap);
+  const SynthSkeleton& sk = *gap.skeleton;
+  const std::size_t n = sk.joint_count(), m = frames.size();
+  for (const SynthFrame& f : frames)
+    if (f.local_rotations.size() != n)
+      throw std::invalid_argument("transition frame does not fit the skeleton");
+  PathCache cache;
+  RefineResult result;
+  double f = cache.build(gap, frames);
+  result.energy_before_J = result.energy_after_J = f;
+  if (m == 0 || iterations == 0) return result;
+  // Variables of each frame: root position (m), then a rotation vector (rad)
+  // per varied joint, applied on the right of the frame's rotation as given.
+  std::vector<int> joints;
+  for (std::size_t j = 0; j < n; ++j)
+    if (!sk.is_root_chain[j] || static_cast<int>(j) == sk.root_joint)
+      joints.push_back(static_cast<int>(j));
+  const std::size_t per = 3 + 3 * joints.size(), N = m * per;
+  const std::vector<SynthFrame> base = frames;
+  const auto frame_of = [&](std::size_t i, const double* x, SynthFrame& out) {
+    out = base[i];
+    out.root_position_m += Eigen::Vector3d(x[0], x[1], x[2]);
+    for (std::size_t k = 0; k < joints.size(); ++k) {
+      const auto j = static_cast<std::size_t>(joints[k]);
+      out.local_rotations[j] = (base[i].local_rotations[j] *
+                                quat_exp(Eigen::Vector3d(x[3 + 3 * k], x[4 + 3 * k], x[5 + 3 * k])))
+                                   .normalized();
+    }
+  };
+  const auto violations = [&](const std::vector<SynthFrame>& fs) {
+    std::size_t v = 0;
+    if (gap.range)
+      for (const SynthFrame& fr : fs)
+        for (std::size_t j = 0; j < n; ++j)
+          if (!within_range(sk, *gap.range, static_cast<int>(j), fr.local_rotations[j])) ++v;
+    return v;
+  };
+  const double slide_limit = std::max(cache.foot_sliding(gap), foot_sliding_limit_m) + 1e-9;
+  const std::size_t violation_limit = violations(frames);
+  // Forward differences, the cache holding the transition at `at`.
+  constexpr double eps = 1e-6;
+  SynthFrame changed;
+  Eigen::VectorXd xi(per);
+  const auto gradient = [&](const Eigen::VectorXd& at, Eigen::VectorXd& out) {
+    out.resize(static_cast<Eigen::Index>(N));
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t v = 0; v < per; ++v) {
+        xi = at.segment(static_cast<Eigen::Index>(i * per), static_cast<Eigen::Index>(per));
+        xi[static_cast<Eigen::Index>(v)] += eps;
+        frame_of(i, xi.data(), changed);
+        out[static_cast<Eigen::Index>(i * per + v)] = cache.delta(gap, i, changed) / eps;
+      }
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(N)), grad, grad_new, dir,
+                  x_new;
+  gradient(x, grad);
+  // L-BFGS (the last 10 pairs), two-loop recursion.
+  std::vector<Eigen::VectorXd> hist_s, hist_y;
+  std::vector<double> alpha;
+  std::vector<SynthFrame> trial(m);
+  for (std::size_t it = 0; it < iterations; ++it) {
+    dir = -grad;
+    alpha.assign(hist_s.size(), 0.0);
+    for (std::size_t k = hist_s.size(); k-- > 0;) {
+      alpha[k] = hist_s[k].dot(dir) / hist_y[k].dot(hist_s[k]);
+      dir -= alpha[k] * hist_y[k];
+    }
+    if (!hist_s.empty()) dir *= hist_s.back().dot(hist_y.back()) / hist_y.back().dot(hist_y.back());
+    for (std::size_t k = 0; k < hist_s.size(); ++k)
+      dir += hist_s[k] * (alpha[k] - hist_y[k].dot(dir) / hist_y[k].dot(hist_s[k]));
+    if (!(dir.dot(grad) < 0.0)) {
+      dir = -grad;
+      hist_s.clear();
+      hist_y.clear();
+    }
+    const double slope = dir.dot(grad), biggest = dir.cwiseAbs().maxCoeff();
+    if (!(slope < 0.0) || !(biggest > 0.0)) break;
+    // Steepest descent starts at 1 mm / 1 mrad for the largest component.
+    double step = hist_s.empty() ? 1e-3 / biggest : 1.0;
+    bool accepted = false;
+    double f_new = f;
+    for (int halvings = 0; halvings < 30 && !accepted; ++halvings, step *= 0.5) {
+      x_new = x + step * dir;
+      for (std::size_t i = 0; i < m; ++i) frame_of(i, x_new.data() + i * per, trial[i]);
+      f_new = cache.build(gap, trial);
+      accepted = f_new < f + 1e-4 * step * slope && cache.foot_sliding(gap) <= slide_limit &&
+                 violations(trial) <= violation_limit;
+    }
+    if (!accepted) {
+      cache.build(gap, frames);
+      if (hist_s.empty()) break;  // no descent step even along the gradient
+      hist_s.clear();             // retry along the gradient
+      hist_y.clear();
+      continue;
+    }
+    frames = trial;
+    gradient(x_new, grad_new);
+    Eigen::VectorXd sv = x_new - x, yv = grad_new - grad;
+    if (sv.dot(yv) > 1e-12) {
+      if (hist_s.size() == 10) {
+        hist_s.erase(hist_s.begin());
+        hist_y.erase(hist_y.begin());
+      }
+      hist_s.push_back(std::move(sv));
+      hist_y.push_back(std::move(yv));
+    }
+    x.swap(x_new);
+    grad.swap(grad_new);
+    f = f_new;
+    ++result.steps;
+  }
+  result.energy_after_J = f;
+  return result;
+}
+
 std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
                                          SupplementStats* stats) {
   check_gap(gap);
@@ -545,7 +720,19 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   SupplementStats local;
   SupplementStats& st = stats ? *stats : local;
   st = SupplementStats{};
-  return astar_search(gap, params, choose_transition_frames(gap, params), &st);
+  std::vector<SynthFrame> frames =
+      astar_search(gap, params, choose_transition_frames(gap, params), &st);
+  if (params.refine_iterations > 0) {
+    // Feet may slide as much as the slerp transition of the same length's
+    // (the search's own bound), not more.
+    PathCache slerp_path;
+    slerp_path.build(gap, slerp_transition(gap, frames.size()));
+    const RefineResult r =
+        refine_transition(gap, frames, params.refine_iterations, slerp_path.foot_sliding(gap));
+    st.refine_steps = r.steps;
+    st.refine_gain_J = r.energy_before_J - r.energy_after_J;
+  }
+  return frames;
 }
 
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames) {

@@ -34,6 +34,7 @@ expect_error "unknown clip" "${base[@]}" --results "$tmp/unknown-clip.jsonl"
 expect_error "no results for query" "${base[@]}" --results "$tmp/other-id.jsonl"
 expect_error "frame time" "${base[@]}" --results "$tmp/cmu-mix.jsonl"
 expect_error "expected astar, slerp or inertialize" "${base[@]}" --results "$tmp/results.jsonl" --transition foo
+expect_error "refine" "${base[@]}" --results "$tmp/results.jsonl" --refine -3
 expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.json" --results "$tmp/results.jsonl" --out "$tmp/m.bvh"
 [ ! -e "$tmp/m.bvh" ] || fail "an output was written by a failing run"
 
@@ -43,10 +44,20 @@ grep -q "^motion: .*m.bvh" "$tmp/out.txt" || fail "motion path not printed"
 cmp -s "$tmp/m.bvh" "$tmp/m2.bvh" || fail "two runs gave different motions"
 "$synth" "${base[@]/m.bvh/ms.bvh}" --results "$tmp/results.jsonl" --transition slerp --report "$tmp/rs.json" >/dev/null
 "$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
+# --refine: the same transitions' lengths, g never above the unrefined run's.
+"$synth" "${base[@]/m.bvh/mr.bvh}" --results "$tmp/results.jsonl" --refine 5 --report "$tmp/rr.json" >/dev/null
 python3 - "$tmp" <<'PY'
 import json, sys
 t = sys.argv[1]
 r = json.load(open(t + "/r.json"))
+rr = json.load(open(t + "/rr.json"))
+assert r["parameters"]["refine_iterations"] == 0 and rr["parameters"]["refine_iterations"] == 5
+for a, b in zip(r["transitions"], rr["transitions"]):
+    assert a["search"]["refine_steps"] == 0 and a["search"]["refine_gain_J"] == 0
+    assert b["frames"] == a["frames"] and b["search"]["refine_steps"] <= 5
+    assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
+    assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
+assert sum(b["search"]["refine_steps"] for b in rr["transitions"]) > 0
 segs = r["motion"]["segments"]
 kinds = [s["kind"] for s in segs]
 assert kinds == ["query", "transition", "partial", "transition", "query", "transition", "partial", "transition", "query"], kinds

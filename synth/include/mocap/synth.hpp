@@ -147,6 +147,11 @@ struct SupplementParams {
   bool choose_length = true;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
+  /// After the search: at most this many refinement iterations
+  /// (refine_transition) on the whole path, its feet sliding at most as much
+  /// as the slerp transition of the same length; 0: none (the default, which
+  /// the median-time goal is measured with).
+  std::size_t refine_iterations = 0;
 };
 
 struct GapProblem {
@@ -167,6 +172,10 @@ struct SupplementStats {
   /// Why the search stopped: "threshold" (g(S -> S_G) < T_c), "horizon"
   /// (the Hermite path's planned length was used up), "max_states" (T_n).
   std::string stop_reason;
+  /// Refinement (SupplementParams::refine_iterations): steps accepted, and
+  /// how much g they took off the search's path, joules.
+  std::size_t refine_steps = 0;
+  double refine_gain_J = 0.0;
 };
 
 /// Initial length estimate (frames to insert), in [1, max_states].
@@ -181,6 +190,28 @@ std::size_t choose_transition_frames(const GapProblem& gap, const SupplementPara
 /// A*-based supplementation (header). Throws std::invalid_argument on a bad gap.
 std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
                                          SupplementStats* stats = nullptr);
+/// Refinement of a transition (docs/synthesis.md "Refinement"): at most
+/// `iterations` quasi-Newton iterations (L-BFGS, the last 10 pairs) on all
+/// inserted frames at once (each frame's root position, m, and a rotation
+/// vector, rad, on every joint's local rotation but the dummies above the
+/// root), minimising the transition's g (measure_transition's energy_J).
+/// Gradients by forward differences (1e-6), each recomputing only the steps
+/// the varied frame touches; a step is accepted only when the whole path's g
+/// is lower (Armijo condition, at most 30 halvings), its foot sliding is at
+/// most max(that of `frames` as given, `foot_sliding_limit_m`) and it has no
+/// more range violations than `frames` as given: the result is never worse
+/// than the input in g and violations. Stops early when no step along the
+/// gradient is accepted. Deterministic; an iteration costs about
+/// frames x (3 + 3 x joints) local re-evaluations. `frames` is replaced by
+/// the result. Throws std::invalid_argument on a bad gap or frame.
+struct RefineResult {
+  std::size_t steps = 0;  // accepted steps
+  double energy_before_J = 0.0;
+  double energy_after_J = 0.0;
+};
+RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
+                               std::size_t iterations, double foot_sliding_limit_m = 0.0);
+
 /// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
 /// `frames` inserted frames of inertialization toward the goal (header).
