@@ -91,11 +91,16 @@ int main(int argc, char** argv) {
          "refinement iterations after the search (docs/synthesis.md \"Refinement\"); 0: none")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
+  bool refine_free = false;
+  app.add_flag(
+      "--refine-free", refine_free,
+      "let the refinement slide the feet and leave the range of motion (how low g can go)");
   app.add_option("--json", json_path, "write all measures as JSON");
   CLI11_PARSE(app, argc, argv);
   params.plant_feet = !no_plant;
   params.exact_lookahead = !h_lookahead;
   params.choose_length = !no_choose;
+  params.refine_keep_limits = !refine_free;
   try {
     const mocap::Index index = mocap::Index::open(index_path);
     // Clips by label value (index order), skeleton of the first.

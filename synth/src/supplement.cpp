@@ -597,7 +597,7 @@ std::vector<SynthFrame> astar_search(const GapProblem& gap, const SupplementPara
 }  // namespace
 
 RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
-                               std::size_t iterations, double foot_sliding_limit_m) {
+                               const RefineOptions& options) {
   check_gap(gap);
   const SynthSkeleton& sk = *gap.skeleton;
   const std::size_t n = sk.joint_count(), m = frames.size();
@@ -608,7 +608,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
   RefineResult result;
   double f = cache.build(gap, frames);
   result.energy_before_J = result.energy_after_J = f;
-  if (m == 0 || iterations == 0) return result;
+  if (m == 0 || options.iterations == 0) return result;
   // Variables of each frame: root position (m), then a rotation vector (rad)
   // per varied joint, applied on the right of the frame's rotation as given.
   std::vector<int> joints;
@@ -635,8 +635,12 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
           if (!within_range(sk, *gap.range, static_cast<int>(j), fr.local_rotations[j])) ++v;
     return v;
   };
-  const double slide_limit = std::max(cache.foot_sliding(gap), foot_sliding_limit_m) + 1e-9;
+  const double slide_limit = std::max(cache.foot_sliding(gap), options.foot_sliding_limit_m) + 1e-9;
   const std::size_t violation_limit = violations(frames);
+  const auto within_limits = [&](const std::vector<SynthFrame>& fs) {
+    return !options.keep_limits ||
+           (cache.foot_sliding(gap) <= slide_limit && violations(fs) <= violation_limit);
+  };
   // Forward differences, the cache holding the transition at `at`.
   constexpr double eps = 1e-6;
   SynthFrame changed;
@@ -658,7 +662,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
   std::vector<Eigen::VectorXd> hist_s, hist_y;
   std::vector<double> alpha;
   std::vector<SynthFrame> trial(m);
-  for (std::size_t it = 0; it < iterations; ++it) {
+  for (std::size_t it = 0; it < options.iterations; ++it) {
     dir = -grad;
     alpha.assign(hist_s.size(), 0.0);
     for (std::size_t k = hist_s.size(); k-- > 0;) {
@@ -683,8 +687,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
       x_new = x + step * dir;
       for (std::size_t i = 0; i < m; ++i) frame_of(i, x_new.data() + i * per, trial[i]);
       f_new = cache.build(gap, trial);
-      accepted = f_new < f + 1e-4 * step * slope && cache.foot_sliding(gap) <= slide_limit &&
-                 violations(trial) <= violation_limit;
+      accepted = f_new < f + 1e-4 * step * slope && within_limits(trial);
     }
     if (!accepted) {
       cache.build(gap, frames);
@@ -727,8 +730,9 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     // (the search's own bound), not more.
     PathCache slerp_path;
     slerp_path.build(gap, slerp_transition(gap, frames.size()));
-    const RefineResult r =
-        refine_transition(gap, frames, params.refine_iterations, slerp_path.foot_sliding(gap));
+    const RefineResult r = refine_transition(
+        gap, frames,
+        {params.refine_iterations, slerp_path.foot_sliding(gap), params.refine_keep_limits});
     st.refine_steps = r.steps;
     st.refine_gain_J = r.energy_before_J - r.energy_after_J;
   }

@@ -351,14 +351,14 @@ TEST(SynthRefine, RefusesBadFramesAndZeroIterationsChangeNothing) {
   auto g = make_gap(index, x, 20, y, 30);
   std::vector<SynthFrame> bad = mocap::slerp_transition(g->gap, 4);
   bad[2].local_rotations.pop_back();
-  EXPECT_THROW(mocap::refine_transition(g->gap, bad, 5), std::invalid_argument);
+  EXPECT_THROW(mocap::refine_transition(g->gap, bad, {5}), std::invalid_argument);
   mocap::GapProblem no_skeleton = g->gap;
   no_skeleton.skeleton = nullptr;
   std::vector<SynthFrame> fs = mocap::slerp_transition(g->gap, 4);
-  EXPECT_THROW(mocap::refine_transition(no_skeleton, fs, 5), std::invalid_argument);
+  EXPECT_THROW(mocap::refine_transition(no_skeleton, fs, {5}), std::invalid_argument);
   // No iterations, or no frames: nothing changes; the energies are the measure's.
   const std::vector<SynthFrame> before = fs;
-  const auto r = mocap::refine_transition(g->gap, fs, 0);
+  const auto r = mocap::refine_transition(g->gap, fs, {0});
   EXPECT_EQ(r.steps, 0u);
   const double e = mocap::measure_transition(g->gap, before).energy_J;
   EXPECT_NEAR(r.energy_before_J, e, 1e-9 * e);
@@ -369,7 +369,7 @@ TEST(SynthRefine, RefusesBadFramesAndZeroIterationsChangeNothing) {
       EXPECT_EQ(fs[i].local_rotations[j].coeffs(), before[i].local_rotations[j].coeffs());
   }
   std::vector<SynthFrame> none;
-  const auto r0 = mocap::refine_transition(g->gap, none, 10);
+  const auto r0 = mocap::refine_transition(g->gap, none, {10});
   EXPECT_TRUE(none.empty());
   EXPECT_EQ(r0.steps, 0u);
   const double e0 = mocap::measure_transition(g->gap, none).energy_J;
@@ -393,8 +393,8 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
     const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, m);
     const auto ms = mocap::measure_transition(g->gap, slerp);
     std::vector<SynthFrame> a = slerp, b = slerp;
-    const auto ra = mocap::refine_transition(g->gap, a, 15);
-    const auto rb = mocap::refine_transition(g->gap, b, 15);
+    const auto ra = mocap::refine_transition(g->gap, a, {15});
+    const auto rb = mocap::refine_transition(g->gap, b, {15});
     const auto ma = mocap::measure_transition(g->gap, a);
     ASSERT_EQ(a.size(), m) << xn;
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
@@ -412,6 +412,12 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
       for (std::size_t j = 0; j < a[i].local_rotations.size(); ++j)
         EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs());
     }
+    // Without the limits (a measuring mode): still never above the input's g.
+    std::vector<SynthFrame> c = slerp;
+    const auto rc = mocap::refine_transition(g->gap, c, {15, 0.0, false});
+    const auto mc = mocap::measure_transition(g->gap, c);
+    EXPECT_NEAR(rc.energy_after_J, mc.energy_J, 1e-9 * mc.energy_J) << xn;
+    EXPECT_LE(mc.energy_J, ms.energy_J) << xn;
     sum_before += ms.energy_J;
     sum_after += ma.energy_J;
   }

@@ -152,6 +152,9 @@ struct SupplementParams {
   /// as the slerp transition of the same length; 0: none (the default, which
   /// the median-time goal is measured with).
   std::size_t refine_iterations = 0;
+  /// false: the refinement may slide the feet and leave the range of motion
+  /// (RefineOptions::keep_limits; for measurement only).
+  bool refine_keep_limits = true;
 };
 
 struct GapProblem {
@@ -197,20 +200,28 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
 /// root), minimising the transition's g (measure_transition's energy_J).
 /// Gradients by forward differences (1e-6), each recomputing only the steps
 /// the varied frame touches; a step is accepted only when the whole path's g
-/// is lower (Armijo condition, at most 30 halvings), its foot sliding is at
-/// most max(that of `frames` as given, `foot_sliding_limit_m`) and it has no
-/// more range violations than `frames` as given: the result is never worse
-/// than the input in g and violations. Stops early when no step along the
-/// gradient is accepted. Deterministic; an iteration costs about
-/// frames x (3 + 3 x joints) local re-evaluations. `frames` is replaced by
-/// the result. Throws std::invalid_argument on a bad gap or frame.
+/// is lower (Armijo condition, at most 30 halvings) and, with `keep_limits`,
+/// its foot sliding is at most max(that of `frames` as given,
+/// `foot_sliding_limit_m`) and it has no more range violations than `frames`
+/// as given: the result is never worse than the input in g (nor, with the
+/// limits, in violations). Stops early when no step along the gradient is
+/// accepted. Deterministic; an iteration costs about frames x (3 + 3 x
+/// joints) local re-evaluations. `frames` is replaced by the result. Throws
+/// std::invalid_argument on a bad gap or frame.
+struct RefineOptions {
+  std::size_t iterations = 0;
+  /// Metres; the input's own sliding is always allowed.
+  double foot_sliding_limit_m = 0.0;
+  /// false: no sliding or range condition (measures how low g can go).
+  bool keep_limits = true;
+};
 struct RefineResult {
   std::size_t steps = 0;  // accepted steps
   double energy_before_J = 0.0;
   double energy_after_J = 0.0;
 };
 RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
-                               std::size_t iterations, double foot_sliding_limit_m = 0.0);
+                               const RefineOptions& options);
 
 /// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
