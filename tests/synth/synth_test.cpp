@@ -65,6 +65,18 @@ std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std:
   return g;
 }
 
+// Bit-identical transitions (root positions and every local rotation).
+void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<SynthFrame>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].root_position_m, b[i].root_position_m) << "frame " << i;
+    ASSERT_EQ(a[i].local_rotations.size(), b[i].local_rotations.size());
+    for (std::size_t j = 0; j < a[i].local_rotations.size(); ++j)
+      EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs())
+          << "frame " << i << " joint " << j;
+  }
+}
+
 #define REQUIRE_INDEX()                                          \
   MOCAP_REQUIRE_DATA();                                          \
   const mocap::Index* index_ptr = shared_index();                \
@@ -270,12 +282,7 @@ TEST(SynthSupplement, AStarIsDeterministicBoundedAndInRange) {
   mocap::SupplementStats st1, st2;
   const auto a1 = mocap::supplement_astar(g->gap, p, &st1);
   const auto a2 = mocap::supplement_astar(g->gap, p, &st2);
-  ASSERT_EQ(a1.size(), a2.size());
-  for (std::size_t i = 0; i < a1.size(); ++i) {
-    EXPECT_EQ(a1[i].root_position_m, a2[i].root_position_m);
-    for (std::size_t j = 0; j < a1[i].local_rotations.size(); ++j)
-      EXPECT_EQ(a1[i].local_rotations[j].coeffs(), a2[i].local_rotations[j].coeffs());
-  }
+  expect_same_frames(a1, a2);
   EXPECT_GE(a1.size(), 1u);
   EXPECT_LE(a1.size(), p.max_states);
   EXPECT_EQ(st1.stop_reason, st2.stop_reason);
@@ -363,11 +370,7 @@ TEST(SynthRefine, RefusesBadFramesAndZeroIterationsChangeNothing) {
   const double e = mocap::measure_transition(g->gap, before).energy_J;
   EXPECT_NEAR(r.energy_before_J, e, 1e-9 * e);
   EXPECT_EQ(r.energy_after_J, r.energy_before_J);
-  for (std::size_t i = 0; i < fs.size(); ++i) {
-    EXPECT_EQ(fs[i].root_position_m, before[i].root_position_m);
-    for (std::size_t j = 0; j < fs[i].local_rotations.size(); ++j)
-      EXPECT_EQ(fs[i].local_rotations[j].coeffs(), before[i].local_rotations[j].coeffs());
-  }
+  expect_same_frames(fs, before);
   std::vector<SynthFrame> none;
   const auto r0 = mocap::refine_transition(g->gap, none, {10});
   EXPECT_TRUE(none.empty());
@@ -407,11 +410,7 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
     // Deterministic: bit-identical runs.
     EXPECT_EQ(ra.steps, rb.steps);
     EXPECT_EQ(ra.energy_after_J, rb.energy_after_J);
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      EXPECT_EQ(a[i].root_position_m, b[i].root_position_m);
-      for (std::size_t j = 0; j < a[i].local_rotations.size(); ++j)
-        EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs());
-    }
+    expect_same_frames(a, b);
     // Without the limits (a measuring mode): still never above the input's g.
     std::vector<SynthFrame> c = slerp;
     const auto rc = mocap::refine_transition(g->gap, c, {15, 0.0, false});
