@@ -2,13 +2,15 @@
 //   mocap-synth --index INDEX.h5 --query Q.json [--results R.jsonl] [--pick PAIR:RANK ...]
 //               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
-//               [--refine N]
+//               [--refine N] [--threads N]
+#include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "mocap/error.hpp"
@@ -52,8 +54,14 @@ int main(int argc, char** argv) {
                  "(about 4 ms each; 0: none)")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
+  unsigned threads = 0;
+  app.add_option("--threads", threads,
+                 "worker threads: the gaps are supplemented in parallel (default: all cores); "
+                 "the output does not depend on it");
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
   CLI11_PARSE(app, argc, argv);
+  std::optional<tbb::global_control> parallelism;
+  if (threads > 0) parallelism.emplace(tbb::global_control::max_allowed_parallelism, threads);
   const auto t0 = std::chrono::steady_clock::now();
   try {
     static const std::map<std::string, mocap::TransitionMethod> methods = {

@@ -1,6 +1,8 @@
 // Supplementation of a gap: the A*-based search of the paper's figure 4 and
 // the slerp / inertialization baselines, plus the measures of a transition.
 // The method and every choice are documented in docs/synthesis.md.
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -227,10 +229,13 @@ struct PathCache {
   std::vector<double> steps;  // steps[k]: g(state k -> state k + 1), k = 1 .. L-3
   NewtonEulerWorkspace ws;
   std::size_t L = 0;
-  // Scratch of delta().
-  WorldPose w_changed;
-  std::array<BodyState, 3> s_changed;
-  std::array<NewtonEulerData, 3> id_changed;
+  // Scratch of delta() (one per thread: delta() only reads the cache).
+  struct DeltaScratch {
+    WorldPose w_changed;
+    std::array<BodyState, 3> s_changed;
+    std::array<NewtonEulerData, 3> id_changed;
+    NewtonEulerWorkspace ws;
+  };
 
   // Builds the cache for `frames`; returns the transition's g.
   double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
@@ -269,7 +274,9 @@ struct PathCache {
   // Change of the transition's g when inserted frame i becomes `changed`:
   // only states i+1 .. i+3 (its own and its neighbours' rates) and the steps
   // touching them are recomputed.
-  double delta(const GapProblem& gap, std::size_t i, const SynthFrame& changed) {
+  double delta(const GapProblem& gap, std::size_t i, const SynthFrame& changed,
+               DeltaScratch& sc) const {
+    auto& [w_changed, s_changed, id_changed, dws] = sc;
     const SynthSkeleton& sk = *gap.skeleton;
     const std::size_t s = i + 2;  // sequence index of frame i
     synth_world_pose(sk, changed, w_changed);
@@ -286,7 +293,7 @@ struct PathCache {
       const BodyState& b = changed_state(k + 1) ? s_changed[k + 2 - s] : states[k + 1];
       const NewtonEulerData& ia = changed_state(k) ? id_changed[k + 1 - s] : ids[k];
       const NewtonEulerData& ib = changed_state(k + 1) ? id_changed[k + 2 - s] : ids[k + 1];
-      after += full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, ws);
+      after += full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, dws);
     }
     return after - before;
   }
@@ -641,19 +648,28 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
     return !options.keep_limits ||
            (cache.foot_sliding(gap) <= slide_limit && violations(fs) <= violation_limit);
   };
-  // Forward differences, the cache holding the transition at `at`.
+  // Forward differences, the cache holding the transition at `at`; the
+  // frames in parallel (each component is computed alone: the same result
+  // for every thread count).
   constexpr double eps = 1e-6;
-  SynthFrame changed;
-  Eigen::VectorXd xi(per);
+  struct Scratch {
+    SynthFrame changed;
+    Eigen::VectorXd xi;
+    PathCache::DeltaScratch delta;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch;
   const auto gradient = [&](const Eigen::VectorXd& at, Eigen::VectorXd& out) {
     out.resize(static_cast<Eigen::Index>(N));
-    for (std::size_t i = 0; i < m; ++i)
+    tbb::parallel_for(std::size_t{0}, m, [&](std::size_t i) {
+      Scratch& sc = scratch.local();
       for (std::size_t v = 0; v < per; ++v) {
-        xi = at.segment(static_cast<Eigen::Index>(i * per), static_cast<Eigen::Index>(per));
-        xi[static_cast<Eigen::Index>(v)] += eps;
-        frame_of(i, xi.data(), changed);
-        out[static_cast<Eigen::Index>(i * per + v)] = cache.delta(gap, i, changed) / eps;
+        sc.xi = at.segment(static_cast<Eigen::Index>(i * per), static_cast<Eigen::Index>(per));
+        sc.xi[static_cast<Eigen::Index>(v)] += eps;
+        frame_of(i, sc.xi.data(), sc.changed);
+        out[static_cast<Eigen::Index>(i * per + v)] =
+            cache.delta(gap, i, sc.changed, sc.delta) / eps;
       }
+    });
   };
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(N)), grad, grad_new, dir,
                   x_new;

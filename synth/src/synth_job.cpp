@@ -1,6 +1,7 @@
 // The synthesis job: results in, assembly, BVH out (synth_job.hpp).
 #include "mocap/synth_job.hpp"
 
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <charconv>
 #include <chrono>
@@ -276,49 +277,72 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
       res.query_frames.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
     }
   }
-  // Assemble with transitions.
-  auto add_segment = [&](const std::string& kind, std::size_t pair, const std::vector<SynthFrame>& fs) {
+  // The gaps: into each partial motion from its query frame and out of it
+  // to the next. Each is supplemented as its own task (independent: the
+  // result does not depend on the thread count).
+  struct GapTask {
+    std::size_t pair;
+    const char* side;
+    GapProblem gap;
+    TransitionReport report;
+    std::vector<SynthFrame> frames;
+  };
+  std::vector<GapTask> tasks;
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    const SynthFrame& q = res.query_frames[h];
+    const SynthFrame& qn = res.query_frames[h + 1];
+    const auto& pc = pieces[h];
+    tasks.push_back({h + 1, "in", GapProblem{&sk, &rom, q, q, pc[0], pc[1], dt}, {}, {}});
+    tasks.push_back(
+        {h + 1, "out", GapProblem{&sk, &rom, pc[pc.size() - 2], pc.back(), qn, qn, dt}, {}, {}});
+  }
+  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t i) {
+    GapTask& t = tasks[i];
+    TransitionReport& tr = t.report;
+    tr.pair = t.pair;
+    tr.side = t.side;
+    tr.method = options.method;
+    const auto ts = std::chrono::steady_clock::now();
+    // Baselines get the length A* would plan with (choose_transition_frames),
+    // so --transition slerp|inertialize compare like with like.
+    const std::size_t frames = options.method == TransitionMethod::astar
+                                   ? 0
+                                   : choose_transition_frames(t.gap, options.params);
+    switch (options.method) {
+      case TransitionMethod::astar:
+        t.frames = supplement_astar(t.gap, options.params, &tr.stats);
+        break;
+      case TransitionMethod::slerp:
+        t.frames = slerp_transition(t.gap, frames);
+        break;
+      case TransitionMethod::inertialize:
+        t.frames = inertialize_transition(t.gap, frames);
+        break;
+    }
+    tr.time_ms = ms_since(ts);
+    tr.measures = measure_transition(t.gap, t.frames);
+    for (TransitionMethod other : {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
+      if (other == options.method || other == TransitionMethod::astar) continue;
+      const auto bf = other == TransitionMethod::slerp
+                          ? slerp_transition(t.gap, t.frames.size())
+                          : inertialize_transition(t.gap, t.frames.size());
+      tr.baselines.emplace_back(other, measure_transition(t.gap, bf));
+    }
+  });
+  // Assemble: Q^1, transition, R_1, transition, Q^2, ...
+  auto add_segment = [&](const std::string& kind, std::size_t pair,
+                         const std::vector<SynthFrame>& fs) {
     res.segments.push_back({kind, pair, res.frames.size(), fs.size()});
     res.frames.insert(res.frames.end(), fs.begin(), fs.end());
   };
-  auto transition = [&](std::size_t pair, const std::string& side, GapProblem gap) {
-    gap.skeleton = &sk;
-    gap.range = &rom;
-    gap.frame_time_s = dt;
-    TransitionReport tr;
-    tr.pair = pair;
-    tr.side = side;
-    tr.method = options.method;
-    const auto ts = std::chrono::steady_clock::now();
-    std::vector<SynthFrame> fs;
-    // Baselines get the length A* would plan with (choose_transition_frames),
-    // so --transition slerp|inertialize compare like with like.
-    const std::size_t frames =
-        options.method == TransitionMethod::astar ? 0 : choose_transition_frames(gap, options.params);
-    switch (options.method) {
-      case TransitionMethod::astar: fs = supplement_astar(gap, options.params, &tr.stats); break;
-      case TransitionMethod::slerp: fs = slerp_transition(gap, frames); break;
-      case TransitionMethod::inertialize: fs = inertialize_transition(gap, frames); break;
-    }
-    tr.time_ms = ms_since(ts);
-    tr.measures = measure_transition(gap, fs);
-    for (TransitionMethod other : {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
-      if (other == options.method || other == TransitionMethod::astar) continue;
-      const auto bf = other == TransitionMethod::slerp ? slerp_transition(gap, fs.size())
-                                                       : inertialize_transition(gap, fs.size());
-      tr.baselines.emplace_back(other, measure_transition(gap, bf));
-    }
-    res.transitions.push_back(std::move(tr));
-    add_segment("transition", pair, fs);
-  };
   for (std::size_t h = 0; h + 1 < H; ++h) {
-    const SynthFrame& q = res.query_frames[h];
-    add_segment("query", h + 1, {q});
-    const auto& pc = pieces[h];
-    transition(h + 1, "in", GapProblem{nullptr, nullptr, q, q, pc[0], pc[1], 0.0});
-    add_segment("partial", h + 1, pc);
-    const SynthFrame& qn = res.query_frames[h + 1];
-    transition(h + 1, "out", GapProblem{nullptr, nullptr, pc[pc.size() - 2], pc.back(), qn, qn, 0.0});
+    add_segment("query", h + 1, {res.query_frames[h]});
+    for (std::size_t side = 0; side < 2; ++side) {
+      GapTask& t = tasks[2 * h + side];
+      if (side == 1) add_segment("partial", h + 1, pieces[h]);
+      add_segment("transition", h + 1, t.frames);
+      res.transitions.push_back(std::move(t.report));
+    }
   }
   add_segment("query", H, {res.query_frames.back()});
   res.step_energies_J = motion_step_energies(sk, res.frames, dt);

@@ -42,6 +42,9 @@ expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.jso
 grep -q "^motion: .*m.bvh" "$tmp/out.txt" || fail "motion path not printed"
 "$synth" "${base[@]/m.bvh/m2.bvh}" --results "$tmp/results.jsonl" >/dev/null
 cmp -s "$tmp/m.bvh" "$tmp/m2.bvh" || fail "two runs gave different motions"
+# The gaps run in parallel: one thread gives the same motion and report.
+"$synth" "${base[@]/m.bvh/m1.bvh}" --results "$tmp/results.jsonl" --threads 1 --report "$tmp/r1.json" >/dev/null
+cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 "$synth" "${base[@]/m.bvh/ms.bvh}" --results "$tmp/results.jsonl" --transition slerp --report "$tmp/rs.json" >/dev/null
 "$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
 # --refine: the same transitions' lengths, g never above the unrefined run's.
@@ -51,6 +54,15 @@ import json, sys
 t = sys.argv[1]
 r = json.load(open(t + "/r.json"))
 rr = json.load(open(t + "/rr.json"))
+r1 = json.load(open(t + "/r1.json"))
+def untimed(rep):
+    rep = json.loads(json.dumps(rep))
+    del rep["timings_ms"]
+    for tr in rep["transitions"]:
+        del tr["time_ms"]
+    rep["motion"]["bvh"] = None
+    return rep
+assert untimed(r1) == untimed(r), "--threads 1 gave a different report"
 assert r["parameters"]["refine_iterations"] == 0 and rr["parameters"]["refine_iterations"] == 5
 for a, b in zip(r["transitions"], rr["transitions"]):
     assert a["search"]["refine_steps"] == 0 and a["search"]["refine_gain_J"] == 0

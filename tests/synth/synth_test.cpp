@@ -3,6 +3,7 @@
 // built once with the indexer binary of this build).
 #include <gtest/gtest.h>
 
+#include <tbb/global_control.h>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -424,6 +425,25 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
   // (measured: 0.976 of the slerps' g together; a wrong finite difference
   // would stall at once).
   EXPECT_LT(sum_after, 0.985 * sum_before) << sum_after / sum_before;
+}
+
+TEST(SynthRefine, OneThreadGivesTheSameTransition) {
+  REQUIRE_INDEX();
+  // The gradient's frames run in parallel; each component is computed alone.
+  auto g = make_gap(index, clip_named(index, "dataset-1_run_normal_001.bvh"), 20,
+                    clip_named(index, "dataset-1_run_angry_001.bvh"), 30);
+  const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, 12);
+  std::vector<SynthFrame> all = slerp, one = slerp;
+  const auto ra = mocap::refine_transition(g->gap, all, {10});
+  mocap::RefineResult r1;
+  {
+    tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+    r1 = mocap::refine_transition(g->gap, one, {10});
+  }
+  EXPECT_GT(ra.steps, 0u);
+  EXPECT_EQ(ra.steps, r1.steps);
+  EXPECT_EQ(ra.energy_after_J, r1.energy_after_J);
+  expect_same_frames(all, one);
 }
 
 TEST(SynthRefine, AStarWithRefinementReportsItsGain) {

@@ -206,7 +206,8 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
 /// as given: the result is never worse than the input in g (nor, with the
 /// limits, in violations). Stops early when no step along the gradient is
 /// accepted. Deterministic; an iteration costs about frames x (3 + 3 x
-/// joints) local re-evaluations. `frames` is replaced by the result. Throws
+/// joints) local re-evaluations, the frames' in parallel (TBB; the result
+/// does not depend on the thread count). `frames` is replaced by the result. Throws
 /// std::invalid_argument on a bad gap or frame.
 struct RefineOptions {
   std::size_t iterations = 0;
