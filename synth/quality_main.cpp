@@ -4,12 +4,13 @@
 // consecutive clips of each content, different styles); Y is placed with the
 // assembly rule (continuation_placement over the estimated gap time). Prints
 // a markdown table and a summary; --json writes every measure.
+#include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -97,6 +98,9 @@ int main(int argc, char** argv) {
       "let the refinement slide the feet and leave the range of motion (how low g can go)");
   app.add_option("--json", json_path, "write all measures as JSON");
   CLI11_PARSE(app, argc, argv);
+  // One thread: the times are per transition on one core (the refinement's
+  // gradient would otherwise use every core).
+  const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   params.plant_feet = !no_plant;
   params.exact_lookahead = !h_lookahead;
   params.choose_length = !no_choose;
