@@ -66,6 +66,12 @@ std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std:
   return g;
 }
 
+// The same, clips given by file name.
+std::unique_ptr<RealGap> make_gap(const mocap::Index& index, const std::string& x, std::size_t a,
+                                  const std::string& y, std::size_t b) {
+  return make_gap(index, clip_named(index, x), a, clip_named(index, y), b);
+}
+
 // Bit-identical transitions (root positions and every local rotation).
 void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<SynthFrame>& b) {
   ASSERT_EQ(a.size(), b.size());
@@ -276,9 +282,7 @@ TEST(SynthSupplement, BaselinesHitTheirDefinitions) {
 
 TEST(SynthSupplement, AStarIsDeterministicBoundedAndInRange) {
   REQUIRE_INDEX();
-  const std::size_t x = clip_named(index, "dataset-1_run_normal_001.bvh");
-  const std::size_t y = clip_named(index, "dataset-1_run_angry_001.bvh");
-  auto g = make_gap(index, x, 20, y, 25);
+  auto g = make_gap(index, "dataset-1_run_normal_001.bvh", 20, "dataset-1_run_angry_001.bvh", 25);
   mocap::SupplementParams p;
   mocap::SupplementStats st1, st2;
   const auto a1 = mocap::supplement_astar(g->gap, p, &st1);
@@ -318,7 +322,7 @@ TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
       {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   std::size_t strictly_lower = 0;
   for (const auto& [xn, yn] : pairs) {
-    auto g = make_gap(index, clip_named(index, xn), 20, clip_named(index, yn), 30);
+    auto g = make_gap(index, xn, 20, yn, 30);
     for (bool exact : {false, true}) {
       mocap::SupplementParams p;
       p.exact_lookahead = exact;
@@ -354,9 +358,7 @@ TEST(SynthSupplement, IdenticalEndsCostLittle) {
 
 TEST(SynthRefine, RefusesBadFramesAndZeroIterationsChangeNothing) {
   REQUIRE_INDEX();
-  const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");
-  const std::size_t y = clip_named(index, "dataset-1_walk_angry_001.bvh");
-  auto g = make_gap(index, x, 20, y, 30);
+  auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   std::vector<SynthFrame> bad = mocap::slerp_transition(g->gap, 4);
   bad[2].local_rotations.pop_back();
   EXPECT_THROW(mocap::refine_transition(g->gap, bad, {5}), std::invalid_argument);
@@ -392,7 +394,7 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
       {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   double sum_before = 0.0, sum_after = 0.0;
   for (const auto& [xn, yn] : pairs) {
-    auto g = make_gap(index, clip_named(index, xn), 20, clip_named(index, yn), 30);
+    auto g = make_gap(index, xn, 20, yn, 30);
     const std::size_t m = mocap::choose_transition_frames(g->gap, mocap::SupplementParams{});
     const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, m);
     const auto ms = mocap::measure_transition(g->gap, slerp);
@@ -430,8 +432,7 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
 TEST(SynthRefine, OneThreadGivesTheSameTransition) {
   REQUIRE_INDEX();
   // The gradient's frames run in parallel; each component is computed alone.
-  auto g = make_gap(index, clip_named(index, "dataset-1_run_normal_001.bvh"), 20,
-                    clip_named(index, "dataset-1_run_angry_001.bvh"), 30);
+  auto g = make_gap(index, "dataset-1_run_normal_001.bvh", 20, "dataset-1_run_angry_001.bvh", 30);
   const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, 12);
   std::vector<SynthFrame> all = slerp, one = slerp;
   const auto ra = mocap::refine_transition(g->gap, all, {10});
@@ -448,9 +449,7 @@ TEST(SynthRefine, OneThreadGivesTheSameTransition) {
 
 TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   REQUIRE_INDEX();
-  const std::size_t x = clip_named(index, "dataset-1_walk_normal_001.bvh");
-  const std::size_t y = clip_named(index, "dataset-1_walk_angry_001.bvh");
-  auto g = make_gap(index, x, 20, y, 30);
+  auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   mocap::SupplementParams p;
   mocap::SupplementStats plain_stats, refined_stats;
   const auto plain = mocap::supplement_astar(g->gap, p, &plain_stats);
