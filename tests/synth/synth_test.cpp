@@ -374,6 +374,12 @@ TEST(SynthRefine, RefusesBadFramesAndZeroIterationsChangeNothing) {
   EXPECT_NEAR(r.energy_before_J, e, 1e-9 * e);
   EXPECT_EQ(r.energy_after_J, r.energy_before_J);
   expect_same_frames(fs, before);
+  // One inserted frame: its neighbours are S_0 and S_G only.
+  std::vector<SynthFrame> single = mocap::slerp_transition(g->gap, 1);
+  const auto r1 = mocap::refine_transition(g->gap, single, {5});
+  const double e1 = mocap::measure_transition(g->gap, single).energy_J;
+  EXPECT_NEAR(r1.energy_after_J, e1, 1e-9 * e1);
+  EXPECT_LE(r1.energy_after_J, r1.energy_before_J);
   std::vector<SynthFrame> none;
   const auto r0 = mocap::refine_transition(g->gap, none, {10});
   EXPECT_TRUE(none.empty());
