@@ -25,6 +25,8 @@
 //    exact_lookahead is off) is kept, provided it slides
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
+//    Optionally followed by refine_transition (SupplementParams::
+//    refine_iterations): L-BFGS on every inserted frame at once, exact g.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
 //    velocity) plus the start offset decayed by Bollo's quintic.
