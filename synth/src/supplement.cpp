@@ -217,6 +217,18 @@ bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegCha
   return true;
 }
 
+// (frame, joint) pairs of `frames` outside the gap's range of motion (0
+// without a range).
+std::size_t count_range_violations(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  std::size_t v = 0;
+  if (gap.range)
+    for (const SynthFrame& f : frames)
+      for (std::size_t j = 0; j < f.local_rotations.size(); ++j)
+        if (!within_range(*gap.skeleton, *gap.range, static_cast<int>(j), f.local_rotations[j]))
+          ++v;
+  return v;
+}
+
 // The sequence S_-1, S_0, frames..., S_G, S_G+1 with its world poses, states
 // (rates by central differences), inverse dynamics and the g of every step
 // S_0 -> ... -> S_G: g of a transition (measure_transition's energy_J
@@ -237,19 +249,25 @@ struct PathCache {
     NewtonEulerWorkspace ws;
   };
 
-  // Builds the cache for `frames`; returns the transition's g.
-  double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  // The world poses of the sequence only (all foot_sliding() needs).
+  void build_poses(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
     const SynthSkeleton& sk = *gap.skeleton;
     L = frames.size() + 4;
     if (world.size() < L) world.resize(L);
-    if (states.size() < L) states.resize(L);
-    if (ids.size() < L) ids.resize(L);
-    steps.assign(L, 0.0);
     synth_world_pose(sk, gap.before, world[0]);
     synth_world_pose(sk, gap.start, world[1]);
     for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], world[2 + i]);
     synth_world_pose(sk, gap.goal, world[L - 2]);
     synth_world_pose(sk, gap.after, world[L - 1]);
+  }
+
+  // Builds the cache for `frames`; returns the transition's g.
+  double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+    const SynthSkeleton& sk = *gap.skeleton;
+    build_poses(gap, frames);
+    if (states.size() < L) states.resize(L);
+    if (ids.size() < L) ids.resize(L);
+    steps.assign(L, 0.0);
     for (std::size_t k = 1; k + 1 < L; ++k) {
       state_at(gap, k, L, world[0], states[k]);
       inverse_dynamics(sk.model, states[k].view(), ids[k]);
@@ -634,19 +652,11 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
                                    .normalized();
     }
   };
-  const auto violations = [&](const std::vector<SynthFrame>& fs) {
-    std::size_t v = 0;
-    if (gap.range)
-      for (const SynthFrame& fr : fs)
-        for (std::size_t j = 0; j < n; ++j)
-          if (!within_range(sk, *gap.range, static_cast<int>(j), fr.local_rotations[j])) ++v;
-    return v;
-  };
   const double slide_limit = std::max(cache.foot_sliding(gap), options.foot_sliding_limit_m) + 1e-9;
-  const std::size_t violation_limit = violations(frames);
+  const std::size_t violation_limit = count_range_violations(gap, frames);
   const auto within_limits = [&](const std::vector<SynthFrame>& fs) {
-    return !options.keep_limits ||
-           (cache.foot_sliding(gap) <= slide_limit && violations(fs) <= violation_limit);
+    return !options.keep_limits || (cache.foot_sliding(gap) <= slide_limit &&
+                                    count_range_violations(gap, fs) <= violation_limit);
   };
   // Forward differences, the cache holding the transition at `at`; the
   // frames in parallel (each component is computed alone: the same result
@@ -745,7 +755,7 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     // Feet may slide as much as the slerp transition of the same length's
     // (the search's own bound), not more.
     PathCache slerp_path;
-    slerp_path.build(gap, slerp_transition(gap, frames.size()));
+    slerp_path.build_poses(gap, slerp_transition(gap, frames.size()));
     const RefineResult r = refine_transition(
         gap, frames,
         {params.refine_iterations, slerp_path.foot_sliding(gap), params.refine_keep_limits});
@@ -857,10 +867,7 @@ TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<S
       m.peak_angular_speed_radps = std::max(m.peak_angular_speed_radps, w);
     }
   }
-  if (gap.range)
-    for (const SynthFrame& f : frames)
-      for (std::size_t j = 0; j < n; ++j)
-        if (!within_range(sk, *gap.range, static_cast<int>(j), f.local_rotations[j])) ++m.range_violations;
+  m.range_violations = count_range_violations(gap, frames);
   return m;
 }
 
