@@ -261,17 +261,23 @@ struct PathCache {
     synth_world_pose(sk, gap.after, world[L - 1]);
   }
 
-  // Builds the cache for `frames`; returns the transition's g.
-  double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
-    const SynthSkeleton& sk = *gap.skeleton;
+  // The world poses, then states 1 .. L-2 with central rates and their
+  // inverse dynamics (what measure_transition also needs).
+  void build_states(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
     build_poses(gap, frames);
     if (states.size() < L) states.resize(L);
     if (ids.size() < L) ids.resize(L);
-    steps.assign(L, 0.0);
     for (std::size_t k = 1; k + 1 < L; ++k) {
       state_at(gap, k, L, world[0], states[k]);
-      inverse_dynamics(sk.model, states[k].view(), ids[k]);
+      inverse_dynamics(gap.skeleton->model, states[k].view(), ids[k]);
     }
+  }
+
+  // Builds the cache for `frames`; returns the transition's g.
+  double build(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+    const SynthSkeleton& sk = *gap.skeleton;
+    build_states(gap, frames);
+    steps.assign(L, 0.0);
     double g = 0.0;
     for (std::size_t k = 1; k + 2 < L; ++k) {
       steps[k] = full_energy(sk.model, states[k].view(), states[k + 1].view(), gap.frame_time_s,
@@ -831,17 +837,12 @@ TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<S
   }
   seq.push_back(&gap.goal);
   seq.push_back(&gap.after);
-  const std::size_t L = seq.size();
-  std::vector<WorldPose> world(L);
-  for (std::size_t k = 0; k < L; ++k) synth_world_pose(sk, *seq[k], world[k]);
-  // States 1 .. L-2 with central rates, their inverse dynamics.
-  std::vector<BodyState> states(L);
-  std::vector<NewtonEulerData> ids(L);
-  for (std::size_t k = 1; k + 1 < L; ++k) {
-    const PoseView p = pose_view(world[k - 1]), c = pose_view(world[k]), x = pose_view(world[k + 1]);
-    sequence_state(sk.model, &p, c, &x, dt, states[k]);
-    inverse_dynamics(sk.model, states[k].view(), ids[k]);
-  }
+  PathCache path;
+  path.build_states(gap, frames);
+  const std::size_t L = path.L;
+  const std::vector<WorldPose>& world = path.world;
+  const std::vector<BodyState>& states = path.states;
+  const std::vector<NewtonEulerData>& ids = path.ids;
   TransitionMeasures m;
   m.frames = frames.size();
   NewtonEulerWorkspace ws;
