@@ -462,6 +462,11 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
   // a time (padding lanes as in inverse_dynamics: massless, discarded). Equal
   // to approximate_energy(a, b) up to round-off (1e-15 relative).
   const double inv_t = 1.0 / transition_time_s;
+  const double smooth = ws.smoothing_J;
+  const auto sabs = [smooth](double x) {
+    return smooth > 0.0 ? std::sqrt(x * x + smooth * smooth) - smooth : std::abs(x);
+  };
+  const auto smax = [&sabs](double u, double v) { return 0.5 * (u + v + sabs(u - v)); };
   ws.h.reset(n);
   double* const __restrict h_seg_out = ws.h.segment_J.data();
   double* const __restrict h_joint_out = ws.h.joint_J.data();
@@ -499,7 +504,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     const v4d dk = kb - ka;
     const v4d adk = dk < 0.0 ? -dk : dk;
     const v4d through = 2.0 * k_u - ka - kb;
-    const v4d h_seg = grav + (adk > through ? adk : through);
+    v4d h_seg = grav + (adk > through ? adk : through);
     // w^ in A's principal axes: (R P)_A^T dphi / T.
     const v4d sx = inv_t * v4d{steps[i0].x(), steps[i1].x(), steps[i2].x(), steps[i3].x()};
     const v4d sy = inv_t * v4d{steps[i0].y(), steps[i1].y(), steps[i2].y(), steps[i3].y()};
@@ -519,7 +524,14 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     const v4d dr = rb - ra;
     const v4d adr = dr < 0.0 ? -dr : dr;
     const v4d through_r = 2.0 * k_w - ra - rb;
-    const v4d h_joint = adr > through_r ? adr : through_r;
+    v4d h_joint = adr > through_r ? adr : through_r;
+    if (smooth > 0.0) {
+      // Smoothed (refinement only): |x| -> sqrt(x^2 + s^2) - s, max(a, b) -> (a + b + |a - b|) / 2.
+      for (std::size_t l = 0; l < grp.count; ++l) {
+        h_seg[l] = sabs(grav_signed[l]) + smax(sabs(dk[l]), through[l]);
+        h_joint[l] = smax(sabs(dr[l]), through_r[l]);
+      }
+    }
     h_sum += h_seg + h_joint;
     for (std::size_t l = 0; l < grp.count; ++l) {
       h_seg_out[grp.idx[l]] = h_seg[l];
@@ -551,13 +563,13 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
         fa_a -= da.joint_forces_N[j];
         fa_b -= db.joint_forces_N[j];
       }
-      const double w_adj = std::abs(0.5 * (fa_a + fa_b).dot(dc));
+      const double w_adj = sabs(0.5 * (fa_a + fa_b).dot(dc));
       double w_contact = 0.0;
       if (da.in_contact[j] || db.in_contact[j]) {
         const Eigen::Vector3d fc = 0.5 * (da.contact_forces_N[j] + db.contact_forces_N[j]);
         const Eigen::Vector3d tc =
             0.5 * (contact_moment_about_com(da, a, j) + contact_moment_about_com(db, b, j));
-        w_contact = std::abs(fc.dot(dc) + tc.dot(dphi));
+        w_contact = sabs(fc.dot(dc) + tc.dot(dphi));
         // Sliding: the contact point carried rigidly from the state where it
         // touches to the other one; friction mu F_n over its horizontal path.
         Eigen::Vector3d slide;
@@ -571,7 +583,13 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
               p - (a.coms_m[j] + (a.rotations[j] * b.rotations[j].conjugate()) * (p - b.coms_m[j]));
         }
         const double normal = std::max(0.0, fc.y());
-        w_contact += mu * normal * std::sqrt(slide.x() * slide.x() + slide.z() * slide.z());
+        const double friction = mu * normal;
+        w_contact +=
+            smooth > 0.0
+                ? std::sqrt(friction * friction * (slide.x() * slide.x() + slide.z() * slide.z()) +
+                            smooth * smooth) -
+                      smooth
+                : friction * std::sqrt(slide.x() * slide.x() + slide.z() * slide.z());
       }
       double w_res = 0.0;
       if (root) {
@@ -582,7 +600,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
                    (a.joint_positions_m[j] - a.coms_m[j]).cross(da.joint_forces_N[j]) +
                    db.joint_torques_Nm[j] +
                    (b.joint_positions_m[j] - b.coms_m[j]).cross(db.joint_forces_N[j]));
-        w_res = std::abs(fr.dot(dc) + mr.dot(dphi));
+        w_res = sabs(fr.dot(dc) + mr.dot(dphi));
       }
       g_seg = w_adj + w_contact + w_res;
       if (terms != nullptr) {
@@ -596,7 +614,7 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
       const int p = model.parents[j];
       const Eigen::Vector3d rel =
           p >= 0 ? Eigen::Vector3d(dphi - steps[static_cast<std::size_t>(p)]) : dphi;
-      g_joint = std::abs(0.5 * (da.joint_torques_Nm[j] + db.joint_torques_Nm[j]).dot(rel));
+      g_joint = sabs(0.5 * (da.joint_torques_Nm[j] + db.joint_torques_Nm[j]).dot(rel));
       if (terms != nullptr) terms->joint_work_J[j] = g_joint;
     }
     extra += g_seg + g_joint;

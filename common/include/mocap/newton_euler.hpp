@@ -147,6 +147,10 @@ struct NewtonEulerWorkspace {
   NewtonEulerData b;
   std::vector<Eigen::Vector3d> rotation_steps;
   EnergyTerms h;
+  /// Joules; 0 (the default): the exact g. > 0: a smooth under-estimate for
+  /// gradient-based optimisation (synth's refinement): every |x| of the step
+  /// becomes sqrt(x^2 + s^2) - s and every max(a, b) (a + b + |a - b|) / 2.
+  double smoothing_J = 0.0;
 };
 
 /// g(A -> B) in joules, running inverse dynamics on both states (into ws.a, ws.b).
