@@ -2,7 +2,8 @@
 //   mocap-synth --index INDEX.h5 --query Q.json [--results R.jsonl] [--pick PAIR:RANK ...]
 //               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
-//               [--refine N] [--threads N]
+//               [--refine N] [--refine-smoothing J] [--refine-polish S]
+//               [--threads N]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -52,6 +53,16 @@ int main(int argc, char** argv) {
   app.add_option("--refine", options.params.refine_iterations,
                  "after the A* search, at most N iterations lowering g on the whole transition "
                  "(about 4 ms each; 0: none)")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
+      ->capture_default_str();
+  app.add_option("--refine-smoothing", options.params.refine_smoothing_J,
+                 "with --refine: start on g smoothed at this many joules, then a tenth, a "
+                 "hundredth, then exact (a quarter of the iterations each; 0: exact throughout)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
+  app.add_option("--refine-polish", options.params.refine_polish_sweeps,
+                 "after the refinement's iterations, at most this many sweeps of coordinate "
+                 "polishing on the exact g (slow: seconds per gap; 0: none)")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
   unsigned threads = 0;

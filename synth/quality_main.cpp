@@ -92,10 +92,20 @@ int main(int argc, char** argv) {
          "refinement iterations after the search (docs/synthesis.md \"Refinement\"); 0: none")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
+  app.add_option("--refine-smoothing", params.refine_smoothing_J,
+                 "with --refine: smoothed stages first, from this many joules (docs/synthesis.md "
+                 "\"Refinement\")")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
+  app.add_option("--refine-polish", params.refine_polish_sweeps,
+                 "coordinate polishing sweeps after the refinement's iterations (docs/synthesis.md "
+                 "\"Refinement\")")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
+      ->capture_default_str();
   bool refine_free = false;
-  app.add_flag(
-      "--refine-free", refine_free,
-      "let the refinement slide the feet and leave the range of motion (how low g can go)");
+  app.add_flag("--refine-free", refine_free,
+               "let the refinement slide the feet, turn joints faster and leave the range of "
+               "motion (how low g can go)");
   app.add_option("--json", json_path, "write all measures as JSON");
   CLI11_PARSE(app, argc, argv);
   // One thread: the times are per transition on one core (the refinement's
@@ -279,6 +289,8 @@ int main(int argc, char** argv) {
                               {"cost_threshold_J", params.cost_threshold_J},
                               {"exact_lookahead", params.exact_lookahead},
                               {"refine_iterations", params.refine_iterations},
+                              {"refine_smoothing_J", params.refine_smoothing_J},
+                              {"refine_polish_sweeps", params.refine_polish_sweeps},
                               {"from_fraction", from_fraction},
                               {"to_fraction", to_fraction}}}};
       std::ofstream(json_path) << out.dump(2) << "\n";

@@ -137,7 +137,9 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
   j["parameters"] = {{"transition", transition_method_name(options.method)},
                      {"max_states", options.params.max_states},
                      {"cost_threshold_J", options.params.cost_threshold_J},
-                     {"refine_iterations", options.params.refine_iterations}};
+                     {"refine_iterations", options.params.refine_iterations},
+                     {"refine_smoothing_J", options.params.refine_smoothing_J},
+                     {"refine_polish_sweeps", options.params.refine_polish_sweeps}};
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return j.dump(2) + "\n";
 }

@@ -219,14 +219,42 @@ bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegCha
 
 // (frame, joint) pairs of `frames` outside the gap's range of motion (0
 // without a range).
-std::size_t count_range_violations(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f) {
   std::size_t v = 0;
   if (gap.range)
-    for (const SynthFrame& f : frames)
-      for (std::size_t j = 0; j < f.local_rotations.size(); ++j)
-        if (!within_range(*gap.skeleton, *gap.range, static_cast<int>(j), f.local_rotations[j]))
-          ++v;
+    for (std::size_t j = 0; j < f.local_rotations.size(); ++j)
+      if (!within_range(*gap.skeleton, *gap.range, static_cast<int>(j), f.local_rotations[j])) ++v;
   return v;
+}
+std::size_t count_range_violations(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  std::size_t v = 0;
+  for (const SynthFrame& f : frames) v += frame_range_violations(gap, f);
+  return v;
+}
+
+// Largest local joint angular speed of the step a -> b (the dummies above
+// the root excepted), rad/s: measure_transition's peak is the largest over
+// the transition's steps.
+double step_peak_angular_speed(const GapProblem& gap, const SynthFrame& a, const SynthFrame& b) {
+  const SynthSkeleton& sk = *gap.skeleton;
+  double peak = 0.0;
+  for (std::size_t j = 0; j < a.local_rotations.size(); ++j) {
+    if (sk.is_root_chain[j] && static_cast<int>(j) != sk.root_joint) continue;
+    peak = std::max(
+        peak, rotation_step(a.local_rotations[j], b.local_rotations[j]).norm() / gap.frame_time_s);
+  }
+  return peak;
+}
+
+// That peak over S_0 -> frames... -> S_G.
+double peak_angular_speed(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  double peak = 0.0;
+  const SynthFrame* prev = &gap.start;
+  for (const SynthFrame& f : frames) {
+    peak = std::max(peak, step_peak_angular_speed(gap, *prev, f));
+    prev = &f;
+  }
+  return std::max(peak, step_peak_angular_speed(gap, *prev, gap.goal));
 }
 
 // The sequence S_-1, S_0, frames..., S_G, S_G+1 with its world poses, states
@@ -241,12 +269,14 @@ struct PathCache {
   std::vector<double> steps;  // steps[k]: g(state k -> state k + 1), k = 1 .. L-3
   NewtonEulerWorkspace ws;
   std::size_t L = 0;
+  double smoothing_J = 0.0;  // > 0: the steps hold the smoothed g (NewtonEulerWorkspace)
   // Scratch of delta() (one per thread: delta() only reads the cache).
   struct DeltaScratch {
     WorldPose w_changed;
     std::array<BodyState, 3> s_changed;
     std::array<NewtonEulerData, 3> id_changed;
     NewtonEulerWorkspace ws;
+    std::array<double, 4> steps_changed{};  // the recomputed steps, k0 .. k1
   };
 
   // The world poses of the sequence only (all foot_sliding() needs).
@@ -278,6 +308,7 @@ struct PathCache {
     const SynthSkeleton& sk = *gap.skeleton;
     build_states(gap, frames);
     steps.assign(L, 0.0);
+    ws.smoothing_J = smoothing_J;
     double g = 0.0;
     for (std::size_t k = 1; k + 2 < L; ++k) {
       steps[k] = full_energy(sk.model, states[k].view(), states[k + 1].view(), gap.frame_time_s,
@@ -288,10 +319,19 @@ struct PathCache {
   }
 
   // Foot sliding of the cached transition (measure_transition's).
-  double foot_sliding(const GapProblem& gap) const {
+  double foot_sliding(const GapProblem& gap) const { return foot_sliding_with(gap, L, nullptr); }
+
+  // The same sum with `changed` in place of the pose at sequence index
+  // `changed_index` (the same additions in the same order: what
+  // foot_sliding() gives once that pose is applied).
+  double foot_sliding_with(const GapProblem& gap, std::size_t changed_index,
+                           const WorldPose* changed) const {
+    const auto pose = [&](std::size_t q) -> const WorldPose& {
+      return q == changed_index ? *changed : world[q];
+    };
     double sum = 0.0;
     for (std::size_t k = 1; k + 2 < L; ++k)
-      sum += step_foot_sliding(*gap.skeleton, world[k], world[k + 1], gap.frame_time_s);
+      sum += step_foot_sliding(*gap.skeleton, pose(k), pose(k + 1), gap.frame_time_s);
     return sum;
   }
 
@@ -300,7 +340,8 @@ struct PathCache {
   // touching them are recomputed.
   double delta(const GapProblem& gap, std::size_t i, const SynthFrame& changed,
                DeltaScratch& sc) const {
-    auto& [w_changed, s_changed, id_changed, dws] = sc;
+    auto& [w_changed, s_changed, id_changed, dws, steps_changed] = sc;
+    dws.smoothing_J = smoothing_J;
     const SynthSkeleton& sk = *gap.skeleton;
     const std::size_t s = i + 2;  // sequence index of frame i
     synth_world_pose(sk, changed, w_changed);
@@ -317,9 +358,25 @@ struct PathCache {
       const BodyState& b = changed_state(k + 1) ? s_changed[k + 2 - s] : states[k + 1];
       const NewtonEulerData& ia = changed_state(k) ? id_changed[k + 1 - s] : ids[k];
       const NewtonEulerData& ib = changed_state(k + 1) ? id_changed[k + 2 - s] : ids[k + 1];
-      after += full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, dws);
+      steps_changed[k - k0] =
+          full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, dws);
+      after += steps_changed[k - k0];
     }
     return after - before;
+  }
+
+  // Makes the last delta() for inserted frame i (computed into `sc`) the
+  // cached path: its pose, the three states and the steps touching them
+  // (exact steps: the cache must not be smoothed).
+  void apply(std::size_t i, DeltaScratch& sc) {
+    const std::size_t s = i + 2;
+    std::swap(world[s], sc.w_changed);
+    for (std::size_t d = 0; d < 3; ++d) {
+      std::swap(states[s - 1 + d], sc.s_changed[d]);
+      std::swap(ids[s - 1 + d], sc.id_changed[d]);
+    }
+    const std::size_t k0 = std::max<std::size_t>(1, s - 2), k1 = std::min(L - 3, s + 1);
+    for (std::size_t k = k0; k <= k1; ++k) steps[k] = sc.steps_changed[k - k0];
   }
 
   // State k of the sequence, its rates by central differences, with
@@ -627,9 +684,17 @@ std::vector<SynthFrame> astar_search(const GapProblem& gap, const SupplementPara
 
 }  // namespace
 
+double end_steps_peak_angular_speed(const GapProblem& gap) {
+  check_gap(gap);
+  return std::max(step_peak_angular_speed(gap, gap.before, gap.start),
+                  step_peak_angular_speed(gap, gap.goal, gap.after));
+}
+
 RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
                                const RefineOptions& options) {
   check_gap(gap);
+  if (!(options.smoothing_J >= 0.0) || !std::isfinite(options.smoothing_J))
+    throw std::invalid_argument("refinement smoothing must be a finite number of joules >= 0");
   const SynthSkeleton& sk = *gap.skeleton;
   const std::size_t n = sk.joint_count(), m = frames.size();
   for (const SynthFrame& f : frames)
@@ -639,7 +704,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
   RefineResult result;
   double f = cache.build(gap, frames);
   result.energy_before_J = result.energy_after_J = f;
-  if (m == 0 || options.iterations == 0) return result;
+  if (m == 0 || (options.iterations == 0 && options.polish_sweeps == 0)) return result;
   // Variables of each frame: root position (m), then a rotation vector (rad)
   // per varied joint, applied on the right of the frame's rotation as given.
   std::vector<int> joints;
@@ -660,9 +725,14 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
   };
   const double slide_limit = std::max(cache.foot_sliding(gap), options.foot_sliding_limit_m) + 1e-9;
   const std::size_t violation_limit = count_range_violations(gap, frames);
+  const double speed_limit =
+      std::max({peak_angular_speed(gap, frames), end_steps_peak_angular_speed(gap),
+                options.angular_speed_limit_radps}) +
+      1e-9;
   const auto within_limits = [&](const std::vector<SynthFrame>& fs) {
     return !options.keep_limits || (cache.foot_sliding(gap) <= slide_limit &&
-                                    count_range_violations(gap, fs) <= violation_limit);
+                                    count_range_violations(gap, fs) <= violation_limit &&
+                                    peak_angular_speed(gap, fs) <= speed_limit);
   };
   // Forward differences, the cache holding the transition at `at`; the
   // frames in parallel (each component is computed alone: the same result
@@ -689,60 +759,151 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
   };
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(N)), grad, grad_new, dir,
                   x_new;
-  gradient(x, grad);
-  // L-BFGS (the last 10 pairs), two-loop recursion.
   std::vector<Eigen::VectorXd> hist_s, hist_y;
   std::vector<double> alpha;
   std::vector<SynthFrame> trial(m);
-  for (std::size_t it = 0; it < options.iterations; ++it) {
-    dir = -grad;
-    alpha.assign(hist_s.size(), 0.0);
-    for (std::size_t k = hist_s.size(); k-- > 0;) {
-      alpha[k] = hist_s[k].dot(dir) / hist_y[k].dot(hist_s[k]);
-      dir -= alpha[k] * hist_y[k];
-    }
-    if (!hist_s.empty()) dir *= hist_s.back().dot(hist_y.back()) / hist_y.back().dot(hist_y.back());
-    for (std::size_t k = 0; k < hist_s.size(); ++k)
-      dir += hist_s[k] * (alpha[k] - hist_y[k].dot(dir) / hist_y[k].dot(hist_s[k]));
-    if (!(dir.dot(grad) < 0.0)) {
+  // L-BFGS (the last 10 pairs, two-loop recursion) on the cache's g (exact,
+  // or smoothed), from x / frames / f.
+  const auto lbfgs = [&](std::size_t iterations) {
+    hist_s.clear();
+    hist_y.clear();
+    gradient(x, grad);
+    for (std::size_t it = 0; it < iterations; ++it) {
       dir = -grad;
-      hist_s.clear();
-      hist_y.clear();
-    }
-    const double slope = dir.dot(grad), biggest = dir.cwiseAbs().maxCoeff();
-    if (!(slope < 0.0) || !(biggest > 0.0)) break;
-    // Steepest descent starts at 1 mm / 1 mrad for the largest component.
-    double step = hist_s.empty() ? 1e-3 / biggest : 1.0;
-    bool accepted = false;
-    double f_new = f;
-    for (int halvings = 0; halvings < 30 && !accepted; ++halvings, step *= 0.5) {
-      x_new = x + step * dir;
-      for (std::size_t i = 0; i < m; ++i) frame_of(i, x_new.data() + i * per, trial[i]);
-      f_new = cache.build(gap, trial);
-      accepted = f_new < f + 1e-4 * step * slope && within_limits(trial);
-    }
-    if (!accepted) {
-      cache.build(gap, frames);
-      if (hist_s.empty()) break;  // no descent step even along the gradient
-      hist_s.clear();             // retry along the gradient
-      hist_y.clear();
-      continue;
-    }
-    frames = trial;
-    gradient(x_new, grad_new);
-    Eigen::VectorXd sv = x_new - x, yv = grad_new - grad;
-    if (sv.dot(yv) > 1e-12) {
-      if (hist_s.size() == 10) {
-        hist_s.erase(hist_s.begin());
-        hist_y.erase(hist_y.begin());
+      alpha.assign(hist_s.size(), 0.0);
+      for (std::size_t k = hist_s.size(); k-- > 0;) {
+        alpha[k] = hist_s[k].dot(dir) / hist_y[k].dot(hist_s[k]);
+        dir -= alpha[k] * hist_y[k];
       }
-      hist_s.push_back(std::move(sv));
-      hist_y.push_back(std::move(yv));
+      if (!hist_s.empty())
+        dir *= hist_s.back().dot(hist_y.back()) / hist_y.back().dot(hist_y.back());
+      for (std::size_t k = 0; k < hist_s.size(); ++k)
+        dir += hist_s[k] * (alpha[k] - hist_y[k].dot(dir) / hist_y[k].dot(hist_s[k]));
+      if (!(dir.dot(grad) < 0.0)) {
+        dir = -grad;
+        hist_s.clear();
+        hist_y.clear();
+      }
+      const double slope = dir.dot(grad), biggest = dir.cwiseAbs().maxCoeff();
+      if (!(slope < 0.0) || !(biggest > 0.0)) break;
+      // Steepest descent starts at 1 mm / 1 mrad for the largest component.
+      double step = hist_s.empty() ? 1e-3 / biggest : 1.0;
+      bool accepted = false;
+      double f_new = f;
+      for (int halvings = 0; halvings < 30 && !accepted; ++halvings, step *= 0.5) {
+        x_new = x + step * dir;
+        for (std::size_t i = 0; i < m; ++i) frame_of(i, x_new.data() + i * per, trial[i]);
+        f_new = cache.build(gap, trial);
+        accepted = f_new < f + 1e-4 * step * slope && within_limits(trial);
+      }
+      if (!accepted) {
+        cache.build(gap, frames);
+        if (hist_s.empty()) break;  // no descent step even along the gradient
+        hist_s.clear();             // retry along the gradient
+        hist_y.clear();
+        continue;
+      }
+      frames = trial;
+      gradient(x_new, grad_new);
+      Eigen::VectorXd sv = x_new - x, yv = grad_new - grad;
+      if (sv.dot(yv) > 1e-12) {
+        if (hist_s.size() == 10) {
+          hist_s.erase(hist_s.begin());
+          hist_y.erase(hist_y.begin());
+        }
+        hist_s.push_back(std::move(sv));
+        hist_y.push_back(std::move(yv));
+      }
+      x.swap(x_new);
+      grad.swap(grad_new);
+      f = f_new;
+      ++result.steps;
     }
-    x.swap(x_new);
-    grad.swap(grad_new);
-    f = f_new;
-    ++result.steps;
+  };
+  if (options.smoothing_J > 0.0) {
+    // Continuation: s, s / 10, s / 100, then the exact g; after each smoothed
+    // stage the frames are kept only if their exact g is lower and within
+    // the limits (a smoothed step may raise the exact g).
+    const std::size_t per_stage = options.iterations / 4;
+    std::vector<SynthFrame> kept = frames;
+    Eigen::VectorXd kept_x = x;
+    double kept_g = f;
+    double level = options.smoothing_J;
+    for (int stage = 0; stage < 3 && per_stage > 0; ++stage, level *= 0.1) {
+      cache.smoothing_J = level;
+      f = cache.build(gap, frames);
+      lbfgs(per_stage);
+      cache.smoothing_J = 0.0;
+      const double exact = cache.build(gap, frames);
+      if (exact < kept_g && within_limits(frames)) {
+        kept = frames;
+        kept_x = x;
+        kept_g = exact;
+      } else {
+        frames = kept;
+        x = kept_x;
+      }
+    }
+    f = cache.build(gap, frames);
+    lbfgs(options.iterations - 3 * per_stage);
+  } else if (options.iterations > 0) {
+    lbfgs(options.iterations);
+  }
+  if (options.polish_sweeps > 0) {
+    // Coordinate polishing on the exact g (it moves along the kinks where the
+    // quasi-Newton steps stall): each variable tried +-d on its own, d
+    // doubling (to 0.1) when a move is kept and halving when neither
+    // direction lowers g; a variable is done below 1e-5. Each move is
+    // evaluated locally (delta), kept only if g drops and the limits hold
+    // (the path's sliding with the moved pose, the speeds of the two steps
+    // it touches, its frame's violations), and applied to the cache in
+    // place. Serial, hence deterministic.
+    cache.smoothing_J = 0.0;
+    f = cache.build(gap, frames);
+    std::size_t violations = count_range_violations(gap, frames);
+    std::vector<double> d(N, 1e-2);
+    Scratch& sc = scratch.local();
+    for (std::size_t sweep = 0; sweep < options.polish_sweeps; ++sweep) {
+      bool active = false;
+      for (std::size_t i = 0; i < m; ++i)
+        for (std::size_t v = 0; v < per; ++v) {
+          double& dv = d[i * per + v];
+          if (dv < 1e-5) continue;
+          active = true;
+          bool moved = false;
+          for (const double sign : {1.0, -1.0}) {
+            sc.xi = x.segment(static_cast<Eigen::Index>(i * per), static_cast<Eigen::Index>(per));
+            sc.xi[static_cast<Eigen::Index>(v)] += sign * dv;
+            frame_of(i, sc.xi.data(), sc.changed);
+            const double dg = cache.delta(gap, i, sc.changed, sc.delta);
+            if (!(dg < -1e-12)) continue;
+            std::size_t new_violations = violations;
+            if (options.keep_limits) {
+              new_violations = violations + frame_range_violations(gap, sc.changed) -
+                               frame_range_violations(gap, frames[i]);
+              if (new_violations > violation_limit ||
+                  cache.foot_sliding_with(gap, i + 2, &sc.delta.w_changed) > slide_limit)
+                continue;
+              const SynthFrame& prev = i == 0 ? gap.start : frames[i - 1];
+              const SynthFrame& next = i + 1 == m ? gap.goal : frames[i + 1];
+              if (step_peak_angular_speed(gap, prev, sc.changed) > speed_limit ||
+                  step_peak_angular_speed(gap, sc.changed, next) > speed_limit)
+                continue;
+            }
+            cache.apply(i, sc.delta);
+            std::swap(frames[i], sc.changed);
+            x[static_cast<Eigen::Index>(i * per + v)] = sc.xi[static_cast<Eigen::Index>(v)];
+            violations = new_violations;
+            moved = true;
+            ++result.steps;
+            break;
+          }
+          dv = moved ? std::min(0.1, 2.0 * dv) : 0.5 * dv;
+        }
+      if (!active) break;
+    }
+    // The sum over the whole path (the measure's order of additions).
+    f = cache.build(gap, frames);
   }
   result.energy_after_J = f;
   return result;
@@ -757,14 +918,17 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   st = SupplementStats{};
   std::vector<SynthFrame> frames =
       astar_search(gap, params, choose_transition_frames(gap, params), &st);
-  if (params.refine_iterations > 0) {
+  if (params.refine_iterations > 0 || params.refine_polish_sweeps > 0) {
     // Feet may slide as much as the slerp transition of the same length's
-    // (the search's own bound), not more.
+    // (the search's own bound), not more; no joint may turn faster than in
+    // that slerp, the search's path or the captured steps at either end.
     PathCache slerp_path;
-    slerp_path.build_poses(gap, slerp_transition(gap, frames.size()));
-    const RefineResult r = refine_transition(
-        gap, frames,
-        {params.refine_iterations, slerp_path.foot_sliding(gap), params.refine_keep_limits});
+    const std::vector<SynthFrame> slerp = slerp_transition(gap, frames.size());
+    slerp_path.build_poses(gap, slerp);
+    const RefineOptions ro{params.refine_iterations,    slerp_path.foot_sliding(gap),
+                           params.refine_keep_limits,   params.refine_smoothing_J,
+                           params.refine_polish_sweeps, peak_angular_speed(gap, slerp)};
+    const RefineResult r = refine_transition(gap, frames, ro);
     st.refine_steps = r.steps;
     st.refine_gain_J = r.energy_before_J - r.energy_after_J;
   }
@@ -861,12 +1025,8 @@ TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<S
     split.residual_impulse_J += terms.residual_impulse_J;
     m.approximate_energy_J += approximate_energy(sk.model, states[k].view(), states[k + 1].view(), dt);
     m.foot_sliding_m += step_foot_sliding(sk, world[k], world[k + 1], dt);
-    for (std::size_t j = 0; j < n; ++j) {
-      if (sk.is_root_chain[j] && static_cast<int>(j) != sk.root_joint) continue;
-      const double w =
-          rotation_step(seq[k]->local_rotations[j], seq[k + 1]->local_rotations[j]).norm() / dt;
-      m.peak_angular_speed_radps = std::max(m.peak_angular_speed_radps, w);
-    }
+    m.peak_angular_speed_radps =
+        std::max(m.peak_angular_speed_radps, step_peak_angular_speed(gap, *seq[k], *seq[k + 1]));
   }
   m.range_violations = count_range_violations(gap, frames);
   return m;

@@ -35,6 +35,7 @@ expect_error "no results for query" "${base[@]}" --results "$tmp/other-id.jsonl"
 expect_error "frame time" "${base[@]}" --results "$tmp/cmu-mix.jsonl"
 expect_error "expected astar, slerp or inertialize" "${base[@]}" --results "$tmp/results.jsonl" --transition foo
 expect_error "refine" "${base[@]}" --results "$tmp/results.jsonl" --refine -3
+expect_error "refine-smoothing" "${base[@]}" --results "$tmp/results.jsonl" --refine 8 --refine-smoothing -1
 expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.json" --results "$tmp/results.jsonl" --out "$tmp/m.bvh"
 [ ! -e "$tmp/m.bvh" ] || fail "an output was written by a failing run"
 
@@ -49,6 +50,8 @@ cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 "$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
 # --refine: the same transitions' lengths, g never above the unrefined run's.
 "$synth" "${base[@]/m.bvh/mr.bvh}" --results "$tmp/results.jsonl" --refine 5 --report "$tmp/rr.json" >/dev/null
+# --refine-smoothing: smoothed stages first, the same guarantees.
+"$synth" "${base[@]/m.bvh/mq.bvh}" --results "$tmp/results.jsonl" --refine 8 --refine-smoothing 1 --report "$tmp/rq.json" >/dev/null
 python3 - "$tmp" <<'PY'
 import json, sys
 t = sys.argv[1]
@@ -63,12 +66,15 @@ def untimed(rep):
     rep["motion"]["bvh"] = None
     return rep
 assert untimed(r1) == untimed(r), "--threads 1 gave a different report"
+rq = json.load(open(t + "/rq.json"))
 assert r["parameters"]["refine_iterations"] == 0 and rr["parameters"]["refine_iterations"] == 5
-for a, b in zip(r["transitions"], rr["transitions"]):
-    assert a["search"]["refine_steps"] == 0 and a["search"]["refine_gain_J"] == 0
-    assert b["frames"] == a["frames"] and b["search"]["refine_steps"] <= 5
-    assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
-    assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
+assert r["parameters"]["refine_smoothing_J"] == 0 and rq["parameters"]["refine_smoothing_J"] == 1
+for refined, most in ((rr, 5), (rq, 8)):
+    for a, b in zip(r["transitions"], refined["transitions"]):
+        assert a["search"]["refine_steps"] == 0 and a["search"]["refine_gain_J"] == 0
+        assert b["frames"] == a["frames"] and b["search"]["refine_steps"] <= most
+        assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
+        assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
 assert sum(b["search"]["refine_steps"] for b in rr["transitions"]) > 0
 segs = r["motion"]["segments"]
 kinds = [s["kind"] for s in segs]

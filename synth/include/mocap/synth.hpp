@@ -151,12 +151,19 @@ struct SupplementParams {
   double min_duration_s = 0.1;
   /// After the search: at most this many refinement iterations
   /// (refine_transition) on the whole path, its feet sliding at most as much
-  /// as the slerp transition of the same length; 0: none (the default, which
-  /// the median-time goal is measured with).
+  /// as the slerp transition of the same length and no joint turning faster
+  /// than in that slerp or in the captured steps at either end; 0: none (the
+  /// default, which the median-time goal is measured with).
   std::size_t refine_iterations = 0;
   /// false: the refinement may slide the feet and leave the range of motion
   /// (RefineOptions::keep_limits; for measurement only).
   bool refine_keep_limits = true;
+  /// Joules; > 0: the refinement starts on a smoothed g
+  /// (RefineOptions::smoothing_J); 0: on the exact g throughout.
+  double refine_smoothing_J = 0.0;
+  /// After the refinement's iterations: at most this many sweeps of
+  /// coordinate polishing (RefineOptions::polish_sweeps); 0: none.
+  std::size_t refine_polish_sweeps = 0;
 };
 
 struct GapProblem {
@@ -204,22 +211,46 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
 /// the varied frame touches; a step is accepted only when the whole path's g
 /// is lower (Armijo condition, at most 30 halvings) and, with `keep_limits`,
 /// its foot sliding is at most max(that of `frames` as given,
-/// `foot_sliding_limit_m`) and it has no more range violations than `frames`
-/// as given: the result is never worse than the input in g (nor, with the
-/// limits, in violations). Stops early when no step along the gradient is
-/// accepted. Deterministic; an iteration costs about frames x (3 + 3 x
+/// `foot_sliding_limit_m`), its peak joint angular speed at most max(that of
+/// `frames` as given, end_steps_peak_angular_speed(gap),
+/// `angular_speed_limit_radps`), and it has no more range
+/// violations than `frames` as given: the result is never worse than the
+/// input in g (nor, with the limits, in sliding, speed or violations). Stops
+/// early when no step along the gradient is accepted. With `smoothing_J` = s > 0, a continuation: a
+/// quarter of the iterations each on g smoothed at s, s / 10 and s / 100 joules
+/// (NewtonEulerWorkspace::smoothing_J: L-BFGS stalls at the kinks of the
+/// exact g, its terms being absolute values), each stage's frames kept only
+/// if their exact g is lower and within the limits, then the rest on the
+/// exact g. Then at most `polish_sweeps` sweeps of coordinate polishing on
+/// the exact g (each variable alone, +-d with d per variable doubling on a
+/// kept move and halving otherwise, from 1e-2 to 1e-5; moves evaluated and
+/// applied locally, under the same limits; serial). `steps` counts accepted
+/// iterations and kept moves. Deterministic; an iteration costs about frames x (3 + 3 x
 /// joints) local re-evaluations, the frames' in parallel (TBB; the result
 /// does not depend on the thread count). `frames` is replaced by the result. Throws
 /// std::invalid_argument on a bad gap or frame.
+/// Largest local joint angular speed (TransitionMeasures::peak_angular_speed_radps's
+/// definition), rad/s, of the captured steps at the gap's ends, S_-1 -> S_0
+/// and S_G -> S_G+1: how fast the clips themselves turn a joint there.
+double end_steps_peak_angular_speed(const GapProblem& gap);
+
 struct RefineOptions {
   std::size_t iterations = 0;
   /// Metres; the input's own sliding is always allowed.
   double foot_sliding_limit_m = 0.0;
-  /// false: no sliding or range condition (measures how low g can go).
+  /// false: no sliding, speed or range condition (measures how low g can go).
   bool keep_limits = true;
+  /// Joules, >= 0 (finite); 0: no smoothed stages.
+  double smoothing_J = 0.0;
+  /// After the iterations: at most this many sweeps of coordinate polishing
+  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
+  std::size_t polish_sweeps = 0;
+  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
+  /// and end_steps_peak_angular_speed(gap) are always allowed.
+  double angular_speed_limit_radps = 0.0;
 };
 struct RefineResult {
-  std::size_t steps = 0;  // accepted steps
+  std::size_t steps = 0;  // accepted iterations + kept polishing moves
   double energy_before_J = 0.0;
   double energy_after_J = 0.0;
 };
