@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--refine-polish", options.params.refine_polish_sweeps,
                  "after the refinement's iterations, at most this many sweeps of coordinate "
-                 "polishing on the exact g (slow: seconds per gap; 0: none)")
+                 "polishing on the exact g (slow: up to seconds per gap; 0: none)")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
   unsigned threads = 0;

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
 
 #include "mocap/error.hpp"
 #include "mocap/synth.hpp"
@@ -83,6 +84,21 @@ void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<Synt
       EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs())
           << "frame " << i << " joint " << j;
   }
+}
+
+// The refinement's guarantees against the slerp transition it started from:
+// g no higher, and no more sliding, range violations or joint speed than
+// allowed (slerp's, or the captured steps at the gap's ends for the speed).
+void expect_within_refine_limits(const mocap::GapProblem& gap,
+                                 const mocap::TransitionMeasures& refined,
+                                 const mocap::TransitionMeasures& slerp, const std::string& what) {
+  EXPECT_LE(refined.energy_J, slerp.energy_J) << what;
+  EXPECT_LE(refined.foot_sliding_m, slerp.foot_sliding_m + 1e-9) << what;
+  EXPECT_LE(refined.range_violations, slerp.range_violations) << what;
+  EXPECT_LE(
+      refined.peak_angular_speed_radps,
+      std::max(slerp.peak_angular_speed_radps, mocap::end_steps_peak_angular_speed(gap)) + 1e-9)
+      << what;
 }
 
 #define REQUIRE_INDEX()                                          \
@@ -412,13 +428,7 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
     ASSERT_EQ(a.size(), m) << xn;
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
     EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
-    EXPECT_LE(ma.energy_J, ms.energy_J) << xn;
-    EXPECT_LE(ma.foot_sliding_m, ms.foot_sliding_m + 1e-9) << xn;
-    EXPECT_LE(ma.range_violations, ms.range_violations) << xn;
-    EXPECT_LE(
-        ma.peak_angular_speed_radps,
-        std::max(ms.peak_angular_speed_radps, mocap::end_steps_peak_angular_speed(g->gap)) + 1e-9)
-        << xn;
+    expect_within_refine_limits(g->gap, ma, ms, xn);
     EXPECT_GT(ra.steps, 0u) << xn;
     EXPECT_LE(ra.steps, 15u) << xn;
     // Deterministic: bit-identical runs.
@@ -472,13 +482,7 @@ TEST(SynthRefine, SmoothedStagesKeepTheGuaranteesAndSteer) {
     const auto ma = mocap::measure_transition(g->gap, a);
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
     EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
-    EXPECT_LE(ma.energy_J, ms.energy_J) << xn;
-    EXPECT_LE(ma.foot_sliding_m, ms.foot_sliding_m + 1e-9) << xn;
-    EXPECT_LE(ma.range_violations, ms.range_violations) << xn;
-    EXPECT_LE(
-        ma.peak_angular_speed_radps,
-        std::max(ms.peak_angular_speed_radps, mocap::end_steps_peak_angular_speed(g->gap)) + 1e-9)
-        << xn;
+    expect_within_refine_limits(g->gap, ma, ms, xn);
     EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
     expect_same_frames(a, b);
     sum_slerp += ms.energy_J;
@@ -512,12 +516,7 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
     EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
     EXPECT_LE(ma.energy_J, ri.energy_after_J) << xn;
     EXPECT_GT(ra.steps, ri.steps) << xn;
-    EXPECT_LE(ma.foot_sliding_m, ms.foot_sliding_m + 1e-9) << xn;
-    EXPECT_LE(ma.range_violations, ms.range_violations) << xn;
-    EXPECT_LE(
-        ma.peak_angular_speed_radps,
-        std::max(ms.peak_angular_speed_radps, mocap::end_steps_peak_angular_speed(g->gap)) + 1e-9)
-        << xn;
+    expect_within_refine_limits(g->gap, ma, ms, xn);
     EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
     expect_same_frames(a, b);
     // Polishing alone (no iterations) also runs, and also never goes up.
@@ -526,11 +525,7 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
     EXPECT_GT(ro.steps, 0u) << xn;
     EXPECT_NEAR(ro.energy_after_J, mo.energy_J, 1e-9 * mo.energy_J) << xn;
     EXPECT_LT(mo.energy_J, ms.energy_J) << xn;
-    EXPECT_LE(mo.foot_sliding_m, ms.foot_sliding_m + 1e-9) << xn;
-    EXPECT_LE(
-        mo.peak_angular_speed_radps,
-        std::max(ms.peak_angular_speed_radps, mocap::end_steps_peak_angular_speed(g->gap)) + 1e-9)
-        << xn;
+    expect_within_refine_limits(g->gap, mo, ms, xn);
     sum_slerp += ms.energy_J;
     sum_iterated += ri.energy_after_J;
     sum_polished += ma.energy_J;
