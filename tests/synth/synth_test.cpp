@@ -86,6 +86,28 @@ void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<Synt
   }
 }
 
+// Where the refinement tests start: a real gap (clip x frame 20 to clip y
+// frame 30, same content) and its slerp transition at the length A* plans,
+// with that transition's measures.
+struct SlerpStart {
+  std::unique_ptr<RealGap> g;
+  std::vector<SynthFrame> slerp;
+  mocap::TransitionMeasures ms;
+};
+SlerpStart slerp_start(const mocap::Index& index, const std::string& x, const std::string& y) {
+  SlerpStart st;
+  st.g = make_gap(index, x, 20, y, 30);
+  st.slerp = mocap::slerp_transition(
+      st.g->gap, mocap::choose_transition_frames(st.g->gap, mocap::SupplementParams{}));
+  st.ms = mocap::measure_transition(st.g->gap, st.slerp);
+  return st;
+}
+// The gaps of the refinement tests: run, walk, bow (normal to angry).
+const std::pair<const char*, const char*> kRefinePairs[] = {
+    {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
+    {"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
+    {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
+
 // The refinement's guarantees against the slerp transition it started from:
 // g no higher, and no more sliding, range violations or joint speed than
 // allowed (slerp's, or the captured steps at the gap's ends for the speed).
@@ -333,12 +355,8 @@ TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
   // geodesic step, whose completion is the previous path, and refuses
   // candidates that slide the feet more: with the exact lookahead the path's
   // g, and in both modes its foot sliding, can only go down from the slerp's.
-  const std::pair<const char*, const char*> pairs[] = {
-      {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
-      {"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
-      {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   std::size_t strictly_lower = 0;
-  for (const auto& [xn, yn] : pairs) {
+  for (const auto& [xn, yn] : kRefinePairs) {
     auto g = make_gap(index, xn, 20, yn, 30);
     for (bool exact : {false, true}) {
       mocap::SupplementParams p;
@@ -411,21 +429,14 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
   // plans. Each accepted step is checked against the whole-path measure, so
   // the result's g (recomputed here by measure_transition, the reference)
   // is never above the input's; the local finite differences only steer.
-  const std::pair<const char*, const char*> pairs[] = {
-      {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
-      {"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
-      {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   double sum_before = 0.0, sum_after = 0.0;
-  for (const auto& [xn, yn] : pairs) {
-    auto g = make_gap(index, xn, 20, yn, 30);
-    const std::size_t m = mocap::choose_transition_frames(g->gap, mocap::SupplementParams{});
-    const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, m);
-    const auto ms = mocap::measure_transition(g->gap, slerp);
+  for (const auto& [xn, yn] : kRefinePairs) {
+    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
     std::vector<SynthFrame> a = slerp, b = slerp;
     const auto ra = mocap::refine_transition(g->gap, a, {15});
     const auto rb = mocap::refine_transition(g->gap, b, {15});
     const auto ma = mocap::measure_transition(g->gap, a);
-    ASSERT_EQ(a.size(), m) << xn;
+    ASSERT_EQ(a.size(), slerp.size()) << xn;
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
     EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
     expect_within_refine_limits(g->gap, ma, ms, xn);
@@ -465,16 +476,9 @@ TEST(SynthRefine, SmoothedStagesKeepTheGuaranteesAndSteer) {
   // (measured: 0.933 vs 0.953 of the slerps' g together; whether smoothing
   // beats 100 iterations on the exact g depends on the gap: on set A it does
   // at 400 iterations, docs/synthesis.md "Ablations").
-  const std::pair<const char*, const char*> pairs[] = {
-      {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
-      {"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
-      {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   double sum_slerp = 0.0, sum_exact = 0.0, sum_smoothed = 0.0;
-  for (const auto& [xn, yn] : pairs) {
-    auto g = make_gap(index, xn, 20, yn, 30);
-    const std::size_t m = mocap::choose_transition_frames(g->gap, mocap::SupplementParams{});
-    const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, m);
-    const auto ms = mocap::measure_transition(g->gap, slerp);
+  for (const auto& [xn, yn] : kRefinePairs) {
+    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
     std::vector<SynthFrame> e = slerp, a = slerp, b = slerp;
     mocap::refine_transition(g->gap, e, {25});
     const auto ra = mocap::refine_transition(g->gap, a, {100, 0.0, true, 1.0});
@@ -499,15 +503,9 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
   // kept move is local, so the result is checked against the whole-path
   // measure; never above the iterations' result, within the limits,
   // deterministic.
-  const std::pair<const char*, const char*> pairs[] = {
-      {"dataset-1_run_normal_001.bvh", "dataset-1_run_angry_001.bvh"},
-      {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
   double sum_slerp = 0.0, sum_iterated = 0.0, sum_polished = 0.0;
-  for (const auto& [xn, yn] : pairs) {
-    auto g = make_gap(index, xn, 20, yn, 30);
-    const std::size_t m = mocap::choose_transition_frames(g->gap, mocap::SupplementParams{});
-    const std::vector<SynthFrame> slerp = mocap::slerp_transition(g->gap, m);
-    const auto ms = mocap::measure_transition(g->gap, slerp);
+  for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[2]}) {
+    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
     std::vector<SynthFrame> it = slerp, a = slerp, b = slerp, only = slerp;
     const auto ri = mocap::refine_transition(g->gap, it, {20});
     const auto ra = mocap::refine_transition(g->gap, a, {20, 0.0, true, 0.0, 40});
