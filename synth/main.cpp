@@ -3,6 +3,8 @@
 //               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
+//               [--refine-polish-window W] [--refine-polish-segments]
+//               [--refine-polish-smoothing J]
 //               [--threads N]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
@@ -64,6 +66,19 @@ int main(int argc, char** argv) {
                  "after the refinement's iterations, at most this many sweeps of coordinate "
                  "polishing on the exact g (slow: up to seconds per gap; 0: none)")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
+      ->capture_default_str();
+  app.add_option("--refine-polish-window", options.params.refine_polish_window,
+                 "with --refine-polish: also move one variable of up to this many consecutive "
+                 "frames together (2, 4, ... frames; 1: single frames only)")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1024}))
+      ->capture_default_str();
+  app.add_flag("--refine-polish-segments", options.params.refine_polish_segments,
+               "with --refine-polish: also turn single segments (a joint one way, its children "
+               "back)");
+  app.add_option("--refine-polish-smoothing", options.params.refine_polish_smoothing_J,
+                 "with --refine-polish: polish first on g smoothed at this many joules, then on "
+                 "the exact g (0: exact only)")
+      ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
   unsigned threads = 0;
   app.add_option("--threads", threads,

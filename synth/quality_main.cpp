@@ -102,6 +102,19 @@ int main(int argc, char** argv) {
                  "\"Refinement\")")
       ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
       ->capture_default_str();
+  app.add_option("--refine-polish-window", params.refine_polish_window,
+                 "polishing also moves runs of up to this many consecutive frames together "
+                 "(docs/synthesis.md \"Refinement\"); 1: single frames only")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1024}))
+      ->capture_default_str();
+  app.add_flag("--refine-polish-segments", params.refine_polish_segments,
+               "polishing also turns single segments (a joint one way, its children back; "
+               "docs/synthesis.md \"Refinement\")");
+  app.add_option("--refine-polish-smoothing", params.refine_polish_smoothing_J,
+                 "polishing first on g smoothed at this many joules, then on the exact g "
+                 "(docs/synthesis.md \"Refinement\"); 0: exact only")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   bool refine_free = false;
   app.add_flag("--refine-free", refine_free,
                "let the refinement slide the feet, turn joints faster and leave the range of "
@@ -291,6 +304,9 @@ int main(int argc, char** argv) {
                               {"refine_iterations", params.refine_iterations},
                               {"refine_smoothing_J", params.refine_smoothing_J},
                               {"refine_polish_sweeps", params.refine_polish_sweeps},
+                              {"refine_polish_window", params.refine_polish_window},
+                              {"refine_polish_segments", params.refine_polish_segments},
+                              {"refine_polish_smoothing_J", params.refine_polish_smoothing_J},
                               {"from_fraction", from_fraction},
                               {"to_fraction", to_fraction}}}};
       std::ofstream(json_path) << out.dump(2) << "\n";

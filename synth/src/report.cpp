@@ -139,7 +139,10 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                      {"cost_threshold_J", options.params.cost_threshold_J},
                      {"refine_iterations", options.params.refine_iterations},
                      {"refine_smoothing_J", options.params.refine_smoothing_J},
-                     {"refine_polish_sweeps", options.params.refine_polish_sweeps}};
+                     {"refine_polish_sweeps", options.params.refine_polish_sweeps},
+                     {"refine_polish_window", options.params.refine_polish_window},
+                     {"refine_polish_segments", options.params.refine_polish_segments},
+                     {"refine_polish_smoothing_J", options.params.refine_polish_smoothing_J}};
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return j.dump(2) + "\n";
 }

@@ -270,13 +270,20 @@ struct PathCache {
   NewtonEulerWorkspace ws;
   std::size_t L = 0;
   double smoothing_J = 0.0;  // > 0: the steps hold the smoothed g (NewtonEulerWorkspace)
-  // Scratch of delta() (one per thread: delta() only reads the cache).
+  // Scratch of delta() (one per thread: delta() only reads the cache),
+  // sized for the longest run of changed frames seen.
   struct DeltaScratch {
-    WorldPose w_changed;
-    std::array<BodyState, 3> s_changed;
-    std::array<NewtonEulerData, 3> id_changed;
+    std::vector<WorldPose> w_changed;         // the changed frames' poses
+    std::vector<BodyState> s_changed;         // their states and the two beside them
+    std::vector<NewtonEulerData> id_changed;  // (count + 2 of each)
     NewtonEulerWorkspace ws;
-    std::array<double, 4> steps_changed{};  // the recomputed steps, k0 .. k1
+    std::vector<double> steps_changed;  // the recomputed steps, k0 .. k1
+    void reserve(std::size_t count) {
+      if (w_changed.size() < count) w_changed.resize(count);
+      if (s_changed.size() < count + 2) s_changed.resize(count + 2);
+      if (id_changed.size() < count + 2) id_changed.resize(count + 2);
+      if (steps_changed.size() < count + 3) steps_changed.resize(count + 3);
+    }
   };
 
   // The world poses of the sequence only (all foot_sliding() needs).
@@ -298,7 +305,7 @@ struct PathCache {
     if (states.size() < L) states.resize(L);
     if (ids.size() < L) ids.resize(L);
     for (std::size_t k = 1; k + 1 < L; ++k) {
-      state_at(gap, k, L, world[0], states[k]);
+      state_at(gap, k, 0, 0, nullptr, states[k]);
       inverse_dynamics(gap.skeleton->model, states[k].view(), ids[k]);
     }
   }
@@ -319,15 +326,15 @@ struct PathCache {
   }
 
   // Foot sliding of the cached transition (measure_transition's).
-  double foot_sliding(const GapProblem& gap) const { return foot_sliding_with(gap, L, nullptr); }
+  double foot_sliding(const GapProblem& gap) const { return foot_sliding_with(gap, 0, 0, nullptr); }
 
-  // The same sum with `changed` in place of the pose at sequence index
-  // `changed_index` (the same additions in the same order: what
-  // foot_sliding() gives once that pose is applied).
-  double foot_sliding_with(const GapProblem& gap, std::size_t changed_index,
+  // The same sum with changed[0 .. count) in place of the poses at sequence
+  // indices first .. first + count - 1 (the same additions in the same
+  // order: what foot_sliding() gives once those poses are applied).
+  double foot_sliding_with(const GapProblem& gap, std::size_t first, std::size_t count,
                            const WorldPose* changed) const {
     const auto pose = [&](std::size_t q) -> const WorldPose& {
-      return q == changed_index ? *changed : world[q];
+      return q >= first && q < first + count ? changed[q - first] : world[q];
     };
     double sum = 0.0;
     for (std::size_t k = 1; k + 2 < L; ++k)
@@ -335,57 +342,57 @@ struct PathCache {
     return sum;
   }
 
-  // Change of the transition's g when inserted frame i becomes `changed`:
-  // only states i+1 .. i+3 (its own and its neighbours' rates) and the steps
-  // touching them are recomputed.
-  double delta(const GapProblem& gap, std::size_t i, const SynthFrame& changed,
+  // Change of the transition's g when inserted frames i .. i + count - 1
+  // become changed[0 .. count): only states i+1 .. i+count+2 (theirs and
+  // their neighbours' rates) and the steps touching them are recomputed.
+  double delta(const GapProblem& gap, std::size_t i, std::size_t count, const SynthFrame* changed,
                DeltaScratch& sc) const {
-    auto& [w_changed, s_changed, id_changed, dws, steps_changed] = sc;
-    dws.smoothing_J = smoothing_J;
+    sc.reserve(count);
+    sc.ws.smoothing_J = smoothing_J;
     const SynthSkeleton& sk = *gap.skeleton;
-    const std::size_t s = i + 2;  // sequence index of frame i
-    synth_world_pose(sk, changed, w_changed);
-    for (std::size_t d = 0; d < 3; ++d) {
-      state_at(gap, s - 1 + d, s, w_changed, s_changed[d]);
-      inverse_dynamics(sk.model, s_changed[d].view(), id_changed[d]);
+    const std::size_t s0 = i + 2, s1 = s0 + count - 1;  // sequence indices of the frames
+    for (std::size_t q = 0; q < count; ++q) synth_world_pose(sk, changed[q], sc.w_changed[q]);
+    for (std::size_t d = 0; d < count + 2; ++d) {
+      state_at(gap, s0 - 1 + d, s0, count, sc.w_changed.data(), sc.s_changed[d]);
+      inverse_dynamics(sk.model, sc.s_changed[d].view(), sc.id_changed[d]);
     }
-    const auto changed_state = [&](std::size_t k) { return k + 1 >= s && k <= s + 1; };
-    const std::size_t k0 = std::max<std::size_t>(1, s - 2), k1 = std::min(L - 3, s + 1);
+    const auto changed_state = [&](std::size_t k) { return k + 1 >= s0 && k <= s1 + 1; };
+    const std::size_t k0 = std::max<std::size_t>(1, s0 - 2), k1 = std::min(L - 3, s1 + 1);
     double before = 0.0, after = 0.0;
     for (std::size_t k = k0; k <= k1; ++k) {
       before += steps[k];
-      const BodyState& a = changed_state(k) ? s_changed[k + 1 - s] : states[k];
-      const BodyState& b = changed_state(k + 1) ? s_changed[k + 2 - s] : states[k + 1];
-      const NewtonEulerData& ia = changed_state(k) ? id_changed[k + 1 - s] : ids[k];
-      const NewtonEulerData& ib = changed_state(k + 1) ? id_changed[k + 2 - s] : ids[k + 1];
-      steps_changed[k - k0] =
-          full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, dws);
-      after += steps_changed[k - k0];
+      const BodyState& a = changed_state(k) ? sc.s_changed[k + 1 - s0] : states[k];
+      const BodyState& b = changed_state(k + 1) ? sc.s_changed[k + 2 - s0] : states[k + 1];
+      const NewtonEulerData& ia = changed_state(k) ? sc.id_changed[k + 1 - s0] : ids[k];
+      const NewtonEulerData& ib = changed_state(k + 1) ? sc.id_changed[k + 2 - s0] : ids[k + 1];
+      sc.steps_changed[k - k0] =
+          full_energy(sk.model, a.view(), b.view(), gap.frame_time_s, ia, ib, sc.ws);
+      after += sc.steps_changed[k - k0];
     }
     return after - before;
   }
 
-  // Makes the last delta() for inserted frame i (computed into `sc`) the
-  // cached path: its pose, the three states and the steps touching them
-  // (exact steps: the cache must not be smoothed).
-  void apply(std::size_t i, DeltaScratch& sc) {
-    const std::size_t s = i + 2;
-    std::swap(world[s], sc.w_changed);
-    for (std::size_t d = 0; d < 3; ++d) {
-      std::swap(states[s - 1 + d], sc.s_changed[d]);
-      std::swap(ids[s - 1 + d], sc.id_changed[d]);
+  // Makes the last delta() for inserted frames i .. i + count - 1 (computed
+  // into `sc`) the cached path: their poses, the states and the steps
+  // touching them (exact steps: the cache must not be smoothed).
+  void apply(std::size_t i, std::size_t count, DeltaScratch& sc) {
+    const std::size_t s0 = i + 2, s1 = s0 + count - 1;
+    for (std::size_t q = 0; q < count; ++q) std::swap(world[s0 + q], sc.w_changed[q]);
+    for (std::size_t d = 0; d < count + 2; ++d) {
+      std::swap(states[s0 - 1 + d], sc.s_changed[d]);
+      std::swap(ids[s0 - 1 + d], sc.id_changed[d]);
     }
-    const std::size_t k0 = std::max<std::size_t>(1, s - 2), k1 = std::min(L - 3, s + 1);
+    const std::size_t k0 = std::max<std::size_t>(1, s0 - 2), k1 = std::min(L - 3, s1 + 1);
     for (std::size_t k = k0; k <= k1; ++k) steps[k] = sc.steps_changed[k - k0];
   }
 
   // State k of the sequence, its rates by central differences, with
-  // `changed` in place of the world pose at `changed_index` (none when that
-  // is L).
-  void state_at(const GapProblem& gap, std::size_t k, std::size_t changed_index,
-                const WorldPose& changed, BodyState& out) const {
+  // changed[0 .. count) in place of the world poses at first ..
+  // first + count - 1.
+  void state_at(const GapProblem& gap, std::size_t k, std::size_t first, std::size_t count,
+                const WorldPose* changed, BodyState& out) const {
     const auto pose = [&](std::size_t q) {
-      return pose_view(q == changed_index ? changed : world[q]);
+      return pose_view(q >= first && q < first + count ? changed[q - first] : world[q]);
     };
     const PoseView p = pose(k - 1), c = pose(k), x = pose(k + 1);
     sequence_state(gap.skeleton->model, &p, c, &x, gap.frame_time_s, out);
@@ -693,8 +700,11 @@ double end_steps_peak_angular_speed(const GapProblem& gap) {
 RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
                                const RefineOptions& options) {
   check_gap(gap);
-  if (!(options.smoothing_J >= 0.0) || !std::isfinite(options.smoothing_J))
+  if (!(options.smoothing_J >= 0.0) || !std::isfinite(options.smoothing_J) ||
+      !(options.polish_smoothing_J >= 0.0) || !std::isfinite(options.polish_smoothing_J))
     throw std::invalid_argument("refinement smoothing must be a finite number of joules >= 0");
+  if (options.polish_max_window == 0)
+    throw std::invalid_argument("polishing window must be at least 1 frame");
   const SynthSkeleton& sk = *gap.skeleton;
   const std::size_t n = sk.joint_count(), m = frames.size();
   for (const SynthFrame& f : frames)
@@ -712,7 +722,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
     if (!sk.is_root_chain[j] || static_cast<int>(j) == sk.root_joint)
       joints.push_back(static_cast<int>(j));
   const std::size_t per = 3 + 3 * joints.size(), N = m * per;
-  const std::vector<SynthFrame> base = frames;
+  std::vector<SynthFrame> base = frames;  // x = 0 (polishing rebases a frame)
   const auto frame_of = [&](std::size_t i, const double* x, SynthFrame& out) {
     out = base[i];
     out.root_position_m += Eigen::Vector3d(x[0], x[1], x[2]);
@@ -723,7 +733,12 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
                                    .normalized();
     }
   };
-  const double slide_limit = std::max(cache.foot_sliding(gap), options.foot_sliding_limit_m) + 1e-9;
+  // The limit checks sum the sliding in measure_transition's order
+  // (PathCache::foot_sliding_with). The 0.1 nm slack lets a step through
+  // whose planted feet move by round-off only; it is room the search uses
+  // up, so it stays far below what the measures' comparisons allow (1e-9).
+  const double slide_limit =
+      std::max(cache.foot_sliding(gap), options.foot_sliding_limit_m) + 1e-10;
   const std::size_t violation_limit = count_range_violations(gap, frames);
   const double speed_limit =
       std::max({peak_angular_speed(gap, frames), end_steps_peak_angular_speed(gap),
@@ -753,7 +768,7 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
         sc.xi[static_cast<Eigen::Index>(v)] += eps;
         frame_of(i, sc.xi.data(), sc.changed);
         out[static_cast<Eigen::Index>(i * per + v)] =
-            cache.delta(gap, i, sc.changed, sc.delta) / eps;
+            cache.delta(gap, i, 1, &sc.changed, sc.delta) / eps;
       }
     });
   };
@@ -850,60 +865,150 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
     lbfgs(options.iterations);
   }
   if (options.polish_sweeps > 0) {
-    // Coordinate polishing on the exact g (it moves along the kinks where the
-    // quasi-Newton steps stall): each variable tried +-d on its own, d
-    // doubling (to 0.1) when a move is kept and halving when neither
-    // direction lowers g; a variable is done below 1e-5. Each move is
-    // evaluated locally (delta), kept only if g drops and the limits hold
-    // (the path's sliding with the moved pose, the speeds of the two steps
-    // it touches, its frame's violations), and applied to the cache in
-    // place. Serial, hence deterministic.
-    cache.smoothing_J = 0.0;
-    f = cache.build(gap, frames);
-    std::size_t violations = count_range_violations(gap, frames);
-    std::vector<double> d(N, 1e-2);
-    Scratch& sc = scratch.local();
-    for (std::size_t sweep = 0; sweep < options.polish_sweeps; ++sweep) {
-      bool active = false;
-      for (std::size_t i = 0; i < m; ++i)
-        for (std::size_t v = 0; v < per; ++v) {
-          double& dv = d[i * per + v];
-          if (dv < 1e-5) continue;
-          active = true;
-          bool moved = false;
-          for (const double sign : {1.0, -1.0}) {
-            sc.xi = x.segment(static_cast<Eigen::Index>(i * per), static_cast<Eigen::Index>(per));
-            sc.xi[static_cast<Eigen::Index>(v)] += sign * dv;
-            frame_of(i, sc.xi.data(), sc.changed);
-            const double dg = cache.delta(gap, i, sc.changed, sc.delta);
-            if (!(dg < -1e-12)) continue;
-            std::size_t new_violations = violations;
-            if (options.keep_limits) {
-              new_violations = violations + frame_range_violations(gap, sc.changed) -
-                               frame_range_violations(gap, frames[i]);
-              if (new_violations > violation_limit ||
-                  cache.foot_sliding_with(gap, i + 2, &sc.delta.w_changed) > slide_limit)
-                continue;
-              const SynthFrame& prev = i == 0 ? gap.start : frames[i - 1];
-              const SynthFrame& next = i + 1 == m ? gap.goal : frames[i + 1];
-              if (step_peak_angular_speed(gap, prev, sc.changed) > speed_limit ||
-                  step_peak_angular_speed(gap, sc.changed, next) > speed_limit)
-                continue;
-            }
-            cache.apply(i, sc.delta);
-            std::swap(frames[i], sc.changed);
-            x[static_cast<Eigen::Index>(i * per + v)] = sc.xi[static_cast<Eigen::Index>(v)];
-            violations = new_violations;
-            moved = true;
-            ++result.steps;
-            break;
-          }
-          dv = moved ? std::min(0.1, 2.0 * dv) : 0.5 * dv;
-        }
-      if (!active) break;
+    // Coordinate polishing (it moves along the kinks where the quasi-Newton
+    // steps stall): each variable tried +-d on its own, d doubling (to 0.1)
+    // when a move is kept and halving when neither direction lowers g; a
+    // variable is done below 1e-5. Moves:
+    // - one variable of one frame (x);
+    // - with polish_max_window = W > 1, the same variable of a run of w
+    //   consecutive frames together (w = 2, 4, ... <= W, runs overlapping by
+    //   half): the rates inside the run barely change (root velocities not
+    //   at all; a joint's relative turn keeps its angle) and those at its
+    //   ends do, a direction single moves cannot take;
+    // - with polish_segment_moves, one segment turned alone on one axis: its
+    //   joint turned one way and each child turned back, so that the
+    //   subtree keeps its orientations (and is carried); variables
+    //   per + 3 k .. per + 3 k + 2 for segment_joints[k]. Such a move
+    //   rebases its frames (base = the frame, x = 0).
+    // Each move is evaluated locally (delta), kept only if g drops and the
+    // limits hold (the path's sliding with the moved poses, the speeds of the
+    // steps they touch, their frames' violations), and applied to the cache
+    // in place. Serial, hence deterministic.
+    struct Run {
+      std::size_t first, count;
+    };
+    std::vector<Run> runs;
+    for (std::size_t i = 0; i < m; ++i) runs.push_back({i, 1});
+    for (std::size_t w = 2; w <= std::min(options.polish_max_window, m); w *= 2) {
+      std::size_t first = 0;
+      for (; first + w <= m; first += w / 2) runs.push_back({first, w});
+      if (first - w / 2 + w < m) runs.push_back({m - w, w});  // the last frames
     }
-    // The sum over the whole path (the measure's order of additions).
-    f = cache.build(gap, frames);
+    std::vector<std::vector<int>> children(n);
+    for (std::size_t c = 0; c < n; ++c)
+      if (const int p = sk.skeleton.parents[c]; p >= 0)
+        children[static_cast<std::size_t>(p)].push_back(static_cast<int>(c));
+    std::vector<int> segment_joints;
+    if (options.polish_segment_moves)
+      for (const int j : joints)
+        if (!children[static_cast<std::size_t>(j)].empty()) segment_joints.push_back(j);
+    const std::size_t vars = per + 3 * segment_joints.size();
+    std::vector<double> d;
+    std::vector<SynthFrame> moved(std::min(options.polish_max_window, m));
+    Scratch& sc = scratch.local();
+    // Frame i + q with variable v moved by `step`, into moved[q].
+    const auto move = [&](std::size_t i, std::size_t q, std::size_t v, double step) {
+      if (v < per) {
+        sc.xi = x.segment(static_cast<Eigen::Index>((i + q) * per), static_cast<Eigen::Index>(per));
+        sc.xi[static_cast<Eigen::Index>(v)] += step;
+        frame_of(i + q, sc.xi.data(), moved[q]);
+        return;
+      }
+      const auto j = static_cast<std::size_t>(segment_joints[(v - per) / 3]);
+      Eigen::Vector3d turn = Eigen::Vector3d::Zero();
+      turn[static_cast<Eigen::Index>((v - per) % 3)] = step;
+      SynthFrame& out = moved[q];
+      out = frames[i + q];
+      out.local_rotations[j] = (out.local_rotations[j] * quat_exp(turn)).normalized();
+      for (const int c : children[j]) {
+        Eigen::Quaterniond& rc = out.local_rotations[static_cast<std::size_t>(c)];
+        rc = (quat_exp(-turn) * rc).normalized();
+      }
+    };
+    // One polishing pass on g smoothed at `level` (0: exact), at most
+    // polish_sweeps sweeps; the cache is left exact.
+    const auto polish = [&](double level) {
+      cache.smoothing_J = level;
+      f = cache.build(gap, frames);
+      std::size_t violations = count_range_violations(gap, frames);
+      d.assign(runs.size() * vars, 1e-2);
+      for (std::size_t sweep = 0; sweep < options.polish_sweeps; ++sweep) {
+        bool active = false;
+        for (std::size_t r = 0; r < runs.size(); ++r) {
+          const auto [i, count] = runs[r];
+          for (std::size_t v = 0; v < vars; ++v) {
+            double& dv = d[r * vars + v];
+            if (dv < 1e-5) continue;
+            active = true;
+            bool kept = false;
+            for (const double sign : {1.0, -1.0}) {
+              for (std::size_t q = 0; q < count; ++q) move(i, q, v, sign * dv);
+              const double dg = cache.delta(gap, i, count, moved.data(), sc.delta);
+              if (!(dg < -1e-12)) continue;
+              std::size_t new_violations = violations;
+              if (options.keep_limits) {
+                for (std::size_t q = 0; q < count; ++q)
+                  new_violations = new_violations + frame_range_violations(gap, moved[q]) -
+                                   frame_range_violations(gap, frames[i + q]);
+                if (new_violations > violation_limit ||
+                    cache.foot_sliding_with(gap, i + 2, count, sc.delta.w_changed.data()) >
+                        slide_limit)
+                  continue;
+                bool too_fast = false;
+                for (std::size_t q = 0; q <= count && !too_fast; ++q) {
+                  const SynthFrame& a = q > 0 ? moved[q - 1] : i == 0 ? gap.start : frames[i - 1];
+                  const SynthFrame& b = q < count        ? moved[q]
+                                        : i + count == m ? gap.goal
+                                                         : frames[i + count];
+                  too_fast = step_peak_angular_speed(gap, a, b) > speed_limit;
+                }
+                if (too_fast) continue;
+              }
+              cache.apply(i, count, sc.delta);
+              for (std::size_t q = 0; q < count; ++q) {
+                std::swap(frames[i + q], moved[q]);
+                const auto xs = static_cast<Eigen::Index>((i + q) * per);
+                if (v < per) {
+                  x[xs + static_cast<Eigen::Index>(v)] += sign * dv;
+                } else {
+                  base[i + q] = frames[i + q];
+                  x.segment(xs, static_cast<Eigen::Index>(per)).setZero();
+                }
+              }
+              violations = new_violations;
+              kept = true;
+              ++result.steps;
+              break;
+            }
+            dv = kept ? std::min(0.1, 2.0 * dv) : 0.5 * dv;
+          }
+        }
+        if (!active) break;
+      }
+      // The cache was updated move by move: it must hold what a rebuild gives
+      // (a wrong local update would fail here rather than mislead).
+      const double cached = std::accumulate(cache.steps.begin(), cache.steps.end(), 0.0);
+      const double rebuilt = cache.build(gap, frames);
+      if (!(std::abs(cached - rebuilt) <= 1e-6 * std::max(1.0, std::abs(rebuilt))))
+        throw std::logic_error("refine_transition: polishing's local updates left the path");
+      cache.smoothing_J = 0.0;
+      // The sum over the whole path (the measure's order of additions).
+      f = cache.build(gap, frames);
+    };
+    if (options.polish_smoothing_J > 0.0) {
+      // A pass on the smoothed g first (it slides along the rounded kinks),
+      // kept only if the exact g is lower (each move kept the limits).
+      const std::vector<SynthFrame> kept_frames = frames, kept_base = base;
+      const Eigen::VectorXd kept_x = x;
+      const double kept_g = cache.build(gap, frames);
+      polish(options.polish_smoothing_J);
+      if (!(f < kept_g)) {
+        frames = kept_frames;
+        base = kept_base;
+        x = kept_x;
+      }
+    }
+    polish(0.0);
   }
   result.energy_after_J = f;
   return result;
@@ -925,9 +1030,11 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     PathCache slerp_path;
     const std::vector<SynthFrame> slerp = slerp_transition(gap, frames.size());
     slerp_path.build_poses(gap, slerp);
-    const RefineOptions ro{params.refine_iterations,    slerp_path.foot_sliding(gap),
-                           params.refine_keep_limits,   params.refine_smoothing_J,
-                           params.refine_polish_sweeps, peak_angular_speed(gap, slerp)};
+    const RefineOptions ro{params.refine_iterations,        slerp_path.foot_sliding(gap),
+                           params.refine_keep_limits,       params.refine_smoothing_J,
+                           params.refine_polish_sweeps,     peak_angular_speed(gap, slerp),
+                           params.refine_polish_window,     params.refine_polish_segments,
+                           params.refine_polish_smoothing_J};
     const RefineResult r = refine_transition(gap, frames, ro);
     st.refine_steps = r.steps;
     st.refine_gain_J = r.energy_before_J - r.energy_after_J;

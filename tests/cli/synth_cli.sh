@@ -36,6 +36,8 @@ expect_error "frame time" "${base[@]}" --results "$tmp/cmu-mix.jsonl"
 expect_error "expected astar, slerp or inertialize" "${base[@]}" --results "$tmp/results.jsonl" --transition foo
 expect_error "refine" "${base[@]}" --results "$tmp/results.jsonl" --refine -3
 expect_error "refine-smoothing" "${base[@]}" --results "$tmp/results.jsonl" --refine 8 --refine-smoothing -1
+expect_error "refine-polish-window" "${base[@]}" --results "$tmp/results.jsonl" --refine-polish 2 --refine-polish-window 0
+expect_error "refine-polish-smoothing" "${base[@]}" --results "$tmp/results.jsonl" --refine-polish 2 --refine-polish-smoothing -1
 expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.json" --results "$tmp/results.jsonl" --out "$tmp/m.bvh"
 [ ! -e "$tmp/m.bvh" ] || fail "an output was written by a failing run"
 
@@ -52,10 +54,23 @@ cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 "$synth" "${base[@]/m.bvh/mr.bvh}" --results "$tmp/results.jsonl" --refine 5 --report "$tmp/rr.json" >/dev/null
 # --refine-smoothing: smoothed stages first, the same guarantees.
 "$synth" "${base[@]/m.bvh/mq.bvh}" --results "$tmp/results.jsonl" --refine 8 --refine-smoothing 1 --report "$tmp/rq.json" >/dev/null
+# Polishing alone, with runs, segments and a smoothed pass: the same guarantees.
+"$synth" "${base[@]/m.bvh/mw.bvh}" --results "$tmp/results.jsonl" --refine-polish 2 --refine-polish-window 4 \
+  --refine-polish-segments --refine-polish-smoothing 0.3 --report "$tmp/rw.json" >/dev/null
 python3 - "$tmp" <<'PY'
 import json, sys
 t = sys.argv[1]
 r = json.load(open(t + "/r.json"))
+rw = json.load(open(t + "/rw.json"))
+p = rw["parameters"]
+assert (p["refine_iterations"], p["refine_polish_sweeps"], p["refine_polish_window"]) == (0, 2, 4), p
+assert p["refine_polish_segments"] is True and p["refine_polish_smoothing_J"] == 0.3, p
+assert r["parameters"]["refine_polish_window"] == 1 and r["parameters"]["refine_polish_segments"] is False
+for a, b in zip(r["transitions"], rw["transitions"]):
+    assert b["frames"] == a["frames"]
+    assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
+    assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
+assert sum(b["search"]["refine_gain_J"] for b in rw["transitions"]) > 0
 rr = json.load(open(t + "/rr.json"))
 r1 = json.load(open(t + "/r1.json"))
 def untimed(rep):

@@ -109,13 +109,13 @@ const std::pair<const char*, const char*> kRefinePairs[] = {
     {"dataset-1_bow_normal_001.bvh", "dataset-1_bow_angry_001.bvh"}};
 
 // The refinement's guarantees against the slerp transition it started from:
-// g no higher, and no more sliding, range violations or joint speed than
+// g no higher, and no more sliding (to 0.1 nm), range violations or joint speed than
 // allowed (slerp's, or the captured steps at the gap's ends for the speed).
 void expect_within_refine_limits(const mocap::GapProblem& gap,
                                  const mocap::TransitionMeasures& refined,
                                  const mocap::TransitionMeasures& slerp, const std::string& what) {
   EXPECT_LE(refined.energy_J, slerp.energy_J) << what;
-  EXPECT_LE(refined.foot_sliding_m, slerp.foot_sliding_m + 1e-9) << what;
+  EXPECT_LE(refined.foot_sliding_m, slerp.foot_sliding_m + 1e-10) << what;  // the same sum
   EXPECT_LE(refined.range_violations, slerp.range_violations) << what;
   EXPECT_LE(
       refined.peak_angular_speed_radps,
@@ -533,6 +533,60 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
   // update, would leave them equal or fail the measure check above).
   EXPECT_LT(sum_polished, 0.98 * sum_iterated)
       << sum_polished / sum_slerp << " vs " << sum_iterated / sum_slerp;
+}
+
+TEST(SynthRefine, PolishingRunsSegmentsAndASmoothedPassKeepTheGuarantees) {
+  REQUIRE_INDEX();
+  auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
+  std::vector<SynthFrame> fs = mocap::slerp_transition(g->gap, 6);
+  mocap::RefineOptions no_window{0, 0.0, true, 0.0, 5};
+  no_window.polish_max_window = 0;
+  EXPECT_THROW(mocap::refine_transition(g->gap, fs, no_window), std::invalid_argument);
+  for (const double bad : {-1.0, std::nan(""), HUGE_VAL}) {
+    mocap::RefineOptions o{0, 0.0, true, 0.0, 5};
+    o.polish_smoothing_J = bad;
+    EXPECT_THROW(mocap::refine_transition(g->gap, fs, o), std::invalid_argument) << bad;
+  }
+  // A window longer than the transition, on one inserted frame: single moves only.
+  std::vector<SynthFrame> single = mocap::slerp_transition(g->gap, 1);
+  mocap::RefineOptions wide{0, 0.0, true, 0.0, 5};
+  wide.polish_max_window = 1024;
+  const auto r1 = mocap::refine_transition(g->gap, single, wide);
+  const double e1 = mocap::measure_transition(g->gap, single).energy_J;
+  EXPECT_NEAR(r1.energy_after_J, e1, 1e-9 * e1);
+  EXPECT_LE(r1.energy_after_J, r1.energy_before_J);
+  // Runs of frames moved together, single segments turned, and a pass on the
+  // smoothed g first: each kept move is applied to the cache locally (runs
+  // of up to 4 frames; a wrong update throws std::logic_error), so the result
+  // is checked against the whole-path measure; within the limits,
+  // deterministic, and lower than single-frame polishing for as many sweeps.
+  double sum_slerp = 0.0, sum_single = 0.0, sum_moves = 0.0;
+  for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[2]}) {
+    const auto [gp, slerp, ms] = slerp_start(index, xn, yn);
+    std::vector<SynthFrame> one = slerp, a = slerp, b = slerp;
+    const mocap::RefineOptions plain{0, 0.0, true, 0.0, 4};
+    mocap::RefineOptions moves = plain;
+    moves.polish_max_window = 4;
+    moves.polish_segment_moves = true;
+    moves.polish_smoothing_J = 0.3;
+    const auto r_one = mocap::refine_transition(gp->gap, one, plain);
+    const auto ra = mocap::refine_transition(gp->gap, a, moves);
+    const auto rb = mocap::refine_transition(gp->gap, b, moves);
+    const auto ma = mocap::measure_transition(gp->gap, a);
+    EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
+    expect_within_refine_limits(gp->gap, ma, ms, xn);
+    EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
+    EXPECT_EQ(ra.steps, rb.steps) << xn;
+    expect_same_frames(a, b);
+    sum_slerp += ms.energy_J;
+    sum_single += r_one.energy_after_J;
+    sum_moves += ma.energy_J;
+  }
+  // Measured: 0.907 of the slerps' g together, against 0.969 with single
+  // frames (moves that did not lower g, or a smoothed pass kept although it
+  // raised g, would not get there).
+  EXPECT_LT(sum_moves, 0.97 * sum_single)
+      << sum_moves / sum_slerp << " vs " << sum_single / sum_slerp;
 }
 
 TEST(SynthRefine, OneThreadGivesTheSameTransition) {

@@ -164,6 +164,14 @@ struct SupplementParams {
   /// After the refinement's iterations: at most this many sweeps of
   /// coordinate polishing (RefineOptions::polish_sweeps); 0: none.
   std::size_t refine_polish_sweeps = 0;
+  /// Polishing also moves runs of up to this many consecutive frames
+  /// together (RefineOptions::polish_max_window); 1: single frames only.
+  std::size_t refine_polish_window = 1;
+  /// Polishing also turns single segments (RefineOptions::polish_segment_moves).
+  bool refine_polish_segments = false;
+  /// Joules; > 0: polishing first on g smoothed at this level
+  /// (RefineOptions::polish_smoothing_J).
+  double refine_polish_smoothing_J = 0.0;
 };
 
 struct GapProblem {
@@ -224,7 +232,14 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
 /// exact g. Then at most `polish_sweeps` sweeps of coordinate polishing on
 /// the exact g (each variable alone, +-d with d per variable doubling on a
 /// kept move and halving otherwise, from 1e-2 to 1e-5; moves evaluated and
-/// applied locally, under the same limits; serial). `steps` counts accepted
+/// applied locally, under the same limits; serial), with
+/// `polish_max_window` > 1 also of runs of 2, 4, ... consecutive frames
+/// moved together, with `polish_segment_moves` also of single segments
+/// turned alone, and with `polish_smoothing_J` > 0 after a first pass on g
+/// smoothed at that level (kept only if the exact g is lower). The sliding
+/// limit has 1e-10 m of slack (the same sum as measure_transition's); the local
+/// updates are checked against a rebuild after each pass (std::logic_error
+/// if they disagree: a bug, not an input error). `steps` counts accepted
 /// iterations and kept moves. Deterministic; an iteration costs about frames x (3 + 3 x
 /// joints) local re-evaluations, the frames' in parallel (TBB; the result
 /// does not depend on the thread count). `frames` is replaced by the result. Throws
@@ -248,6 +263,15 @@ struct RefineOptions {
   /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
   /// and end_steps_peak_angular_speed(gap) are always allowed.
   double angular_speed_limit_radps = 0.0;
+  /// Polishing also moves one variable of w consecutive frames together,
+  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
+  std::size_t polish_max_window = 1;
+  /// Polishing also turns each segment alone (its joint one way, the
+  /// joint's children back).
+  bool polish_segment_moves = false;
+  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
+  /// level first, then the exact pass.
+  double polish_smoothing_J = 0.0;
 };
 struct RefineResult {
   std::size_t steps = 0;  // accepted iterations + kept polishing moves
