@@ -170,7 +170,16 @@ def main():
     if sy:
         w(f"| synthesis: median time per supplementary motion, ms (1 core) | {med(sy.get('median_cpu_ms_per_transition'))} | < 50 | {verdict(sy.get('median_cpu_ms_per_transition'), 50, False)} |")
         w(f"| synthesis: A* g below slerp's, fraction of {sy.get('gaps')} gaps | **{fmt(sy.get('astar_lower_g_fraction'))}** | ≥ 0.9 | {verdict(sy.get('astar_lower_g_fraction'), 0.9)} |")
-        w(f"| synthesis: mean g, A* / slerp | **{fmt(sy.get('ratio_mean_g_astar_to_slerp'))}** | ≤ 0.8 | {verdict(sy.get('ratio_mean_g_astar_to_slerp'), 0.8, False)} |")
+        ratio = sy.get('ratio_mean_g_astar_to_slerp')
+        dp = sy.get("deep")
+        if dp:
+            # The goal is met by the deep refinement setting, not by the
+            # default (which the time goal is measured with).
+            dr = dp.get("ratio_mean_g_astar_to_slerp")
+            w(f"| synthesis: mean g, A* / slerp, default | **{fmt(ratio)}** | ≤ 0.8 | not by default |")
+            w(f"| synthesis: mean g, A* / slerp, deep refinement (`{dp.get('options')}`; median {fmt(dp.get('median_cpu_ms_per_transition'))} ms per transition) | **{fmt(dr)}** | ≤ 0.8 | {verdict(dr, 0.8, False)} |")
+        else:
+            w(f"| synthesis: mean g, A* / slerp | **{fmt(ratio)}** | ≤ 0.8 | {verdict(ratio, 0.8, False)} |")
     w("")
 
     if ing:
@@ -239,8 +248,9 @@ def main():
         w("")
         w(f"{sy.get('gaps')} gaps between frames of different clips with the same content label;")
         w("A*, slerp and inertialization transitions of the same length (docs/synthesis.md).")
-        w("The default settings are measured here; the opt-in refinement settings")
-        w("(`--refine`, `--refine-smoothing`, `--refine-polish`) and their ratios are in")
+        w("The default settings are measured here (three runs), and the deep refinement setting")
+        w("once (its energies are deterministic); the other opt-in refinement settings")
+        w("(`--refine`, `--refine-smoothing`, `--refine-polish*`) and their ratios are in")
         w("docs/synthesis.md, \"Reading\".")
         w("")
         w("| figure | measured |")
@@ -250,6 +260,12 @@ def main():
         w(f"| gaps where A* g < slerp g | {fmt(sy.get('astar_lower_g_fraction'))} |")
         w(f"| mean g A* / mean g slerp | {fmt(sy.get('ratio_mean_g_astar_to_slerp'))} |")
         w(f"| foot sliding while in contact, A* / slerp (m, summed) | {fmt(sy.get('foot_sliding_astar_m'))} / {fmt(sy.get('foot_sliding_slerp_m'))} |")
+        dp = sy.get("deep")
+        if dp:
+            w(f"| deep refinement (`{dp.get('options')}`): median CPU ms / max wall ms per transition | {fmt(dp.get('median_cpu_ms_per_transition'))} / {fmt(dp.get('max_ms_per_transition'))} |")
+            w(f"| deep refinement: gaps where A* g < slerp g | {fmt(dp.get('astar_lower_g_fraction'))} |")
+            w(f"| deep refinement: mean g A* / mean g slerp | {fmt(dp.get('ratio_mean_g_astar_to_slerp'))} |")
+            w(f"| deep refinement: foot sliding, A* / slerp (m, summed) | {fmt(dp.get('foot_sliding_astar_m'))} / {fmt(dp.get('foot_sliding_slerp_m'))} |")
         w("")
     paper_section(w, r)
     scaling_section(w, r, a)
@@ -353,6 +369,8 @@ def paper_section(w, r):
     w(f"| one query, exhaustive | 952 s (483 clips) | {med(kb.get('median_ms'))} ms ({clips:,} clips) |")
     w(f"| one query, pruned | 33.72 s | {med(ke.get('median_ms'))} ms |")
     w(f"| one supplementary motion | ≈ 5 s | {med(sy.get('median_cpu_ms_per_transition'))} ms |")
+    if get(sy, "deep", "median_cpu_ms_per_transition") is not None:
+        w(f"| one supplementary motion, deep refinement (mean g {fmt(get(sy, 'deep', 'ratio_mean_g_astar_to_slerp'))}x slerp's) | ≈ 5 s | {fmt(get(sy, 'deep', 'median_cpu_ms_per_transition') / 1000)} s |")
     w("")
 
 
