@@ -20,6 +20,7 @@
 #include "mocap/index.hpp"
 #include "mocap/query.hpp"
 #include "mocap/synth_job.hpp"
+#include "refine_options.hpp"
 #ifdef MOCAP_SYNTH_HAVE_SEARCH
 #include "mocap/search.hpp"
 #endif
@@ -52,34 +53,7 @@ int main(int argc, char** argv) {
   app.add_option("--cost-threshold", options.params.cost_threshold_J,
                  "T_c: stop when the step cost to the goal is below this (J)")
       ->capture_default_str();
-  app.add_option("--refine", options.params.refine_iterations,
-                 "after the A* search, at most N iterations lowering g on the whole transition "
-                 "(about 4 ms each; 0: none)")
-      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
-      ->capture_default_str();
-  app.add_option("--refine-smoothing", options.params.refine_smoothing_J,
-                 "with --refine: start on g smoothed at this many joules, then a tenth, a "
-                 "hundredth, then exact (a quarter of the iterations each; 0: exact throughout)")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
-  app.add_option("--refine-polish", options.params.refine_polish_sweeps,
-                 "after the refinement's iterations, at most this many sweeps of coordinate "
-                 "polishing on the exact g (slow: up to seconds per gap; 0: none)")
-      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
-      ->capture_default_str();
-  app.add_option("--refine-polish-window", options.params.refine_polish_window,
-                 "with --refine-polish: also move one variable of up to this many consecutive "
-                 "frames together (2, 4, ... frames; 1: single frames only)")
-      ->check(CLI::Range(std::size_t{1}, std::size_t{1024}))
-      ->capture_default_str();
-  app.add_flag("--refine-polish-segments", options.params.refine_polish_segments,
-               "with --refine-polish: also turn single segments (a joint one way, its children "
-               "back)");
-  app.add_option("--refine-polish-smoothing", options.params.refine_polish_smoothing_J,
-                 "with --refine-polish: polish first on g smoothed at this many joules, then on "
-                 "the exact g (0: exact only)")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
+  mocap::add_refine_options(app, options.params);
   unsigned threads = 0;
   app.add_option("--threads", threads,
                  "worker threads: the gaps are supplemented in parallel (default: all cores); "

@@ -21,6 +21,7 @@
 #include "mocap/error.hpp"
 #include "mocap/index.hpp"
 #include "mocap/synth.hpp"
+#include "refine_options.hpp"
 
 namespace {
 
@@ -87,34 +88,7 @@ int main(int argc, char** argv) {
   bool no_plant = false, no_choose = false;
   app.add_flag("--no-choose-length", no_choose, "plan with the length estimate instead of choosing the length");
   app.add_flag("--no-plant-feet", no_plant, "no contact-aware (foot planting) proposals");
-  app.add_option(
-         "--refine", params.refine_iterations,
-         "refinement iterations after the search (docs/synthesis.md \"Refinement\"); 0: none")
-      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
-      ->capture_default_str();
-  app.add_option("--refine-smoothing", params.refine_smoothing_J,
-                 "with --refine: smoothed stages first, from this many joules (docs/synthesis.md "
-                 "\"Refinement\")")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
-  app.add_option("--refine-polish", params.refine_polish_sweeps,
-                 "coordinate polishing sweeps after the refinement's iterations (docs/synthesis.md "
-                 "\"Refinement\")")
-      ->check(CLI::Range(std::size_t{0}, std::size_t{100000}))
-      ->capture_default_str();
-  app.add_option("--refine-polish-window", params.refine_polish_window,
-                 "polishing also moves runs of up to this many consecutive frames together "
-                 "(docs/synthesis.md \"Refinement\"); 1: single frames only")
-      ->check(CLI::Range(std::size_t{1}, std::size_t{1024}))
-      ->capture_default_str();
-  app.add_flag("--refine-polish-segments", params.refine_polish_segments,
-               "polishing also turns single segments (a joint one way, its children back; "
-               "docs/synthesis.md \"Refinement\")");
-  app.add_option("--refine-polish-smoothing", params.refine_polish_smoothing_J,
-                 "polishing first on g smoothed at this many joules, then on the exact g "
-                 "(docs/synthesis.md \"Refinement\"); 0: exact only")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
+  mocap::add_refine_options(app, params);
   bool refine_free = false;
   app.add_flag("--refine-free", refine_free,
                "let the refinement slide the feet, turn joints faster and leave the range of "
