@@ -123,6 +123,30 @@ void expect_within_refine_limits(const mocap::GapProblem& gap,
       << what;
 }
 
+// Refines the slerp start twice with `options` and checks what every
+// refinement guarantees: the result's g is the whole-path measure's (the
+// reference), the limits hold, and the two runs are bit-identical. The first
+// run's result, frames and measures.
+struct Refined {
+  mocap::RefineResult result;
+  std::vector<SynthFrame> frames;
+  mocap::TransitionMeasures measures;
+};
+Refined refine_checked(const SlerpStart& st, const mocap::RefineOptions& options,
+                       const std::string& what) {
+  Refined a{{}, st.slerp, {}};
+  std::vector<SynthFrame> b = st.slerp;
+  a.result = mocap::refine_transition(st.g->gap, a.frames, options);
+  const mocap::RefineResult rb = mocap::refine_transition(st.g->gap, b, options);
+  a.measures = mocap::measure_transition(st.g->gap, a.frames);
+  EXPECT_NEAR(a.result.energy_after_J, a.measures.energy_J, 1e-9 * a.measures.energy_J) << what;
+  expect_within_refine_limits(st.g->gap, a.measures, st.ms, what);
+  EXPECT_EQ(a.result.steps, rb.steps) << what;
+  EXPECT_EQ(a.result.energy_after_J, rb.energy_after_J) << what;
+  expect_same_frames(a.frames, b);
+  return a;
+}
+
 #define REQUIRE_INDEX()                                          \
   MOCAP_REQUIRE_DATA();                                          \
   const mocap::Index* index_ptr = shared_index();                \
@@ -431,21 +455,14 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
   // is never above the input's; the local finite differences only steer.
   double sum_before = 0.0, sum_after = 0.0;
   for (const auto& [xn, yn] : kRefinePairs) {
-    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
-    std::vector<SynthFrame> a = slerp, b = slerp;
-    const auto ra = mocap::refine_transition(g->gap, a, {15});
-    const auto rb = mocap::refine_transition(g->gap, b, {15});
-    const auto ma = mocap::measure_transition(g->gap, a);
+    const SlerpStart st = slerp_start(index, xn, yn);
+    const auto& [g, slerp, ms] = st;
+    // Measure, limits, bit-identical runs (refine_checked).
+    const auto [ra, a, ma] = refine_checked(st, {15}, xn);
     ASSERT_EQ(a.size(), slerp.size()) << xn;
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
-    EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
-    expect_within_refine_limits(g->gap, ma, ms, xn);
     EXPECT_GT(ra.steps, 0u) << xn;
     EXPECT_LE(ra.steps, 15u) << xn;
-    // Deterministic: bit-identical runs.
-    EXPECT_EQ(ra.steps, rb.steps);
-    EXPECT_EQ(ra.energy_after_J, rb.energy_after_J);
-    expect_same_frames(a, b);
     // Without the limits (a measuring mode): still never above the input's g.
     std::vector<SynthFrame> c = slerp;
     const auto rc = mocap::refine_transition(g->gap, c, {15, 0.0, false});
@@ -478,17 +495,12 @@ TEST(SynthRefine, SmoothedStagesKeepTheGuaranteesAndSteer) {
   // at 400 iterations, docs/synthesis.md "Ablations").
   double sum_slerp = 0.0, sum_exact = 0.0, sum_smoothed = 0.0;
   for (const auto& [xn, yn] : kRefinePairs) {
-    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
-    std::vector<SynthFrame> e = slerp, a = slerp, b = slerp;
+    const SlerpStart st = slerp_start(index, xn, yn);
+    const auto& [g, slerp, ms] = st;
+    std::vector<SynthFrame> e = slerp;
     mocap::refine_transition(g->gap, e, {25});
-    const auto ra = mocap::refine_transition(g->gap, a, {100, 0.0, true, 1.0});
-    const auto rb = mocap::refine_transition(g->gap, b, {100, 0.0, true, 1.0});
-    const auto ma = mocap::measure_transition(g->gap, a);
+    const auto [ra, a, ma] = refine_checked(st, {100, 0.0, true, 1.0}, xn);
     EXPECT_NEAR(ra.energy_before_J, ms.energy_J, 1e-9 * ms.energy_J) << xn;
-    EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
-    expect_within_refine_limits(g->gap, ma, ms, xn);
-    EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
-    expect_same_frames(a, b);
     sum_slerp += ms.energy_J;
     sum_exact += mocap::measure_transition(g->gap, e).energy_J;
     sum_smoothed += ma.energy_J;
@@ -505,18 +517,13 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
   // deterministic.
   double sum_slerp = 0.0, sum_iterated = 0.0, sum_polished = 0.0;
   for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[2]}) {
-    const auto [g, slerp, ms] = slerp_start(index, xn, yn);
-    std::vector<SynthFrame> it = slerp, a = slerp, b = slerp, only = slerp;
+    const SlerpStart st = slerp_start(index, xn, yn);
+    const auto& [g, slerp, ms] = st;
+    std::vector<SynthFrame> it = slerp, only = slerp;
     const auto ri = mocap::refine_transition(g->gap, it, {20});
-    const auto ra = mocap::refine_transition(g->gap, a, {20, 0.0, true, 0.0, 40});
-    const auto rb = mocap::refine_transition(g->gap, b, {20, 0.0, true, 0.0, 40});
-    const auto ma = mocap::measure_transition(g->gap, a);
-    EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
+    const auto [ra, a, ma] = refine_checked(st, {20, 0.0, true, 0.0, 40}, xn);
     EXPECT_LE(ma.energy_J, ri.energy_after_J) << xn;
     EXPECT_GT(ra.steps, ri.steps) << xn;
-    expect_within_refine_limits(g->gap, ma, ms, xn);
-    EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
-    expect_same_frames(a, b);
     // Polishing alone (no iterations) also runs, and also never goes up.
     const auto ro = mocap::refine_transition(g->gap, only, {0, 0.0, true, 0.0, 5});
     const auto mo = mocap::measure_transition(g->gap, only);
@@ -562,25 +569,16 @@ TEST(SynthRefine, PolishingRunsSegmentsAndASmoothedPassKeepTheGuarantees) {
   // deterministic, and lower than single-frame polishing for as many sweeps.
   double sum_slerp = 0.0, sum_single = 0.0, sum_moves = 0.0;
   for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[2]}) {
-    const auto [gp, slerp, ms] = slerp_start(index, xn, yn);
-    std::vector<SynthFrame> one = slerp, a = slerp, b = slerp;
+    const SlerpStart st = slerp_start(index, xn, yn);
+    std::vector<SynthFrame> one = st.slerp;
     const mocap::RefineOptions plain{0, 0.0, true, 0.0, 4};
     mocap::RefineOptions moves = plain;
     moves.polish_max_window = 4;
     moves.polish_segment_moves = true;
     moves.polish_smoothing_J = 0.3;
-    const auto r_one = mocap::refine_transition(gp->gap, one, plain);
-    const auto ra = mocap::refine_transition(gp->gap, a, moves);
-    const auto rb = mocap::refine_transition(gp->gap, b, moves);
-    const auto ma = mocap::measure_transition(gp->gap, a);
-    EXPECT_NEAR(ra.energy_after_J, ma.energy_J, 1e-9 * ma.energy_J) << xn;
-    expect_within_refine_limits(gp->gap, ma, ms, xn);
-    EXPECT_EQ(ra.energy_after_J, rb.energy_after_J) << xn;
-    EXPECT_EQ(ra.steps, rb.steps) << xn;
-    expect_same_frames(a, b);
-    sum_slerp += ms.energy_J;
-    sum_single += r_one.energy_after_J;
-    sum_moves += ma.energy_J;
+    sum_slerp += st.ms.energy_J;
+    sum_single += mocap::refine_transition(st.g->gap, one, plain).energy_after_J;
+    sum_moves += refine_checked(st, moves, xn).measures.energy_J;
   }
   // Measured: 0.907 of the slerps' g together, against 0.969 with single
   // frames (moves that did not lower g, or a smoothed pass kept although it
