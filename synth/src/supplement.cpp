@@ -894,14 +894,12 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
       for (; first + w <= m; first += w / 2) runs.push_back({first, w});
       if (first - w / 2 + w < m) runs.push_back({m - w, w});  // the last frames
     }
-    std::vector<std::vector<int>> children(n);
-    for (std::size_t c = 0; c < n; ++c)
-      if (const int p = sk.skeleton.parents[c]; p >= 0)
-        children[static_cast<std::size_t>(p)].push_back(static_cast<int>(c));
+    std::vector<std::vector<int>> children(n);  // of the joints of segment moves
     std::vector<int> segment_joints;
     if (options.polish_segment_moves)
       for (const int j : joints)
-        if (!children[static_cast<std::size_t>(j)].empty()) segment_joints.push_back(j);
+        if (!(children[static_cast<std::size_t>(j)] = sk.skeleton.children(j)).empty())
+          segment_joints.push_back(j);
     const std::size_t vars = per + 3 * segment_joints.size();
     std::vector<double> d;
     std::vector<SynthFrame> moved(std::min(options.polish_max_window, m));
@@ -988,19 +986,21 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
       // The cache was updated move by move: it must hold what a rebuild gives
       // (a wrong local update would fail here rather than mislead).
       const double cached = std::accumulate(cache.steps.begin(), cache.steps.end(), 0.0);
-      const double rebuilt = cache.build(gap, frames);
-      if (!(std::abs(cached - rebuilt) <= 1e-6 * std::max(1.0, std::abs(rebuilt))))
-        throw std::logic_error("refine_transition: polishing's local updates left the path");
-      cache.smoothing_J = 0.0;
       // The sum over the whole path (the measure's order of additions).
       f = cache.build(gap, frames);
+      if (!(std::abs(cached - f) <= 1e-6 * std::max(1.0, std::abs(f))))
+        throw std::logic_error("refine_transition: polishing's local updates left the path");
+      if (level > 0.0) {
+        cache.smoothing_J = 0.0;
+        f = cache.build(gap, frames);
+      }
     };
     if (options.polish_smoothing_J > 0.0) {
       // A pass on the smoothed g first (it slides along the rounded kinks),
       // kept only if the exact g is lower (each move kept the limits).
       const std::vector<SynthFrame> kept_frames = frames, kept_base = base;
       const Eigen::VectorXd kept_x = x;
-      const double kept_g = cache.build(gap, frames);
+      const double kept_g = f;  // exact: the iterations end on the exact g
       polish(options.polish_smoothing_J);
       if (!(f < kept_g)) {
         frames = kept_frames;
