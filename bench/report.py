@@ -248,7 +248,7 @@ def main():
         w("")
         w(f"{sy.get('gaps')} gaps between frames of different clips with the same content label;")
         w("A*, slerp and inertialization transitions of the same length (docs/synthesis.md).")
-        w("The default settings are measured here (three runs), and the deep refinement setting")
+        w("The default settings are measured in every run of the page, the deep refinement setting")
         w("once (its energies are deterministic); the other opt-in refinement settings")
         w("(`--refine`, `--refine-smoothing`, `--refine-polish*`) and their ratios are in")
         w("docs/synthesis.md, \"Reading\".")

@@ -214,6 +214,14 @@ DEEP_REFINEMENT = ["--refine-polish", "100", "--refine-polish-window", "8",
                    "--refine-polish-smoothing", "0.3"]
 
 
+def quality_figures(s):
+    """The g and sliding figures of a mocap-synth-quality summary."""
+    return {"astar_lower_g_fraction": s.get("astar_lower_g", 0) / max(1, s.get("gaps", 1)),
+            "ratio_mean_g_astar_to_slerp": s.get("ratio_mean_g"),
+            "foot_sliding_astar_m": s.get("foot_sliding_astar_m"),
+            "foot_sliding_slerp_m": s.get("foot_sliding_slerp_m")}
+
+
 def synth_stage(a, work):
     idx = os.path.join(work, "set1.h5")
     build_index(a, [os.path.join(a.data, "bandai-namco-1")], idx, 2)
@@ -232,18 +240,10 @@ def synth_stage(a, work):
          "--json", deep_out] + DEEP_REFINEMENT)
     with open(deep_out) as f:
         d = json.load(f)["summary"]
-    deep = {"options": " ".join(DEEP_REFINEMENT),
-            "astar_lower_g_fraction": d.get("astar_lower_g", 0) / max(1, d.get("gaps", 1)),
-            "ratio_mean_g_astar_to_slerp": d.get("ratio_mean_g"),
-            "foot_sliding_astar_m": d.get("foot_sliding_astar_m"),
-            "foot_sliding_slerp_m": d.get("foot_sliding_slerp_m"),
+    deep = {"options": " ".join(DEEP_REFINEMENT), **quality_figures(d),
             "median_cpu_ms_per_transition": d.get("median_cpu_ms"),
             "max_ms_per_transition": d.get("max_ms")}
-    return {"gaps": s.get("gaps"), "deep": deep,
-            "astar_lower_g_fraction": s.get("astar_lower_g", 0) / max(1, s.get("gaps", 1)),
-            "ratio_mean_g_astar_to_slerp": s.get("ratio_mean_g"),
-            "foot_sliding_astar_m": s.get("foot_sliding_astar_m"),
-            "foot_sliding_slerp_m": s.get("foot_sliding_slerp_m"),
+    return {"gaps": s.get("gaps"), "deep": deep, **quality_figures(s),
             "median_ms_per_transition": stat(r.get("median_ms") for r in rs),
             "median_cpu_ms_per_transition": stat(r.get("median_cpu_ms") for r in rs),
             "max_ms_per_transition": stat(r.get("max_ms") for r in rs)}
