@@ -123,6 +123,8 @@ def main():
     w("and `bench/results.json`); do not edit by hand, rerun it. Each figure is the")
     w(f"median of {m['runs']} runs, with min–max in brackets.")
     w("")
+    w("## Machine and run")
+    w("")
     w("| | |")
     w("|---|---|")
     w(f"| command | `{m['command']}` |")
@@ -140,8 +142,9 @@ def main():
     for (date, commit, command), keys in kept.items():
         w(f"| kept from an earlier run | {', '.join(keys)}: {date}, commit {commit}, `{command}` |")
     w("")
-    w("Rates are per core unless a thread count is given. The machine is a 2-vCPU")
-    w("virtual machine: figures vary by 10–20 % between runs, which the min–max shows.")
+    w("Rates are per core unless a thread count is given. On a virtual machine with few")
+    w("cores figures vary by 10–20 % between runs, which the min–max shows; compare")
+    w("figures measured in one run.")
     w("")
 
     # Headline table.
@@ -215,7 +218,7 @@ def main():
         w("scan is bound by memory bandwidth (21 segments x 9 floats = 756 bytes per frame).")
         w("The per-frame dynamics, the per-segment pass of the inverse dynamics and the h part")
         w("and rotation steps of g run four joints at a time in vector lanes")
-        w("(`common/src/lanes.hpp`, docs/energy.md); a fifth of the per-frame dynamics is")
+        w("(docs/energy.md); a fifth of the per-frame dynamics is")
         w("copying the poses into the result. The g step runs the inverse dynamics of both")
         w("states; where a state's inverse dynamics is reused (a clip's own steps, the A*")
         w("search's successors of one state) a step costs about two thirds.")
