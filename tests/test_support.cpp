@@ -59,19 +59,31 @@ std::filesystem::path temp_dir(const std::string& tag) {
 std::filesystem::path bandai_namco_2_dir() {
   const auto archive = data_dir() / "bandai-namco-2.tar.zst";
   if (!std::filesystem::exists(archive)) return {};
-  std::filesystem::path cache;
   if (const char* env = std::getenv("MOCAP_BN2_DIR"); env && *env) return env;
-  cache = std::filesystem::temp_directory_path() / "mocap-bandai-namco-2";
-  const auto done = cache / ".unpacked";
-  if (!std::filesystem::exists(done)) {
-    std::error_code ec;
-    std::filesystem::create_directories(cache, ec);
-    const std::string cmd = "tar --zstd -xf '" + archive.string() + "' -C '" + cache.string() + "'";
-    if (std::system(cmd.c_str()) != 0) return {};
-    std::FILE* f = std::fopen(done.c_str(), "w");
-    if (f) std::fclose(f);
+  const auto cache = std::filesystem::temp_directory_path() / "mocap-bandai-namco-2";
+  const auto data = cache / "bandai-namco-2" / "data";
+  if (std::filesystem::exists(cache / ".unpacked")) return data;
+  // Test processes run in parallel: each unpacks into its own folder and
+  // renames it into place, so no process ever reads a half-written cache.
+  // The first rename wins; the others find the cache complete and drop theirs.
+  std::random_device rd;
+  const auto mine = cache.string() + ".tmp-" + std::to_string(rd());
+  std::error_code ec;
+  std::filesystem::create_directories(mine, ec);
+  const std::string cmd = "tar --zstd -xf '" + archive.string() + "' -C '" + mine + "'";
+  if (ec || std::system(cmd.c_str()) != 0) {
+    std::filesystem::remove_all(mine, ec);
+    return {};
   }
-  return cache / "bandai-namco-2" / "data";
+  if (std::FILE* f = std::fopen((mine + "/.unpacked").c_str(), "w")) std::fclose(f);
+  std::filesystem::rename(mine, cache, ec);
+  if (ec && !std::filesystem::exists(cache / ".unpacked")) {
+    // A cache left half-written by an older version: replace it.
+    std::filesystem::remove_all(cache, ec);
+    std::filesystem::rename(mine, cache, ec);
+  }
+  std::filesystem::remove_all(mine, ec);
+  return std::filesystem::exists(cache / ".unpacked") ? data : std::filesystem::path{};
 }
 
 }  // namespace mocap::test

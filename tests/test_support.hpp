@@ -12,7 +12,8 @@ bool have_data();
 /// A fresh empty folder under the system temp dir, removed when the binary
 /// exits normally (kept when MOCAP_KEEP_TEST_DIRS=1).
 std::filesystem::path temp_dir(const std::string& tag);
-/// Set 2 unpacked once per machine into a cache folder (tar --zstd), or an
+/// Set 2 unpacked once per machine into a cache folder (tar --zstd; safe when
+/// several test processes ask at once), or an
 /// empty path when the archive or tar is unavailable.
 std::filesystem::path bandai_namco_2_dir();
 

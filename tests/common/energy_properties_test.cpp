@@ -1,4 +1,5 @@
-// The seven properties of ENERGY.md on real clips from ../shared/data
+// The energy model's properties (docs/energy.md, "Properties") on real clips
+// from the data folder
 // (Bandai Namco set 1 and CMU subject 131): g >= h >= 0 on random state pairs
 // (frames, static queries, partial-query completions, sequence steps), zero for
 // identical states, invariance, body sensitivity, units, the vectorised scan

@@ -18,7 +18,7 @@ namespace {
 using test::make_test_body;
 using test::random_state;
 
-// ENERGY.md's literal terms, written independently of the library (world
+// The start-plus-stop terms (docs/energy.md, "h"), written independently of the library (world
 // inertia per state, rotation vector by AngleAxis), returning the literal
 // h_b, h_j and the "stop-and-go" credit our dK removes.
 struct Literal {
@@ -109,7 +109,7 @@ TEST(ApproximateEnergy, SingleSegmentByHand) {
   EXPECT_NEAR(terms.total(), h, 1e-12);
 }
 
-TEST(ApproximateEnergy, MatchesEnergyMdWhereDefinitionsAgree) {
+TEST(ApproximateEnergy, MatchesStartPlusStopSumWhereDefinitionsAgree) {
   const auto t = make_test_body();
   std::mt19937 rng(2);
   for (int i = 0; i < 200; ++i) {

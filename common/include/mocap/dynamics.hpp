@@ -68,7 +68,7 @@ struct DynamicsModel {
   /// (joint-from-principal rotation) and D = principal_moments_kgm2[j].
   std::vector<Eigen::Quaterniond> principal_frames;
   std::vector<Eigen::Vector3d> principal_moments_kgm2;
-  /// Joints with mass > 0 (the segments b of ENERGY.md), in index order.
+  /// Joints with mass > 0 (the segments b of docs/energy.md), in index order.
   std::vector<int> segments;
   /// Joints that carry a "joint" energy term: every joint that is a segment
   /// or has a segment below it, except the massless ancestors of body roots
@@ -175,7 +175,7 @@ struct ClipDynamics {
 };
 
 /// Per-frame dynamics by finite differences at the frame time dt (no
-/// smoothing; docs/energy.md "Finite differences"):
+/// smoothing; docs/energy.md "States and per-frame dynamics"):
 ///   half-step rates  v_{f+1/2} = (c_{f+1} - c_f) / dt,
 ///                    w_{f+1/2} = log(R_{f+1} R_f^T) / dt   (world rotation vector)
 ///   frame rates      v_f = (v_{f-1/2} + v_{f+1/2}) / 2 = (c_{f+1} - c_{f-1}) / (2 dt)

@@ -1,5 +1,5 @@
 #pragma once
-// The approximate energy change h (retrieval, paper eq. 1; ENERGY.md).
+// The approximate energy change h (retrieval, paper eq. 1; docs/energy.md).
 //
 // Transition A -> B in time T: every segment b moves with the constant
 // transition velocities u_b = (c_b(B) - c_b(A)) / T and
@@ -13,7 +13,7 @@
 //   dK(K_A, K_u, K_B) = max(|K_B - K_A|, 2 K_u - K_A - K_B)
 // dK is the least total variation of kinetic energy over any path from
 // (c_A, v_A) to (c_B, v_B) of duration T (docs/energy.md derives it). It equals
-// ENERGY.md's |K_u - K_A| + |K_B - K_u| whenever K_u >= min(K_A, K_B) (always
+// the start-plus-stop sum |K_u - K_A| + |K_B - K_u| whenever K_u >= min(K_A, K_B) (always
 // when A or B is static) and drops only its "stop-and-go" charge
 // 2 (min(K_A, K_B) - K_u) otherwise, which makes h(A, A) = 0 for moving states
 // and makes segments that a partial query leaves alone cost nothing.

@@ -1,6 +1,6 @@
 #pragma once
 // Recursive Newton-Euler inverse dynamics with ground contact, and the full
-// energy change g (supplementation, paper eq. 2; ENERGY.md; docs/energy.md).
+// energy change g (supplementation, paper eq. 2; docs/energy.md).
 //
 // Inverse dynamics of one state (world frame, SI):
 //  - each segment b needs the non-gravity wrench
