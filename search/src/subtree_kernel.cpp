@@ -90,9 +90,9 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
   // Per slot: the joint's position (3 W) and world rotation (4 W) in Q_F;
   // then scratch rows: the parent's rotation (4 W), the local rotation (4 W),
   // two positions (6 W), the table fields of a segment (9 W), the total (W).
-  double* const pr = lanes + ns * 7 * W;
-  double* const lr = pr + 4 * W;
-  double* const p0 = lr + 4 * W;
+  double* const parent_rotation = lanes + ns * 7 * W;
+  double* const local_rotation = parent_rotation + 4 * W;
+  double* const p0 = local_rotation + 4 * W;
   double* const p1 = p0 + 3 * W;
   double* const fld = p1 + 3 * W;
   double* const total = fld + 9 * W;
@@ -119,20 +119,20 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
       double* const x = lanes + t * 7 * W;  // x, y, z rows
       double* const r = x + 3 * W;          // w, x, y, z rows
       // F's parent rotation and the joint's local rotation, normalised (Eigen's normalized()).
-      load(sj.parent_rot, cs, 4, g, n, pr, kIdentity);
+      load(sj.parent_rot, cs, 4, g, n, parent_rotation, kIdentity);
       if (sj.given) {
         const Eigen::Quaterniond& l = sj.local;
         for (std::size_t i = 0; i < W; ++i) {
-          lr[i] = l.w();
-          lr[W + i] = l.x();
-          lr[2 * W + i] = l.y();
-          lr[3 * W + i] = l.z();
+          local_rotation[i] = l.w();
+          local_rotation[W + i] = l.x();
+          local_rotation[2 * W + i] = l.y();
+          local_rotation[3 * W + i] = l.z();
         }
       } else {
-        load(sj.lrot, cs, 4, g, n, lr, kIdentity);
+        load(sj.lrot, cs, 4, g, n, local_rotation, kIdentity);
       }
-      for (double* qv : {pr, lr}) {
-        if (qv == lr && sj.given) break;
+      for (double* qv : {parent_rotation, local_rotation}) {
+        if (qv == local_rotation && sj.given) break;
         for (std::size_t i = 0; i < W; ++i) {
           const double nn =
               std::sqrt(qv[i] * qv[i] + qv[W + i] * qv[W + i] + qv[2 * W + i] * qv[2 * W + i] +
@@ -158,7 +158,7 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
       if (sj.parent_slot < 0) {
         // The parent is F's: so is the joint's position.
         for (std::size_t i = 0; i < 3 * W; ++i) x[i] = p0[i];
-        qmul(pr, lr, r);
+        qmul(parent_rotation, local_rotation, r);
       } else {
         // F's local translation of the joint (in F's frame of the parent),
         // o = conj(R_p) (x_j - x_p), on Q_F's parent: x = x_ps + R_ps o.
@@ -170,7 +170,8 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
           // Eigen's q * v: uv = 2 (u x v); v + w uv + u x uv, with q = conj(R_p).
           const double vx = p0[i] - p1[i], vy = p0[W + i] - p1[W + i],
                        vz = p0[2 * W + i] - p1[2 * W + i];
-          const double w = pr[i], ux = -pr[W + i], uy = -pr[2 * W + i], uz = -pr[3 * W + i];
+          const double w = parent_rotation[i], ux = -parent_rotation[W + i],
+                       uy = -parent_rotation[2 * W + i], uz = -parent_rotation[3 * W + i];
           double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
           cx += cx;
           cy += cy;
@@ -188,7 +189,7 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
           x[W + i] = xp[W + i] + (oy + rw * dy + (rz * dx - rx * dz));
           x[2 * W + i] = xp[2 * W + i] + (oz + rw * dz + (rx * dy - ry * dx));
         }
-        qmul(rp, lr, r);
+        qmul(rp, local_rotation, r);
       }
     }
     for (std::size_t i = 0; i < W; ++i) total[i] = 0.0;
