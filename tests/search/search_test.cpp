@@ -13,6 +13,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "mocap/error.hpp"
@@ -908,4 +909,48 @@ TEST(Search, QueryCharacterErrorsAndDefault) {
   SearchOptions brute;
   brute.mode = SearchMode::brute;
   expect_same_results(out[5], engine.run(*batch[5].query, brute), "heavy arms brute");
+}
+
+// Invalid search options are the caller's error (the command line checks
+// --max-length where it reads it): validate_search_options, run() and
+// run_query_batch throw std::invalid_argument, the batch before any query runs.
+TEST(Search, InvalidOptionsAreCallerErrors) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  const Query q = parse(
+      R"({"id": "q", "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
+  SearchOptions opt;
+  EXPECT_NO_THROW(validate_search_options(opt));
+  for (const double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    opt.max_length_s = bad;
+    EXPECT_THROW(validate_search_options(opt), std::invalid_argument) << bad;
+    EXPECT_THROW((void)engine.run(q, opt), std::invalid_argument) << bad;
+    EXPECT_THROW((void)run_query_batch(engine, {{"q", q, ""}}, opt), std::invalid_argument) << bad;
+  }
+}
+
+// SearchEngine::frame_bounds fills every field of FrameBounds, one value per
+// frame of the skeleton: for a full frame the partial bounds are 0, the
+// engine's h is h, and the bound holds; no such frame or skeleton: invalid_argument.
+TEST(Search, FrameBoundsFillsEveryField) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  const Query q = parse(
+      R"({"id": "q", "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
+  const FrameBounds b = engine.frame_bounds(q, 1, 0);
+  const std::size_t n = index.skeletons()[0].frame_count;
+  ASSERT_GT(n, 0u);
+  for (const std::vector<double>* v : {&b.lower, &b.h, &b.engine_h, &b.sketch_lower, &b.chain_lower,
+                                       &b.partial_lower, &b.partial_reference})
+    ASSERT_EQ(v->size(), n);
+  for (std::size_t g = 0; g < n; ++g) {
+    EXPECT_EQ(b.engine_h[g], b.h[g]);
+    EXPECT_EQ(b.partial_lower[g], 0.0);
+    EXPECT_EQ(b.partial_reference[g], 0.0);
+    EXPECT_LE(b.sketch_lower[g], b.lower[g]);
+    EXPECT_LE(b.chain_lower[g], b.lower[g]);
+    EXPECT_LE(b.lower[g] * (1.0 - 1e-4) - 1e-3, b.h[g]);
+  }
+  EXPECT_THROW((void)engine.frame_bounds(q, 2, 0), std::invalid_argument);
+  EXPECT_THROW((void)engine.frame_bounds(q, 0, index.skeletons().size()), std::invalid_argument);
 }
