@@ -63,13 +63,16 @@ struct SearchArgs {
 
 void add_search_options(CLI::App& app, SearchArgs& a) {
   app.add_option("--index", a.index, "Index file (HDF5, mocap-index build); opened once per batch");
-  auto* qs = app.add_option("--queries", a.queries, "Query batch: one JSON query per line (docs/queries.md)");
+  auto* qs = app.add_option("--queries", a.queries,
+                            "Query batch: one JSON query per line (docs/queries.md)");
   auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");
   qs->excludes(q1);
   app.add_option("--out", a.out, "Write the results here (JSON lines) instead of stdout");
-  app.add_option("--mode", a.mode, "exact (default: identical to brute, pruned), approx (FLANN, with recall), brute")
+  app.add_option("--mode", a.mode,
+                 "exact (default: identical to brute, pruned), approx (FLANN, with recall), brute")
       ->check(CLI::IsMember({"exact", "approx", "brute"}));
-  app.add_option("--threads", a.threads, "Worker threads (default: all cores); results do not depend on it");
+  app.add_option("--threads", a.threads,
+                 "Worker threads (default: all cores); results do not depend on it");
   app.add_flag("-q,--quiet", a.quiet, "No progress output on stderr");
   app.add_option("--max-length", a.max_length_s,
                  "Relative mode: longest partial motion in seconds (default 2)")
@@ -122,9 +125,11 @@ int run_energy(const EnergyArgs& args) {
 }
 
 int run_search(const SearchArgs& a) {
-  if (a.index.empty()) throw mocap::InputError("--index", 0, "required (an index built by mocap-index build)");
+  if (a.index.empty())
+    throw mocap::InputError("--index", 0, "required (an index built by mocap-index build)");
   if (a.queries.empty() == a.query.empty())
-    throw mocap::InputError("--queries", 0, "give exactly one of --queries Q.jsonl or --query Q.json");
+    throw mocap::InputError("--queries", 0,
+                            "give exactly one of --queries Q.jsonl or --query Q.json");
   std::optional<tbb::global_control> threads;
   if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
   mocap::SearchOptions opt;
@@ -133,11 +138,13 @@ int run_search(const SearchArgs& a) {
   opt.approx_checks = a.checks;
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;
-  const auto batch = a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+  const auto batch =
+      a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
   const auto t0 = std::chrono::steady_clock::now();
   const mocap::Index index = mocap::Index::open(a.index);
   const mocap::SearchEngine engine(index);
-  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double load_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ofstream file;
   if (!a.out.empty()) {
     file.open(a.out);
@@ -150,7 +157,8 @@ int run_search(const SearchArgs& a) {
     if (tty) {
       const int width = 40;
       const int filled = static_cast<int>(width * done / total);
-      fmt::print(stderr, "\r[{}{}] {}/{} queries", std::string(static_cast<std::size_t>(filled), '#'),
+      fmt::print(stderr, "\r[{}{}] {}/{} queries",
+                 std::string(static_cast<std::size_t>(filled), '#'),
                  std::string(static_cast<std::size_t>(width - filled), '.'), done, total);
       if (done == total) fmt::print(stderr, "\n");
     } else if (done * 10 / total != last_line || done == total) {
@@ -173,7 +181,9 @@ int run_search(const SearchArgs& a) {
   os.flush();
   if (!os) throw mocap::InputError(a.out.empty() ? "<stdout>" : a.out, 0, "write failed");
   if (!a.quiet)
-    fmt::print(stderr, "mocap-search: {} queries ({} failed), mode {}, index loaded in {:.2f} s, answered in {:.3f} s\n",
+    fmt::print(stderr,
+               "mocap-search: {} queries ({} failed), mode {}, index loaded in {:.2f} s, answered "
+               "in {:.3f} s\n",
                outcomes.size(), failed, a.mode, load_s, run_s);
   return failed > 0 ? kExitSomeFailed : kExitOk;
 }

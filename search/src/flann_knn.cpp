@@ -13,7 +13,8 @@ namespace mocap::search_detail {
 struct KnnIndex::Impl {
   flann::Index<flann::L2<float>> index;
   Impl(const float* points, std::size_t n, std::size_t dim, int trees)
-      : index(flann::Matrix<float>(const_cast<float*>(points), n, dim), flann::KDTreeIndexParams(trees)) {}
+      : index(flann::Matrix<float>(const_cast<float*>(points), n, dim),
+              flann::KDTreeIndexParams(trees)) {}
 };
 
 KnnIndex::KnnIndex(const float* points, std::size_t n, std::size_t dim, int trees)
@@ -23,7 +24,8 @@ KnnIndex::KnnIndex(const float* points, std::size_t n, std::size_t dim, int tree
 
 KnnIndex::~KnnIndex() = default;
 
-void KnnIndex::knn(const float* query, std::size_t k, int checks, std::vector<std::size_t>& out) const {
+void KnnIndex::knn(const float* query, std::size_t k, int checks,
+                   std::vector<std::size_t>& out) const {
   k = std::min(k, n_);
   out.assign(k, n_);
   std::vector<float> dist(k);

@@ -24,7 +24,9 @@ struct Ctx {
   }
 };
 
-std::string type_name(const json& v) { return v.type_name(); }
+std::string type_name(const json& v) {
+  return v.type_name();
+}
 
 double number(const Ctx& c, const json& v, const std::string& path) {
   if (!v.is_number()) c.fail(path, "expected a number, got " + type_name(v));
@@ -55,13 +57,16 @@ void check_keys(const Ctx& c, const json& obj, const std::string& path,
     if (!ok) {
       std::string list;
       for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-      c.fail(path.empty() ? it.key() : path + "." + it.key(), "unknown field (expected one of: " + list + ")");
+      c.fail(path.empty() ? it.key() : path + "." + it.key(),
+             "unknown field (expected one of: " + list + ")");
     }
   }
 }
 
 Eigen::Quaterniond joint_rotation(const Ctx& c, const json& v, const std::string& path) {
-  if (!v.is_object()) c.fail(path, "expected {\"euler_deg\": [a, b, c], \"order\": \"ZXY\"} or {\"quat\": [w, x, y, z]}");
+  if (!v.is_object())
+    c.fail(path,
+           "expected {\"euler_deg\": [a, b, c], \"order\": \"ZXY\"} or {\"quat\": [w, x, y, z]}");
   check_keys(c, v, path, {"euler_deg", "order", "quat"});
   const bool has_euler = v.contains("euler_deg"), has_quat = v.contains("quat");
   if (has_euler == has_quat) c.fail(path, "give exactly one of euler_deg (with order) or quat");
@@ -80,7 +85,8 @@ Eigen::Quaterniond joint_rotation(const Ctx& c, const json& v, const std::string
     c.fail(path + ".order", "expected a string such as \"ZXY\" (the order the angles apply in)");
   const std::string order = v["order"].get<std::string>();
   const auto axes = parse_euler_order(order);
-  if (!axes) c.fail(path + ".order", "expected 3 distinct letters of X, Y, Z, got \"" + order + "\"");
+  if (!axes)
+    c.fail(path + ".order", "expected 3 distinct letters of X, Y, Z, got \"" + order + "\"");
   const std::array<double, 3> deg{number(c, e[0], path + ".euler_deg[0]"),
                                   number(c, e[1], path + ".euler_deg[1]"),
                                   number(c, e[2], path + ".euler_deg[2]")};
@@ -102,9 +108,11 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     if (!p.is_array() || p.size() != 3)
       c.fail(path + ".root_position", "expected [x, y, z] in metres (null = not given)");
     for (std::size_t a = 0; a < 3; ++a)
-      if (!p[a].is_null()) f.root_position_m[a] = number(c, p[a], path + ".root_position[" + std::to_string(a) + "]");
+      if (!p[a].is_null())
+        f.root_position_m[a] = number(c, p[a], path + ".root_position[" + std::to_string(a) + "]");
   }
-  if (v.contains("root_heading_deg")) f.root_heading_deg = number(c, v["root_heading_deg"], path + ".root_heading_deg");
+  if (v.contains("root_heading_deg"))
+    f.root_heading_deg = number(c, v["root_heading_deg"], path + ".root_heading_deg");
   if (v.contains("joints")) {
     const json& js = v["joints"];
     if (!js.is_object()) c.fail(path + ".joints", "expected an object {\"JointName\": {...}}");
@@ -125,7 +133,8 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     f.bvh_frame = static_cast<std::size_t>(fr.get<long long>());
     if (v.contains("only")) {
       f.only = string_list(c, v["only"], path + ".only");
-      if (f.only.empty()) c.fail(path + ".only", "must not be empty (leave it out to take every DOF)");
+      if (f.only.empty())
+        c.fail(path + ".only", "must not be empty (leave it out to take every DOF)");
     }
     if (v.contains("root_position") || v.contains("root_heading_deg") || v.contains("joints"))
       c.fail(path, "bvh frames take their values from the file: use \"only\" to keep some DOFs");
@@ -133,7 +142,8 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     if (v.contains("frame")) c.fail(path + ".frame", "only with bvh");
     if (v.contains("only")) c.fail(path + ".only", "only with bvh");
   }
-  if (f.empty()) c.fail(path, "gives nothing: expected root_position, root_heading_deg, joints or bvh");
+  if (f.empty())
+    c.fail(path, "gives nothing: expected root_position, root_heading_deg, joints or bvh");
   return f;
 }
 
@@ -144,8 +154,8 @@ bool glob_match(const std::string& pattern, const std::string& name) {
 }  // namespace
 
 bool QueryFrameSpec::empty() const {
-  return !bvh && joints.empty() && !root_heading_deg && !root_position_m[0] && !root_position_m[1] &&
-         !root_position_m[2];
+  return !bvh && joints.empty() && !root_heading_deg && !root_position_m[0] &&
+         !root_position_m[1] && !root_position_m[2];
 }
 
 bool QueryFilter::accepts(const std::string& file_name, const std::string& content_label,
@@ -183,7 +193,9 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
                   const std::filesystem::path& base_dir, const std::string& default_id) {
   const Ctx c{source, line};
   if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
-  check_keys(c, j, "", {"id", "frames", "relative", "character", "transition_time", "top", "path_weight", "filter"});
+  check_keys(
+      c, j, "",
+      {"id", "frames", "relative", "character", "transition_time", "top", "path_weight", "filter"});
   Query q;
   q.id = default_id;
   if (j.contains("id")) {
@@ -197,7 +209,8 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   if (!j.contains("frames")) c.fail("frames", "required: a list of at least 2 query frames");
   const json& frames = j["frames"];
   if (!frames.is_array()) c.fail("frames", "expected a list of query frames");
-  if (frames.size() < 2) c.fail("frames", "at least 2 query frames are needed, got " + std::to_string(frames.size()));
+  if (frames.size() < 2)
+    c.fail("frames", "at least 2 query frames are needed, got " + std::to_string(frames.size()));
   for (std::size_t i = 0; i < frames.size(); ++i)
     q.frames.push_back(query_frame(c, frames[i], "frames[" + std::to_string(i) + "]", base_dir));
   if (j.contains("relative")) {

@@ -22,7 +22,9 @@ constexpr std::size_t kVerifiedTexts = 16;
 // Distinct hierarchies kept (QueryBvhCache::hierarchy_of): set 2 has 3.
 constexpr std::size_t kHierarchies = 8;
 
-std::string field(std::size_t i) { return fmt::format("frames[{}]", i); }
+std::string field(std::size_t i) {
+  return fmt::format("frames[{}]", i);
+}
 
 [[noreturn]] void fail(const Query& q, const std::string& path, const std::string& what) {
   throw InputError("query " + q.id, 0, path + ": " + what);
@@ -58,8 +60,10 @@ std::vector<int> map_joints(const Query& q, const std::string& path, const Index
   }
   std::string missing;
   for (int j : model.segments)
-    if (map[static_cast<std::size_t>(j)] < 0) missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(j)];
-  if (map[static_cast<std::size_t>(sk.root_joint)] < 0 && missing.find(s.names[static_cast<std::size_t>(sk.root_joint)]) == std::string::npos)
+    if (map[static_cast<std::size_t>(j)] < 0)
+      missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(j)];
+  if (map[static_cast<std::size_t>(sk.root_joint)] < 0 &&
+      missing.find(s.names[static_cast<std::size_t>(sk.root_joint)]) == std::string::npos)
     missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(sk.root_joint)];
   if (!missing.empty())
     fail(q, path + ".bvh",
@@ -102,7 +106,7 @@ FileStat stat_or_throw(const std::filesystem::path& path) {
 }  // namespace
 
 std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::path& path,
-                                               const std::string& unit_option) {
+                                                       const std::string& unit_option) {
   const FileStat st = stat_or_throw(path);
   const std::string key = unit_option + "|" + path.string();
   {
@@ -256,18 +260,24 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       for (std::size_t j = 0; j < nj; ++j) {
         const int fjnt = map[j];
         const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
-        local.rotations[j] = fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
-                                       : Eigen::Quaterniond::Identity();
-        const bool file_pos = fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
+        local.rotations[j] =
+            fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
+                      : Eigen::Quaterniond::Identity();
+        const bool file_pos =
+            fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
         local.translations_m[j] =
             (file_pos && skel.channels[j].has_position())
-                ? Eigen::Vector3d(m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] * scale)
+                ? Eigen::Vector3d(
+                      m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] *
+                      scale)
                 : Eigen::Vector3d(skel.offsets_m[j] * scale);
       }
       if (f == spec.bvh_frame) locals_at_frame = local.rotations;
       forward_kinematics(skel, local, world);
-      std::copy(world.positions_m.begin(), world.positions_m.end(), positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
-      std::copy(world.rotations.begin(), world.rotations.end(), rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+      std::copy(world.positions_m.begin(), world.positions_m.end(),
+                positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+      std::copy(world.rotations.begin(), world.rotations.end(),
+                rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
     }
     ClipDynamics& dyn = buffers.dyn;
     compute_clip_dynamics(model, n, m.frame_time_s, positions.data(), rotations.data(), dyn);
@@ -287,16 +297,19 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
         out.state.angular_velocities_radps[j] = v.angular_velocities_radps[j];
         out.state.angular_accelerations_radps2[j] = v.angular_accelerations_radps2[j];
       }
-      for (int a = 0; a < 3; ++a) partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+      for (int a = 0; a < 3; ++a)
+        partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
       for (std::size_t j = 0; j < nj; ++j)
-        if (map[j] >= 0) partial.joint_rotations.emplace_back(static_cast<int>(j), locals_at_frame[j]);
+        if (map[j] >= 0)
+          partial.joint_rotations.emplace_back(static_cast<int>(j), locals_at_frame[j]);
       return out;
     }
     for (std::size_t k = 0; k < spec.only.size(); ++k) {
       const std::string& dof = spec.only[k];
       const std::string p = fmt::format("{}.only[{}]", path, k);
       if (dof == "root_position") {
-        for (int a = 0; a < 3; ++a) partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+        for (int a = 0; a < 3; ++a)
+          partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
       } else if (dof == "root_position_xz") {
         partial.root_position_m[0] = v.joint_positions_m[r][0];
         partial.root_position_m[2] = v.joint_positions_m[r][2];
@@ -309,7 +322,8 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     }
   } else {
     partial.root_position_m = spec.root_position_m;
-    if (spec.root_heading_deg) partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
+    if (spec.root_heading_deg)
+      partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
     for (const auto& jr : spec.joints) {
       const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
       partial.joint_rotations.emplace_back(j, jr.rotation);
@@ -348,7 +362,8 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
     out.scan = make_h_scan_query(model, out.state.view(), transition_time_s);
     for (int b : model.segments) {
       const std::size_t bb = static_cast<std::size_t>(b);
-      out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] * out.state.com_velocities_mps[bb].squaredNorm());
+      out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] *
+                                 out.state.com_velocities_mps[bb].squaredNorm());
     }
     out.kd.resize(kd_feature_dimension(model));
     kd_feature(model, out.state.view(), index_transition_time_s, out.kd.data());

@@ -12,7 +12,9 @@
 namespace mocap {
 namespace {
 
-Query parse(const std::string& text) { return parse_query_text(text, "q.jsonl", 7, "/data/queries", "<line 7>"); }
+Query parse(const std::string& text) {
+  return parse_query_text(text, "q.jsonl", 7, "/data/queries", "<line 7>");
+}
 
 // Expects an InputError whose message holds "q.jsonl:7: " and `field`.
 void expect_error(const std::string& text, const std::string& field) {
@@ -26,7 +28,8 @@ void expect_error(const std::string& text, const std::string& field) {
   }
 }
 
-const char* kTwo = R"("frames": [{"root_position": [0, null, 0]}, {"root_position": [0, null, 3]}])";
+const char* kTwo =
+    R"("frames": [{"root_position": [0, null, 0]}, {"root_position": [0, null, 3]}])";
 
 TEST(QueryValidityTest, SyntaxAndShape) {
   expect_error("", "invalid JSON");
@@ -47,29 +50,36 @@ TEST(QueryValidityTest, FrameFields) {
   // Out-of-range numbers are refused by the JSON reader itself.
   expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"root_position": [0,0,1e999]}]})",
                "invalid JSON: [json.exception.out_of_range.406] number overflow");
-  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"pose": 1}]})", "frames[1].pose: unknown field");
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"pose": 1}]})",
+               "frames[1].pose: unknown field");
   expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"root_heading_deg": "north"}]})",
                "frames[1].root_heading_deg: expected a number");
 }
 
 TEST(QueryValidityTest, JointRotations) {
   const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, {"joints": {"RightArm": )";
-  expect_error(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})", "frames[1].joints.RightArm.order: expected 3 distinct");
+  expect_error(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})",
+               "frames[1].joints.RightArm.order: expected 3 distinct");
   expect_error(pre + R"({"euler_deg": [1, 2, 3]}}}]})", "frames[1].joints.RightArm.order");
-  expect_error(pre + R"({"euler_deg": [1, 2], "order": "ZXY"}}}]})", "frames[1].joints.RightArm.euler_deg: expected 3");
-  expect_error(pre + R"({"quat": [0, 0, 0, 0]}}}]})", "frames[1].joints.RightArm.quat: must not be zero");
+  expect_error(pre + R"({"euler_deg": [1, 2], "order": "ZXY"}}}]})",
+               "frames[1].joints.RightArm.euler_deg: expected 3");
+  expect_error(pre + R"({"quat": [0, 0, 0, 0]}}}]})",
+               "frames[1].joints.RightArm.quat: must not be zero");
   expect_error(pre + R"({"quat": [1, 0, 0, 0], "euler_deg": [1, 2, 3]}}}]})", "exactly one of");
-  expect_error(pre + R"({"quat": [1, 0, 0, 0], "order": "XYZ"}}}]})", "RightArm.order: only with euler_deg");
+  expect_error(pre + R"({"quat": [1, 0, 0, 0], "order": "XYZ"}}}]})",
+               "RightArm.order: only with euler_deg");
   expect_error(pre + R"(42}}]})", "frames[1].joints.RightArm: expected");
 }
 
 TEST(QueryValidityTest, BvhFrames) {
   const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, )";
   expect_error(pre + R"({"bvh": "a.bvh"}]})", "frames[1].frame: required");
-  expect_error(pre + R"({"bvh": "a.bvh", "frame": -1}]})", "frames[1].frame: expected a non-negative integer");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": -1}]})",
+               "frames[1].frame: expected a non-negative integer");
   expect_error(pre + R"({"bvh": "a.bvh", "frame": 1.5}]})", "frames[1].frame");
   expect_error(pre + R"({"bvh": "", "frame": 1}]})", "frames[1].bvh: expected a BVH file path");
-  expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "only": []}]})", "frames[1].only: must not be empty");
+  expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "only": []}]})",
+               "frames[1].only: must not be empty");
   expect_error(pre + R"({"frame": 1}]})", "frames[1].frame: only with bvh");
   expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "root_position": [0,0,0]}]})", "use \"only\"");
 }

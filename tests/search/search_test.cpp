@@ -13,6 +13,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "mocap/error.hpp"
@@ -139,7 +140,8 @@ std::string joint_rotation_frame(std::size_t i, std::mt19937& rng, const std::st
     case 0:
       return "{\"joints\": {\"RightForeArm\": " + euler() + "}}";
     case 1:
-      return "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"" + below + "\": " + euler() + "}}";
+      return "{\"joints\": {\"LeftShoulder\": " + euler() + ", \"" + below + "\": " + euler() +
+             "}}";
     case 2:
       return "{\"joints\": {\"LeftUpLeg\": " + euler() + ", \"RightUpLeg\": " + euler() + "}}";
     default:
@@ -243,9 +245,9 @@ TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
     const IndexClip& clip = index.clips()[rng() % index.clips().size()];
     const std::size_t n = clip.frame_count;
     for (std::size_t frame : {std::size_t{0}, std::size_t{1}, n / 2, n - 2, n - 1}) {
-      const Query q = parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": " +
-                            std::to_string(frame) + "}, {\"bvh\": \"" + clip.path +
-                            "\", \"frame\": " + std::to_string(frame) +
+      const Query q = parse("{\"frames\": [{\"bvh\": \"" + clip.path +
+                            "\", \"frame\": " + std::to_string(frame) + "}, {\"bvh\": \"" +
+                            clip.path + "\", \"frame\": " + std::to_string(frame) +
                             ", \"only\": [\"root_heading\", \"RightForeArm\"]}]}");
       const IndexSkeleton& sk = index.skeletons()[clip.skeleton];
       const DynamicsModel model = index.dynamics_model(clip.skeleton);
@@ -256,32 +258,37 @@ TEST(QueryResolution, IndexedFileWindowEqualsWholeFileSet1) {
       for (std::size_t i = 0; i < 2; ++i) {
         const ResolvedQueryPose x =
             resolve_query_pose(q, i, sk, model, windowed, index.info().unit_option);
-        const ResolvedQueryPose y = resolve_query_pose(q, i, sk, model, whole, index.info().unit_option);
+        const ResolvedQueryPose y =
+            resolve_query_pose(q, i, sk, model, whole, index.info().unit_option);
         ASSERT_EQ(x.full, y.full);
         ASSERT_EQ(x.local_rotations.size(), y.local_rotations.size());
         for (std::size_t j = 0; j < x.local_rotations.size(); ++j)
           ASSERT_EQ(x.local_rotations[j].coeffs(), y.local_rotations[j].coeffs());
         ASSERT_EQ(x.given.joint_rotations.size(), y.given.joint_rotations.size());
         for (std::size_t j = 0; j < x.given.joint_rotations.size(); ++j)
-          ASSERT_EQ(x.given.joint_rotations[j].second.coeffs(), y.given.joint_rotations[j].second.coeffs());
+          ASSERT_EQ(x.given.joint_rotations[j].second.coeffs(),
+                    y.given.joint_rotations[j].second.coeffs());
         ASSERT_EQ(x.given.root_heading_rad, y.given.root_heading_rad);
         ASSERT_EQ(x.given.root_position_m, y.given.root_position_m);
         if (!x.full) continue;
         for (std::size_t j = 0; j < x.state.joint_positions_m.size(); ++j) {
-          ASSERT_EQ(x.state.joint_positions_m[j], y.state.joint_positions_m[j]) << clip.path << " " << frame;
+          ASSERT_EQ(x.state.joint_positions_m[j], y.state.joint_positions_m[j])
+              << clip.path << " " << frame;
           ASSERT_EQ(x.state.rotations[j].coeffs(), y.state.rotations[j].coeffs());
           ASSERT_EQ(x.state.coms_m[j], y.state.coms_m[j]);
           ASSERT_EQ(x.state.com_velocities_mps[j], y.state.com_velocities_mps[j]);
           ASSERT_EQ(x.state.com_accelerations_mps2[j], y.state.com_accelerations_mps2[j]);
           ASSERT_EQ(x.state.angular_velocities_radps[j], y.state.angular_velocities_radps[j]);
-          ASSERT_EQ(x.state.angular_accelerations_radps2[j], y.state.angular_accelerations_radps2[j]);
+          ASSERT_EQ(x.state.angular_accelerations_radps2[j],
+                    y.state.angular_accelerations_radps2[j]);
         }
         ++compared;
       }
     }
     // Past the end: the same error either way.
-    const Query bad = parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": " +
-                            std::to_string(n) + "}, {\"root_position\": [0, null, 0]}]}");
+    const Query bad =
+        parse("{\"frames\": [{\"bvh\": \"" + clip.path + "\", \"frame\": " + std::to_string(n) +
+              "}, {\"root_position\": [0, null, 0]}]}");
     EXPECT_THROW((void)resolve_query_pose(bad, 0, index.skeletons()[clip.skeleton],
                                           index.dynamics_model(clip.skeleton), windowed,
                                           index.info().unit_option),
@@ -626,8 +633,9 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
     }
     const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
-      std::vector<double> lower, h, sketch, chain;
-      engine.frame_bounds(q, 0, k, lower, h, nullptr, &sketch, &chain);
+      const FrameBounds bounds = engine.frame_bounds(q, 0, k);
+      const std::vector<double>&lower = bounds.lower, &h = bounds.h, &sketch = bounds.sketch_lower,
+            &chain = bounds.chain_lower;
       ASSERT_EQ(lower.size(), h.size());
       for (std::size_t g = 0; g < h.size(); ++g) {
         ASSERT_TRUE(std::isfinite(h[g])) << i << " frame " << g;
@@ -682,8 +690,8 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
     const std::string f = joint_rotation_frame(i, rng, bvh, "LeftForeArm");
     const Query q = frame_to_origin_query(f, i);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
-      std::vector<double> lower, h, engine_h;
-      engine.frame_bounds(q, 0, k, lower, h, &engine_h);
+      const FrameBounds bounds = engine.frame_bounds(q, 0, k);
+      const std::vector<double>&h = bounds.h, &engine_h = bounds.engine_h;
       ASSERT_EQ(engine_h.size(), h.size());
       for (std::size_t g = 0; g < h.size(); ++g) {
         const double err = std::abs(engine_h[g] - h[g]);
@@ -724,8 +732,9 @@ TEST(Search, PartialBoundColumnsEqualReferenceSet1) {
     Query q = frame_to_origin_query(f, i);
     q.transition_time_s = 0.25 + 0.25 * static_cast<double>(i % 4);
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
-      std::vector<double> lower, h, partial, reference;
-      engine.frame_bounds(q, 0, k, lower, h, nullptr, nullptr, nullptr, &partial, &reference);
+      const FrameBounds bounds = engine.frame_bounds(q, 0, k);
+      const std::vector<double>&lower = bounds.lower, &h = bounds.h,
+            &partial = bounds.partial_lower, &reference = bounds.partial_reference;
       ASSERT_EQ(partial.size(), h.size());
       ASSERT_EQ(reference.size(), h.size());
       for (std::size_t g = 0; g < h.size(); ++g) {
@@ -763,9 +772,11 @@ TEST(Search, DamagedFrameArrayFailsOnlyTheQueriesReadingIt) {
   fs::copy_file(set1_index(), copy, fs::copy_options::overwrite_existing);
   {
     h5::File f = h5::File::open(copy, true);
-    h5::Dataset d =
-        f.root().open_group("skeletons").open_group("0").open_group("frames").open_dataset(
-            "local_rotations");
+    h5::Dataset d = f.root()
+                        .open_group("skeletons")
+                        .open_group("0")
+                        .open_group("frames")
+                        .open_dataset("local_rotations");
     std::vector<float> v = d.read_all<float>();
     v[v.size() / 3] = -v[v.size() / 3] + 0.5f;
     d.write_all<float>(v);
@@ -898,4 +909,48 @@ TEST(Search, QueryCharacterErrorsAndDefault) {
   SearchOptions brute;
   brute.mode = SearchMode::brute;
   expect_same_results(out[5], engine.run(*batch[5].query, brute), "heavy arms brute");
+}
+
+// Invalid search options are the caller's error (the command line checks
+// --max-length where it reads it): validate_search_options, run() and
+// run_query_batch throw std::invalid_argument, the batch before any query runs.
+TEST(Search, InvalidOptionsAreCallerErrors) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  const Query q = parse(
+      R"({"id": "q", "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
+  SearchOptions opt;
+  EXPECT_NO_THROW(validate_search_options(opt));
+  for (const double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    opt.max_length_s = bad;
+    EXPECT_THROW(validate_search_options(opt), std::invalid_argument) << bad;
+    EXPECT_THROW((void)engine.run(q, opt), std::invalid_argument) << bad;
+    EXPECT_THROW((void)run_query_batch(engine, {{"q", q, ""}}, opt), std::invalid_argument) << bad;
+  }
+}
+
+// SearchEngine::frame_bounds fills every field of FrameBounds, one value per
+// frame of the skeleton: for a full frame the partial bounds are 0, the
+// engine's h is h, and the bound holds; no such frame or skeleton: invalid_argument.
+TEST(Search, FrameBoundsFillsEveryField) {
+  const Index index = Index::open(golden_index());
+  const SearchEngine engine(index);
+  const Query q = parse(
+      R"({"id": "q", "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
+  const FrameBounds b = engine.frame_bounds(q, 1, 0);
+  const std::size_t n = index.skeletons()[0].frame_count;
+  ASSERT_GT(n, 0u);
+  for (const std::vector<double>* v : {&b.lower, &b.h, &b.engine_h, &b.sketch_lower, &b.chain_lower,
+                                       &b.partial_lower, &b.partial_reference})
+    ASSERT_EQ(v->size(), n);
+  for (std::size_t g = 0; g < n; ++g) {
+    EXPECT_EQ(b.engine_h[g], b.h[g]);
+    EXPECT_EQ(b.partial_lower[g], 0.0);
+    EXPECT_EQ(b.partial_reference[g], 0.0);
+    EXPECT_LE(b.sketch_lower[g], b.lower[g]);
+    EXPECT_LE(b.chain_lower[g], b.lower[g]);
+    EXPECT_LE(b.lower[g] * (1.0 - 1e-4) - 1e-3, b.h[g]);
+  }
+  EXPECT_THROW((void)engine.frame_bounds(q, 2, 0), std::invalid_argument);
+  EXPECT_THROW((void)engine.frame_bounds(q, 0, index.skeletons().size()), std::invalid_argument);
 }

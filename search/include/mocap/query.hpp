@@ -27,8 +27,8 @@ namespace mocap {
 
 /// One joint's given local rotation (relative to its parent, as in BVH).
 struct JointRotationSpec {
-  std::string name;               // as written; resolved by alias later
-  Eigen::Quaterniond rotation;    // unit
+  std::string name;             // as written; resolved by alias later
+  Eigen::Quaterniond rotation;  // unit
 };
 
 /// One query frame, as written.
@@ -56,7 +56,9 @@ struct QueryFilter {
   std::vector<std::string> style;    // label names, exact
   std::vector<std::string> clips;    // shell globs on the clip's file name (not its folder)
   std::vector<std::string> exclude;  // shell globs on the clip's file name
-  bool empty() const { return content.empty() && style.empty() && clips.empty() && exclude.empty(); }
+  bool empty() const {
+    return content.empty() && style.empty() && clips.empty() && exclude.empty();
+  }
   /// True when a clip with this file name and labels passes.
   bool accepts(const std::string& file_name, const std::string& content_label,
                const std::string& style_label) const;

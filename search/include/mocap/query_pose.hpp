@@ -65,8 +65,8 @@ class QueryBvhCache {
   /// unchanged file (same size and modification time) is not read and hashed
   /// again.
   std::shared_ptr<const QueryBvhFile> get_frames(const std::filesystem::path& path,
-                                                 const std::string& unit_option,
-                                                 std::size_t frame, std::size_t radius);
+                                                 const std::string& unit_option, std::size_t frame,
+                                                 std::size_t radius);
 
  private:
   struct KnownFile {

@@ -72,9 +72,14 @@ struct SearchOptions {
   bool parallel_clips = true;
 };
 
+/// Checks the options' ranges (max_length_s > 0). Invalid options are a
+/// caller's error (a command line checks its values where it reads them):
+/// throws std::invalid_argument. SearchEngine::run and run_query_batch call it.
+void validate_search_options(const SearchOptions& options);
+
 /// One ranked partial motion. Frames are 0-based within the clip.
 struct SearchResult {
-  std::size_t rank = 0;  // 1-based
+  std::size_t rank = 0;        // 1-based
   std::size_t clip_index = 0;  // into Index::clips()
   std::string clip;            // the clip's path as indexed
   /// (key, label) for every index label key with a non-empty label.
@@ -88,8 +93,8 @@ struct SearchResult {
 };
 
 struct PairResults {
-  std::size_t from = 0;  // query frame index h (0-based)
-  std::size_t to = 0;    // h + 1
+  std::size_t from = 0;               // query frame index h (0-based)
+  std::size_t to = 0;                 // h + 1
   std::vector<SearchResult> results;  // best first, at most Query::top
 };
 
@@ -117,6 +122,32 @@ struct QueryOutcome {
   std::optional<std::string> error;
 };
 
+/// SearchEngine::frame_bounds: per frame F of one skeleton (index order of
+/// its frames), for one query frame Q^i, in joules.
+struct FrameBounds {
+  /// The lower bound of h(Q^i -> F) that exact mode uses: the greatest of its
+  /// group's and clip's box and sketch-range bounds, 16-frame block boxes,
+  /// whole-body and chain sketches of full frames, per-frame bounds of partial
+  /// frames (docs/search.md).
+  std::vector<double> lower;
+  /// h itself, the reference: the h scan for full and root-only frames,
+  /// partial_approximate_energy for partial ones.
+  std::vector<double> h;
+  /// The values the search ranks by (every mode): equal to `h` except for
+  /// partial frames giving joint rotations only, which the engine evaluates
+  /// with its own subtree kernel (docs/search.md "Joint-rotation frames").
+  std::vector<double> engine_h;
+  /// Full frames: the per-frame whole-body sketch bound alone, and the chain
+  /// sketch bound alone, that the scans use as a filter (docs/search.md
+  /// "Chain sketches"); 0 for other frames.
+  std::vector<double> sketch_lower, chain_lower;
+  /// Partial frames: the per-frame partial bound alone as the engine computes
+  /// it (for joint-rotation frames in float from per-joint columns;
+  /// docs/search.md "Partial queries"), and as the double reference computes
+  /// it; 0 for other frames.
+  std::vector<double> partial_lower, partial_reference;
+};
+
 /// The engine: per-skeleton tables (h scan table transposed from the index,
 /// the same in 16-frame tiles, kd features, box bounds per group of clips,
 /// clip and 16-frame block, computed from the scan table) built once; FLANN
@@ -134,7 +165,8 @@ class SearchEngine {
 
   /// Answers one query. Throws InputError for a query that does not fit the
   /// index (unknown joint: the message lists the valid names; unreadable BVH;
-  /// frame out of range; an unreadable or invalid character file).
+  /// frame out of range; an unreadable or invalid character file), and
+  /// std::invalid_argument for invalid options (validate_search_options).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
 
   /// Loads up front what queries will need and run() would otherwise load on
@@ -148,29 +180,13 @@ class SearchEngine {
   /// set 2.) Thread-safe; idempotent.
   void prepare(const SearchOptions& options, bool whole_body_frames) const;
 
-  /// Diagnostics and tests: for query frame `i` of `query` (world mode) on
-  /// skeleton `k`, the lower bound of h(Q^i -> F) that exact mode uses for
-  /// every frame F of the skeleton (the greatest of its group's and clip's box and sketch-range
-  /// bounds, 16-frame block boxes, whole-body and chain sketches of full frames, per-frame bounds
-  /// of partial frames; docs/search.md) in `lower`, and h itself in `h` (the reference: the h scan
-  /// for full and root-only frames, partial_approximate_energy for partial ones). With `engine_h`,
-  /// also the values the search ranks by (every mode): equal to `h` except for partial frames
-  /// giving joint rotations only, which the engine evaluates with its own subtree kernel
-  /// (docs/search.md "Joint-rotation frames"). With `sketch_lower` (full frames), also the
-  /// per-frame whole-body sketch bound alone and with `chain_lower` the chain sketch bound alone
-  /// that the scans use as a filter (0 for other frames; docs/search.md "Chain sketches").
-  /// With `partial_lower` (partial frames), also the per-frame partial bound alone as the engine
-  /// computes it (for joint-rotation frames in float from per-joint columns; docs/search.md
-  /// "Partial queries"), and with `partial_reference` as the double reference computes it (0 for
-  /// other frames).
-  void frame_bounds(const Query& query, std::size_t i, std::size_t k, std::vector<double>& lower,
-                    std::vector<double>& h, std::vector<double>* engine_h = nullptr,
-                    std::vector<double>* sketch_lower = nullptr,
-                    std::vector<double>* chain_lower = nullptr,
-                    std::vector<double>* partial_lower = nullptr,
-                    std::vector<double>* partial_reference = nullptr) const;
+  /// Diagnostics and tests: the bounds exact mode uses for query frame `i` of
+  /// `query` (world mode) on skeleton `k`, and h itself, for every frame of the
+  /// skeleton (FrameBounds). Throws std::invalid_argument when there is no such
+  /// skeleton or frame, InputError as run() for a frame that does not fit.
+  FrameBounds frame_bounds(const Query& query, std::size_t i, std::size_t k) const;
 
-  /// Internal tables (search.cpp).
+  /// Internal tables (search/src/search_engine_impl.hpp).
   struct Impl;
 
  private:
@@ -192,12 +208,13 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path);
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path);
 
 /// Runs a batch in parallel (TBB over queries, and over clips inside each);
-/// outcomes are in input order. `progress(done, total)` (optional) is called
+/// outcomes are in input order. A query that fails (InputError or another
+/// exception) gets its `error` and the batch goes on; invalid options throw
+/// std::invalid_argument before any query runs. `progress(done, total)` (optional) is called
 /// from worker threads after each query, serialised.
-std::vector<QueryOutcome> run_query_batch(const SearchEngine& engine,
-                                          const std::vector<BatchEntry>& batch,
-                                          const SearchOptions& options,
-                                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 /// The contract line: {"id", "pairs": [...], "stats": {...}} or {"id", "error"}.
 std::string query_outcome_json(const QueryOutcome& outcome);

@@ -1,0 +1,204 @@
+// Building a skeleton's bound tables (bound_tables.hpp).
+#include "bound_tables.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+#include "mocap/half.hpp"
+#include "mocap/memory.hpp"
+
+namespace mocap::search_detail {
+
+// Block and clip bound tables from the scan table (parallel over clips).
+void build_bound_tables(SkeletonTables& tables) {
+  // Rows of `padded` floats; the padding stays 0 (a zero box and zero query
+  // constants make a zero term).
+  const std::size_t s = tables.padded, w = kBoundFields * s, real = tables.segments;
+  const std::size_t blocks = tables.clips.empty()
+                                 ? 0
+                                 : tables.clips.back().block_start +
+                                       (tables.clips.back().frame_count + kBlock - 1) / kBlock;
+  tables.block_bounds.assign(blocks * w, 0.0f);
+  tables.block_root.assign(blocks * 6, 0.0f);
+  tables.clip_bounds.assign(tables.clips.size() * w, 0.0f);
+  tables.clip_root.assign(tables.clips.size() * 6, 0.0f);
+  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
+  constexpr std::size_t kLine = 64 / sizeof(float);
+  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
+  auto line_offset = [](const std::vector<float>& v) {
+    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
+    return (kLine - a % kLine) % kLine;
+  };
+  tables.tile_floats = real * HScanTable::kFields * kBlock;
+  assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
+  assign_huge(tables.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
+  tables.tile_offset = line_offset(tables.tile_values);
+  tables.root_offset = line_offset(tables.tile_roots);
+  assign_huge(tables.sketch, blocks * kSketchFields * kBlock, 0.0f);
+  assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock, 0.0f);
+  const HScanTable& tb = tables.table;
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  auto init = [&](float* row, float* root) {
+    for (std::size_t f = 0; f < 3; ++f)
+      for (std::size_t b = 0; b < real; ++b) {
+        row[f * s + b] = inf;
+        row[(f + 3) * s + b] = -inf;
+      }
+    for (std::size_t b = 0; b < real; ++b) {
+      row[6 * s + b] = row[8 * s + b] = inf;
+      row[7 * s + b] = row[9 * s + b] = -inf;
+    }
+    for (std::size_t a = 0; a < 3; ++a) {
+      root[a] = inf;
+      root[a + 3] = -inf;
+    }
+  };
+  // Widens the box `row` (bound row and root box) to hold the box `from`.
+  auto unite = [&](float* row, float* root, const float* from, const float* from_root) {
+    for (std::size_t i = 0; i < w; ++i)
+      row[i] = is_min_bound_field(i / s) ? std::min(row[i], from[i]) : std::max(row[i], from[i]);
+    for (std::size_t a = 0; a < 3; ++a) {
+      root[a] = std::min(root[a], from_root[a]);
+      root[a + 3] = std::max(root[a + 3], from_root[a + 3]);
+    }
+  };
+  tbb::parallel_for(std::size_t{0}, tables.clips.size(), [&](std::size_t r) {
+    const ClipInfo& ci = tables.clips[r];
+    std::vector<std::array<double, kSketchFields>> chain_values(tables.chains);
+    float* crow = tables.clip_bounds.data() + r * w;
+    float* croot = tables.clip_root.data() + r * 6;
+    init(crow, croot);
+    for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+      float* row = tables.block_bounds.data() + (ci.block_start + bl) * w;
+      float* root = tables.block_root.data() + (ci.block_start + bl) * 6;
+      init(row, root);
+      const std::size_t g0 = ci.frame_start + bl * kBlock,
+                        g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
+      float* tile_values = tables.tile_values.data() + tables.tile_offset +
+                           (ci.block_start + bl) * tables.tile_floats;
+      float* tile_roots =
+          tables.tile_roots.data() + tables.root_offset + (ci.block_start + bl) * 3 * kBlock;
+      for (std::size_t f = 0; f < real * HScanTable::kFields; ++f)
+        std::copy(tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g0),
+                  tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g1),
+                  tile_values + f * kBlock);
+      for (std::size_t a = 0; a < 3; ++a)
+        std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
+                  tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
+                  tile_roots + a * kBlock);
+      float* sketch = tables.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
+      float* chain = tables.chain_sketch.data() +
+                     (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
+      for (std::size_t l = 0; l < kBlock; ++l) {
+        const std::size_t g = std::min(g0 + l, g1 - 1);
+        auto com = [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; };
+        auto ke = [&](std::size_t b) { return tb.field(b, 3)[g]; };
+        auto rot = [&](std::size_t b) { return tb.field(b, 8)[g]; };
+        const auto v = whole_body_sketch(tables, com, ke, rot);
+        for (std::size_t i = 0; i < kSketchFields; ++i)
+          sketch[i * kBlock + l] = static_cast<float>(v[i]);
+        chain_sketches(tables, com, ke, rot, chain_values.data());
+        for (std::size_t ch = 0; ch < tables.chains; ++ch)
+          for (std::size_t i = 0; i < kSketchFields; ++i)
+            chain[(ch * kSketchFields + i) * kBlock + l] = static_cast<float>(chain_values[ch][i]);
+      }
+      // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
+      constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
+                            hi_f[5] = {3, 4, 5, 7, 9};
+      for (std::size_t b = 0; b < real; ++b)
+        for (std::size_t i = 0; i < 5; ++i) {
+          const float* v = tb.field(b, src[i]);
+          float& lo = row[lo_f[i] * s + b];
+          float& hi = row[hi_f[i] * s + b];
+          for (std::size_t g = g0; g < g1; ++g) {
+            lo = std::min(lo, v[g]);
+            hi = std::max(hi, v[g]);
+          }
+        }
+      for (std::size_t a = 0; a < 3; ++a)
+        for (std::size_t g = g0; g < g1; ++g) {
+          const float v = tb.root_positions[a * tb.stride + g];
+          root[a] = std::min(root[a], v);
+          root[a + 3] = std::max(root[a + 3], v);
+        }
+      unite(crow, croot, row, root);
+    }
+  });
+  // The blocks' rows as halves rounded outwards; the float rows are not needed any more.
+  assign_huge(tables.block_box, tables.block_bounds.size(), std::uint16_t{0});
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t row) {
+    for (std::size_t i = 0; i < w; ++i)
+      tables.block_box[row * w + i] =
+          float_to_half(tables.block_bounds[row * w + i], !is_min_bound_field(i / s));
+  });
+  std::vector<float>().swap(tables.block_bounds);
+  // Lane-major copies (box_bounds_lanes).
+  auto lanes = [&](const std::vector<float>& rows, const std::vector<float>& roots,
+                   std::size_t count, std::vector<float>& out, std::vector<float>& out_root) {
+    const std::size_t tiles = (count + kLanes - 1) / kLanes, tw = kBoundFields * real * kLanes;
+    out.assign(tiles * tw, 0.0f);
+    out_root.assign(tiles * 6 * kLanes, 0.0f);
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t t = i / kLanes, l = i % kLanes;
+      for (std::size_t f = 0; f < kBoundFields; ++f)
+        for (std::size_t b = 0; b < real; ++b)
+          out[t * tw + (f * real + b) * kLanes + l] = rows[i * w + f * s + b];
+      for (std::size_t a = 0; a < 6; ++a) out_root[(t * 6 + a) * kLanes + l] = roots[i * 6 + a];
+    }
+  };
+  lanes(tables.clip_bounds, tables.clip_root, tables.clips.size(), tables.clip_soa,
+        tables.clip_root_soa);
+  const std::size_t groups = (tables.clips.size() + kGroup - 1) / kGroup;
+  // Sketch ranges of clips (lane-major) and groups, from the block sketches.
+  tables.clip_sketch_soa.assign(groups * kSketchRange * kLanes, 0.0f);
+  const std::size_t group_tiles = (groups + kLanes - 1) / kLanes;
+  tables.group_sketch_soa.assign(group_tiles * kSketchRange * kLanes, 0.0f);
+  for (std::size_t g = 0; g < groups; ++g) {
+    std::array<float, kSketchRange> grange;
+    for (std::size_t i = 0; i < kSketchFields; ++i) {
+      grange[i] = inf;
+      grange[kSketchFields + i] = -inf;
+    }
+    for (std::size_t r = g * kGroup; r < std::min(tables.clips.size(), g * kGroup + kGroup); ++r) {
+      const ClipInfo& ci = tables.clips[r];
+      float* tile = tables.clip_sketch_soa.data() + g * kSketchRange * kLanes;
+      const std::size_t l = r % kLanes;
+      for (std::size_t i = 0; i < kSketchFields; ++i) {
+        float lo = inf, hi = -inf;
+        for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+          const float* v =
+              tables.sketch.data() + ((ci.block_start + bl) * kSketchFields + i) * kBlock;
+          for (std::size_t f = 0; f < kBlock; ++f) {
+            lo = std::min(lo, v[f]);
+            hi = std::max(hi, v[f]);
+          }
+        }
+        if (ci.frame_count == 0) lo = hi = 0.0f;
+        tile[i * kLanes + l] = lo;
+        tile[(kSketchFields + i) * kLanes + l] = hi;
+        grange[i] = std::min(grange[i], lo);
+        grange[kSketchFields + i] = std::max(grange[kSketchFields + i], hi);
+      }
+    }
+    for (std::size_t i = 0; i < kSketchRange; ++i)
+      tables.group_sketch_soa[((g / kLanes) * kSketchRange + i) * kLanes + g % kLanes] = grange[i];
+  }
+  std::vector<float> group_rows(groups * w, 0.0f), group_root(groups * 6, 0.0f);
+  for (std::size_t g = 0; g < groups; ++g) {
+    float* grow = group_rows.data() + g * w;
+    float* groot = group_root.data() + g * 6;
+    init(grow, groot);
+    for (std::size_t r = g * kGroup; r < std::min(tables.clips.size(), g * kGroup + kGroup); ++r) {
+      unite(grow, groot, tables.clip_bounds.data() + r * w, tables.clip_root.data() + r * 6);
+    }
+  }
+  lanes(group_rows, group_root, groups, tables.group_soa, tables.group_root_soa);
+  // The clip rows live on in their lane-major copies.
+  std::vector<float>().swap(tables.clip_bounds);
+  std::vector<float>().swap(tables.clip_root);
+}
+
+}  // namespace mocap::search_detail

@@ -1,0 +1,321 @@
+// The clip scans of world and relative mode (clip_scans.hpp), and the
+// running minimum that finds a clip's best pair (search.hpp).
+#include <algorithm>
+#include <cmath>
+#include <span>
+
+#include "clip_scans.hpp"
+#include "frame_energy.hpp"
+
+namespace mocap {
+
+using search_detail::kInf;
+
+namespace {
+
+// (score, e, s) lexicographic: true when the candidate beats the incumbent.
+bool better(double score, std::size_t e, std::size_t s, const ClipBest& best, bool have) {
+  if (!have) return true;
+  if (score != best.score) return score < best.score;
+  if (e != best.e) return e < best.e;
+  return s < best.s;
+}
+}  // namespace
+
+bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
+                         double lambda, ClipBest& out) {
+  bool have = false;
+  double run_min = kInf;  // min_{s<e} (a(s) - lambda P[s])
+  std::size_t run_s = 0;
+  for (std::size_t e = 1; e < k; ++e) {
+    const std::size_t s = e - 1;
+    if (std::isfinite(a[s])) {
+      const double v = a[s] - lambda * prefix[s];
+      if (v < run_min) {  // strict: the earliest s wins ties
+        run_min = v;
+        run_s = s;
+      }
+    }
+    if (!std::isfinite(b[e]) || !std::isfinite(run_min)) continue;
+    const double score = (b[e] + lambda * prefix[e]) + run_min;
+    if (score < out.score || !have) {  // strict: the earliest e wins ties
+      out = {score, run_s, e};
+      have = true;
+    }
+  }
+  return have;
+}
+
+bool best_partial_motion_quadratic(const double* a, const double* b, const double* prefix,
+                                   std::size_t k, double lambda, ClipBest& out) {
+  bool have = false;
+  for (std::size_t e = 1; e < k; ++e) {
+    if (!std::isfinite(b[e])) continue;
+    for (std::size_t s = 0; s < e; ++s) {
+      if (!std::isfinite(a[s])) continue;
+      const double score = (b[e] + lambda * prefix[e]) + (a[s] - lambda * prefix[s]);
+      if (better(score, e, s, out, have)) {
+        out = {score, s, e};
+        have = true;
+      }
+    }
+  }
+  return have;
+}
+
+}  // namespace mocap
+
+namespace mocap::search_detail {
+
+void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const ResolvedFrame& q,
+                      std::size_t bl, std::size_t f0, std::size_t f1, double* dst, double* cv,
+                      std::uint8_t* cd, Scratch& scratch, ClipCounters& counters,
+                      const BoundQuery* bound_query, const double* partner, double thr) {
+  if (cd != nullptr && cd[f0]) {
+    std::copy(cv + f0, cv + f1, dst + f0);
+    return;
+  }
+  const SkeletonData& skeleton = *pair.skeleton;
+  const SkeletonTables& tables = skeleton.tables;
+  const std::size_t row = ci.block_start + bl;
+  if (partner != nullptr && bound_query != nullptr && bound_query->kind == FrameKind::full &&
+      std::isfinite(thr)) {
+    float lb[kBlock];
+    chain_sketch_bounds(bound_query->chain_sketch.data(),
+                        tables.chain_sketch.data() + row * tables.chains * kSketchFields * kBlock,
+                        tables.chains, lb);
+    bool any = false;
+    for (std::size_t f = f0; f < f1; ++f)
+      any = any || !(safe(static_cast<double>(lb[f - f0]) + partner[f - f0]) > thr);
+    if (!any) {
+      std::fill(dst + f0, dst + f1, kInf);
+      counters.pruned += f1 - f0;
+      return;
+    }
+  }
+  const HScanView tile = tables.tile(row, f1 - f0);
+  evaluate_h(q, skeleton, *pair.index, pair.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0,
+             scratch, std::nullopt, nullptr, &tile);
+  counters.evaluated += f1 - f0;
+  if (cd != nullptr) {
+    std::copy(dst + f0, dst + f1, cv + f0);
+    std::fill(cd + f0, cd + f1, std::uint8_t{1});
+  }
+}
+
+// World mode: per-frame lower bounds (block boxes, partial-frame bounds),
+// a(s) and b(e) where they can matter, then the running minimum.
+bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
+                     ClipCounters& counters, ClipMatch& out) {
+  const SkeletonData& skeleton = *pair.skeleton;
+  const SkeletonTables& tables = skeleton.tables;
+  const std::size_t k = ci.frame_count;
+  const std::size_t nb = (k + kBlock - 1) / kBlock;
+  scratch.a.assign(k, kInf);
+  scratch.b.assign(k, kInf);
+  scratch.skip_a.assign(k, 0);
+  scratch.skip_b.assign(k, 0);
+  const bool prune = pair.mode != SearchMode::brute;
+  if (prune) {
+    scratch.la.resize(k);
+    scratch.lb.resize(k);
+    const bool box_a = pair.qa->kind != FrameKind::partial,
+               box_b = pair.qb->kind != FrameKind::partial;
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t row = ci.block_start + bl;
+      const double xa =
+          box_a ? static_cast<double>(block_box_bound(*pair.bound_a, tables, row)) : 0.0;
+      const double xb =
+          box_b ? static_cast<double>(block_box_bound(*pair.bound_b, tables, row)) : 0.0;
+      const std::size_t f1 = std::min(k, bl * kBlock + kBlock);
+      for (std::size_t f = bl * kBlock; f < f1; ++f) {
+        scratch.la[f] = xa;
+        scratch.lb[f] = xb;
+      }
+    }
+    if (pair.frame_lb_a != nullptr)
+      for (std::size_t f = 0; f < k; ++f)
+        scratch.la[f] = std::max(scratch.la[f], pair.frame_lb_a[ci.frame_start + f]);
+    if (pair.frame_lb_b != nullptr)
+      for (std::size_t f = 0; f < k; ++f)
+        scratch.lb[f] = std::max(scratch.lb[f], pair.frame_lb_b[ci.frame_start + f]);
+    // s is needed only if la(s) + min_{e>s} lb(e) can reach tau; e only if
+    // lb(e) + min_{s<e} la(s) can.
+    double clip_lb = kInf, suffix = kInf;
+    for (std::size_t f = k; f-- > 0;) {
+      const double x = scratch.la[f] + suffix;
+      clip_lb = std::min(clip_lb, x);
+      scratch.skip_a[f] = safe(x) > tau;
+      suffix = std::min(suffix, scratch.lb[f]);
+    }
+    if (safe(clip_lb) > tau) {
+      counters.clip_pruned = true;
+      counters.pruned += 2 * k;
+      return false;
+    }
+    double prefix_min = kInf;
+    for (std::size_t f = 0; f < k; ++f) {
+      scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
+      prefix_min = std::min(prefix_min, scratch.la[f]);
+    }
+  }
+  // Full and root-only query frames are scanned in whole 16-frame chunks
+  // (the same chunks in every mode: bit-identical values); partial ones per frame.
+  auto side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& skip, double* dst,
+                  FrameCache* cache) {
+    double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
+    std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
+    for (std::size_t bl = 0; bl < nb; ++bl) {
+      const std::size_t f0 = bl * kBlock, f1 = std::min(k, f0 + kBlock);
+      std::size_t need = 0;
+      for (std::size_t f = f0; f < f1; ++f) need += skip[f] == 0;
+      if (need == 0) {
+        counters.pruned += f1 - f0;
+        continue;
+      }
+      if (q.kind == FrameKind::partial) {
+        std::size_t fresh = need;
+        if (cd != nullptr) {
+          // Frames the other pair computed: copy; mark them skipped for evaluate_h().
+          for (std::size_t f = f0; f < f1; ++f)
+            if (skip[f] == 0 && cd[f]) {
+              dst[f] = cv[f];
+              skip[f] = 2;
+              --fresh;
+            }
+        }
+        if (fresh > 0)
+          evaluate_h(q, skeleton, *pair.index, pair.t, ci.frame_start + f0, ci.frame_start + f1,
+                     dst + f0, scratch, std::nullopt, skip.data() + f0);
+        if (cd != nullptr)
+          for (std::size_t f = f0; f < f1; ++f)
+            if (skip[f] == 0) {
+              cv[f] = dst[f];
+              cd[f] = 1;
+            }
+        counters.evaluated += fresh;
+        counters.pruned += (f1 - f0) - need;
+      } else {
+        scan_whole_chunk(pair, ci, q, bl, f0, f1, dst, cv, cd, scratch, counters);
+      }
+    }
+  };
+  if (!prune) {
+    side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
+    side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
+  } else {
+    // The side with fewer blocks to scan first; then the other side is
+    // decided again with its true values in place of the bounds: a frame of
+    // the first side that was not computed can be in no pair scoring <= tau,
+    // so it counts as +inf (docs/search.md "Frame pruning").
+    auto blocks_needed = [&](const std::vector<std::uint8_t>& skip) {
+      std::size_t count = 0;
+      for (std::size_t bl = 0; bl < nb; ++bl)
+        for (std::size_t f = bl * kBlock; f < std::min(k, bl * kBlock + kBlock); ++f)
+          if (skip[f] == 0) {
+            ++count;
+            break;
+          }
+      return count;
+    };
+    if (blocks_needed(scratch.skip_a) <= blocks_needed(scratch.skip_b)) {
+      side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
+      double prefix_min = kInf;
+      for (std::size_t f = 0; f < k; ++f) {
+        if (scratch.skip_b[f] == 0) scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
+        prefix_min = std::min(prefix_min, scratch.a[f]);
+      }
+      side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
+    } else {
+      side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
+      double suffix = kInf;
+      for (std::size_t f = k; f-- > 0;) {
+        if (scratch.skip_a[f] == 0) scratch.skip_a[f] = safe(scratch.la[f] + suffix) > tau;
+        suffix = std::min(suffix, scratch.b[f]);
+      }
+      side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
+    }
+  }
+  const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
+  ClipBest best;
+  if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda, best))
+    return false;
+  out = {best.score,
+         ci.clip,
+         best.s,
+         best.e,
+         scratch.a[best.s],
+         scratch.b[best.e],
+         prefix[best.e] - prefix[best.s]};
+  return true;
+}
+
+// Relative mode: a(s) with Q^h placed on F^s, b(s, e) with Q^h+1 placed
+// relative to F^s; O(K L) with L = max_length_s / frame time.
+bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
+                        ClipCounters& counters, ClipMatch& out) {
+  const SkeletonData& skeleton = *pair.skeleton;
+  const SkeletonTables& tables = skeleton.tables;
+  const std::size_t k = ci.frame_count;
+  if (k < 2) return false;
+  const double dt = pair.index->clips()[ci.clip].frame_time_s;
+  const std::size_t l =
+      std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(pair.max_length_s / dt)));
+  const bool prune = pair.mode != SearchMode::brute;
+  const float* root = tables.table.root_positions.data();
+  const std::size_t stride = tables.table.stride;
+  auto anchor = [&](std::size_t f, const Eigen::Vector2d& off) {
+    const std::size_t g = ci.frame_start + f;
+    return Eigen::Vector2d(static_cast<double>(root[g]) + off[0],
+                           static_cast<double>(root[2 * stride + g]) + off[1]);
+  };
+  std::uint64_t total = 0;
+  for (std::size_t s = 0; s + 1 < k; ++s) total += 1 + std::min(l, k - 1 - s);
+  scratch.a.assign(k, kInf);
+  double min_a = kInf;
+  for (std::size_t s = 0; s + 1 < k; ++s) {
+    evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s, ci.frame_start + s + 1,
+               scratch.a.data() + s, scratch, anchor(s, pair.offset_a));
+    min_a = std::min(min_a, scratch.a[s]);
+  }
+  counters.evaluated += k - 1;
+  if (prune && safe(min_a) > tau) {
+    counters.clip_pruned = true;
+    counters.pruned += total - (k - 1);
+    return false;
+  }
+  const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
+  ClipBest best;
+  bool have = false;
+  scratch.b.resize(l);
+  for (std::size_t s = 0; s + 1 < k; ++s) {
+    const std::size_t e1 = std::min(k - 1, s + l);
+    if (prune && safe(scratch.a[s]) > tau) {
+      counters.pruned += e1 - s;
+      continue;
+    }
+    evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + s + 1,
+               ci.frame_start + e1 + 1, scratch.b.data(), scratch, anchor(s, pair.offset_b));
+    counters.evaluated += e1 - s;
+    for (std::size_t e = s + 1; e <= e1; ++e) {
+      const double score = (scratch.b[e - s - 1] + pair.lambda * prefix[e]) +
+                           (scratch.a[s] - pair.lambda * prefix[s]);
+      if (better(score, e, s, best, have)) {
+        best = {score, s, e};
+        out.h_out = scratch.b[e - s - 1];
+        have = true;
+      }
+    }
+  }
+  if (!have) return false;
+  out = {best.score,
+         ci.clip,
+         best.s,
+         best.e,
+         scratch.a[best.s],
+         out.h_out,
+         prefix[best.e] - prefix[best.s]};
+  return true;
+}
+
+}  // namespace mocap::search_detail

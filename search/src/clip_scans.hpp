@@ -1,0 +1,109 @@
+#pragma once
+// Internal to mocap_search: the clip scans, the best partial motion of one
+// clip for one query pair (docs/search.md):
+//  - eval_clip_world: world mode, per-frame bounds (block boxes, partial
+//    frames' per-frame bounds), a(s) and b(e) where they can matter, then
+//    the running minimum (best_partial_motion); brute mode scans every frame;
+//  - eval_clip_blocks: world mode, exact, both query frames bounded by boxes
+//    only: the same decisions per 16-frame block, with the clip's own best
+//    as a threshold (clip_block_bounds gives the blocks' bounds);
+//  - eval_clip_relative: relative mode, O(K L).
+// Each returns false when the clip has no pair s < e that can score <= tau
+// (its bounds prove it, or no pair has finite values), else its best match.
+// Every mode that is exact gives the same match for a clip.
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "box_bounds.hpp"
+#include "mocap/index.hpp"
+#include "mocap/search.hpp"
+#include "resolve.hpp"
+#include "scratch.hpp"
+#include "skeleton_tables.hpp"
+#include "top_matches.hpp"
+
+namespace mocap::search_detail {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// h values of one query frame already computed for another pair of the same
+// query (world mode: a(.) of Q^h+1 in pair h+1 equals b(.) in pair h, h being
+// symmetric). Frames of a clip are written by the thread evaluating that
+// clip; pairs run one after another.
+struct FrameCache {
+  std::unique_ptr<double[]> values;
+  std::vector<std::uint8_t> done;  // per skeleton frame
+};
+
+// One query pair {Q^h, Q^h+1} on one skeleton: what every clip scan of the
+// pair reads.
+struct PairContext {
+  const Index* index;
+  const SkeletonData* skeleton;
+  const ResolvedFrame* qa;  // Q^h
+  const ResolvedFrame* qb;  // Q^h+1
+  double t, lambda;         // transition time (s), path weight
+  bool relative;
+  Eigen::Vector2d offset_a, offset_b;  // relative mode x/z offsets (m)
+  SearchMode mode;                     // exact or brute (approx scans as exact)
+  double max_length_s;
+  // Per skeleton frame lower bounds of a / b for partial query frames (world mode), or null.
+  const double* frame_lb_a = nullptr;
+  const double* frame_lb_b = nullptr;
+  // Box-bound forms of qa / qb (world mode).
+  const BoundQuery* bound_a = nullptr;
+  const BoundQuery* bound_b = nullptr;
+  // Values shared with the neighbouring pair (world mode), or null.
+  FrameCache* cache_a = nullptr;
+  FrameCache* cache_b = nullptr;
+};
+
+// What a clip scan did: frames evaluated and pruned, and whether the whole
+// clip was pruned by its bounds.
+struct ClipCounters {
+  std::uint64_t evaluated = 0, pruned = 0;
+  bool clip_pruned = false;
+};
+
+bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
+                     ClipCounters& counters, ClipMatch& out);
+
+// The bounds of a clip's 16-frame blocks for both query frames of the pair
+// (world mode) into scratch.blk_a / scratch.blk_b (as double): the box
+// bounds; for a full query frame first the least whole-body sketch bound of
+// the block's frames, raised to the box bound only where the sketches cannot
+// rule the block out against tau (docs/search.md "Whole-body sketches": a
+// block left at its sketch bound is not needed either way).
+void clip_block_bounds(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch);
+
+// lba / lbb: the clip's block bounds (clip_block_bounds).
+bool eval_clip_blocks(const PairContext& pair, const ClipInfo& ci, double tau, const double* lba,
+                      const double* lbb, Scratch& scratch, ClipCounters& counters, ClipMatch& out);
+
+bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
+                        ClipCounters& counters, ClipMatch& out);
+
+// One whole 16-frame chunk [f0, f1) of a clip (its block bl) for a full or
+// root-only query frame q into dst[f0, f1) (clip-relative frames): copied
+// when the query's other pair computed it (cv / cd: the shared frame cache
+// from the clip's first frame, null without one), else evaluated with the
+// block's tile, counted and cached.
+//
+// With `partner` (a finite threshold `thr`; full query frames, `bound_query`
+// its bound form), frame f of the chunk matters only if h(f) + partner[f - f0]
+// can be <= thr, partner[i] being a lower bound of the best rest of a pair
+// through frame f0 + i: the frames' chain-sketch bounds are computed first
+// (2.2 KB on a 7-chain skeleton against the tile's 12 KB), and when no frame
+// can matter by them the chunk is left at +inf, counted as pruned and not
+// cached (docs/search.md "Chain sketches").
+void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const ResolvedFrame& q,
+                      std::size_t bl, std::size_t f0, std::size_t f1, double* dst, double* cv,
+                      std::uint8_t* cd, Scratch& scratch, ClipCounters& counters,
+                      const BoundQuery* bound_query = nullptr, const double* partner = nullptr,
+                      double thr = kInf);
+
+}  // namespace mocap::search_detail

@@ -1,0 +1,148 @@
+// h of a query frame against database frames (frame_energy.hpp).
+#include "frame_energy.hpp"
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "subtree_kernel.hpp"
+
+namespace mocap::search_detail {
+
+namespace {
+
+// Converts skeleton frame g into scratch (double) and returns its FrameRef.
+// Only the joints in `need` are converted (all when it is empty); the local
+// translations only for `local` (all when `need` is empty). The caller passes
+// the joints partial_approximate_energy reads for its query
+// (partial_needed_joints); the other entries are never read.
+FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::size_t g,
+                   Scratch& scratch, const std::vector<int>& need, const std::vector<int>& local) {
+  const std::size_t nj = tables.model.joint_count();
+  if (scratch.pos.size() != nj) {
+    scratch.pos.assign(nj, Eigen::Vector3d::Zero());
+    scratch.com.assign(nj, Eigen::Vector3d::Zero());
+    scratch.vel.assign(nj, Eigen::Vector3d::Zero());
+    scratch.angvel.assign(nj, Eigen::Vector3d::Zero());
+    scratch.zero.assign(nj, Eigen::Vector3d::Zero());
+    scratch.ltrans.assign(nj, Eigen::Vector3d::Zero());
+    scratch.rot.assign(nj, Eigen::Quaterniond::Identity());
+    scratch.lrot.assign(nj, Eigen::Quaterniond::Identity());
+  }
+  auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
+  auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
+  auto convert = [&](std::size_t j) {
+    const std::size_t i = g * nj + j;
+    scratch.pos[j] = v3(fa.pos + i * 3);
+    scratch.com[j] = v3(fa.com + i * 3);
+    scratch.vel[j] = v3(fa.vel + i * 3);
+    scratch.angvel[j] = v3(fa.angvel + i * 3);
+    scratch.rot[j] = q4(fa.rot + i * 4);
+    scratch.lrot[j] = q4(fa.lrot + i * 4);
+  };
+  auto local_translation = [&](std::size_t j) {
+    const int p = tables.model.parents[j];
+    scratch.ltrans[j] =
+        p < 0 ? scratch.pos[j]
+              : Eigen::Vector3d(scratch.rot[static_cast<std::size_t>(p)].conjugate() *
+                                (scratch.pos[j] - scratch.pos[static_cast<std::size_t>(p)]));
+  };
+  if (need.empty()) {
+    for (std::size_t j = 0; j < nj; ++j) convert(j);
+    for (std::size_t j = 0; j < nj; ++j) local_translation(j);
+  } else {
+    for (int j : need) convert(static_cast<std::size_t>(j));
+    for (int j : local) local_translation(static_cast<std::size_t>(j));
+  }
+  FrameRef r;
+  r.state.joint_count = nj;
+  r.state.joint_positions_m = scratch.pos.data();
+  r.state.rotations = scratch.rot.data();
+  r.state.coms_m = scratch.com.data();
+  r.state.com_velocities_mps = scratch.vel.data();
+  r.state.com_accelerations_mps2 = scratch.zero.data();
+  r.state.angular_velocities_radps = scratch.angvel.data();
+  r.state.angular_accelerations_radps2 = scratch.zero.data();
+  r.local_translations_m = scratch.ltrans.data();
+  r.local_rotations = scratch.lrot.data();
+  return r;
+}
+
+}  // namespace
+
+// h(Q -> F) for skeleton frames [g0, g1) into out. With `shift` (relative
+// mode) the query's given x/z root components are placed at shift (world).
+void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
+                std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
+                const std::optional<Eigen::Vector2d>& xz, const std::uint8_t* skip,
+                const HScanView* tile) {
+  const SkeletonTables& tables = skeleton.tables;
+  const std::size_t n = g1 - g0;
+  if (n == 0) return;
+  // A whole block in world mode: scan its tile (same values, contiguous).
+  const HScanView table = tile != nullptr && !xz ? *tile : tables.table.view();
+  const std::size_t b0 = tile != nullptr && !xz ? 0 : g0;
+  if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
+    scratch.fbuf.resize(n);
+    if (q.kind == FrameKind::full) {
+      const HScanQuery* sq = &q.scan;
+      if (xz) {
+        scratch.shifted_scan = q.scan;
+        const double dx = (*xz)[0] - q.root_m[0], dz = (*xz)[1] - q.root_m[2];
+        for (std::size_t b = 0; b < scratch.shifted_scan.segment_count; ++b) {
+          scratch.shifted_scan.constants[b * HScanQuery::kConstants + 0] = static_cast<float>(
+              q.state.coms_m[static_cast<std::size_t>(tables.model.segments[b])][0] + dx);
+          scratch.shifted_scan.constants[b * HScanQuery::kConstants + 2] = static_cast<float>(
+              q.state.coms_m[static_cast<std::size_t>(tables.model.segments[b])][2] + dz);
+        }
+        sq = &scratch.shifted_scan;
+      }
+      scan_approximate_energy(table, *sq, b0, b0 + n, scratch.fbuf.data());
+    } else {
+      const HScanRootQuery* rq = &q.root_scan;
+      if (xz) {
+        scratch.shifted_root = q.root_scan;
+        if (q.given[0]) scratch.shifted_root.position[0] = static_cast<float>((*xz)[0]);
+        if (q.given[2]) scratch.shifted_root.position[2] = static_cast<float>((*xz)[1]);
+        rq = &scratch.shifted_root;
+      }
+      scan_root_translation_energy(table, *rq, b0, b0 + n, scratch.fbuf.data());
+    }
+    for (std::size_t i = 0; i < n; ++i) out[i] = scratch.fbuf[i];
+    return;
+  }
+  const PartialQuery* pq = &q.partial;
+  if (xz && (q.given[0] || q.given[2])) {
+    scratch.shifted_partial = q.partial;
+    if (q.given[0]) scratch.shifted_partial.spec.root_position_m[0] = (*xz)[0];
+    if (q.given[2]) scratch.shifted_partial.spec.root_position_m[2] = (*xz)[1];
+    pq = &scratch.shifted_partial;
+  }
+  if (!q.subtree.empty()) {  // joint rotations only: no root component to shift
+    subtree_energy(q, tables, g0, g1, out, scratch, skip);
+    return;
+  }
+  const FrameArrays& fa = frame_arrays(index, skeleton);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (skip != nullptr && skip[i]) continue;
+    const FrameRef r = frame_ref(tables, fa, g0 + i, scratch, q.need_joints, q.local_joints);
+    out[i] = partial_approximate_energy(tables.model, *pq, r, t, scratch.state);
+  }
+}
+
+void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {
+  q.need_joints.clear();
+  q.local_joints.clear();
+  if (q.kind != FrameKind::partial || q.partial.moves_whole_body) return;
+  std::vector<std::uint8_t> need(model.joint_count(), 0);
+  for (int j : q.partial.affected_joints) need[static_cast<std::size_t>(j)] = 1;
+  for (int j : q.partial.subtree_joints) {
+    const int p = model.parents[static_cast<std::size_t>(j)];
+    if (p >= 0) need[static_cast<std::size_t>(p)] = 1;
+  }
+  for (std::size_t j = 0; j < need.size(); ++j)
+    if (need[j]) q.need_joints.push_back(static_cast<int>(j));
+  q.local_joints = q.partial.subtree_joints;
+  if (q.need_joints.empty()) q.need_joints.push_back(model.root());  // never empty: empty means all
+}
+
+}  // namespace mocap::search_detail

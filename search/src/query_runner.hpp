@@ -1,0 +1,99 @@
+#pragma once
+// Internal to mocap_search: one query's run (SearchEngine::run). The runner
+// holds the query frames resolved on every skeleton and what their pairs
+// share (box-bound forms, per-frame bounds of partial frames, group and clip
+// tile bounds, h values shared by neighbouring pairs); run_pair answers one
+// pair {Q^h, Q^h+1}: candidate clips, groups of clips ordered by bound, a
+// best-first seeding, then a (parallel) sweep of the groups with the clip
+// scans (clip_scans.hpp). The answer does not depend on the order.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "box_bounds.hpp"
+#include "clip_scans.hpp"
+#include "mocap/query.hpp"
+#include "mocap/search.hpp"
+#include "resolve.hpp"
+#include "search_engine_impl.hpp"
+#include "skeleton_tables.hpp"
+#include "top_matches.hpp"
+
+namespace mocap::search_detail {
+
+// One pair's answer: its top matches (best first) and counters (time_ms unset).
+struct PairRun {
+  std::vector<ClipMatch> top;
+  SearchStats stats;
+};
+
+class QueryRunner {
+ public:
+  // `skeletons`: the tables of the query's character (the engine's or a
+  // query character's), one per index skeleton; all must outlive the runner.
+  QueryRunner(const SearchEngine::Impl& engine, const Query& query, const SearchOptions& options,
+              const std::vector<std::unique_ptr<SkeletonData>>& skeletons);
+
+  // Resolves every query frame on every skeleton, with what the engine
+  // precomputes for them, and the per-frame bounds of partial frames (exact
+  // and approx modes, world). Throws InputError for a query that does not
+  // fit the index.
+  void prepare();
+
+  // The answer of pair h (query frames h, h + 1) in `mode` (approx falls back
+  // to exact for pairs that are not two full frames, and in relative mode).
+  PairRun run_pair(std::size_t h, SearchMode mode);
+
+ private:
+  friend class PairSearch;
+
+  // Query frame i's bounds on skeleton k over every group (group_bounds)
+  // and over the clips of the groups opened so far (clip_tile_bounds),
+  // computed once per query frame and shared by its two pairs, and by the
+  // seeding and the sweep of a pair.
+  struct FrameTiles {
+    std::vector<float> groups;             // [group]
+    std::vector<float> clips;              // [group][kLanes]
+    std::vector<std::uint8_t> clips_done;  // [group]
+  };
+
+  void prepare_caches();
+  void compute_frame_bounds();
+  FrameCache* cache_of(std::size_t k, std::size_t i);
+  // Computes query frame i's group bounds on skeleton k if not done yet and
+  // makes room for its clip tiles (one thread: before a pair's groups are
+  // taken).
+  const float* group_lbs(std::size_t k, std::size_t i);
+  // Query frame i's bounds over the kLanes clips of group g of skeleton k
+  // (after group_lbs(k, i); a group is opened by one thread at a time).
+  const float* clip_lbs(std::size_t k, std::size_t i, std::size_t g);
+  // Query frame i's per-frame lower bounds on skeleton k, or null.
+  const double* frame_bounds_of(std::size_t k, std::size_t i) const;
+  // Whether the clip passes the query's filter.
+  bool passes(std::size_t clip) const;
+  PairContext context(std::size_t k, std::size_t h, SearchMode mode);
+  // Candidate clips (skeleton, row) of pair h for approx mode; nullopt = all.
+  std::optional<std::vector<std::pair<std::size_t, std::size_t>>> approx_candidates(
+      std::size_t h) const;
+
+  const SearchEngine::Impl& engine_;
+  const Query& q_;
+  const SearchOptions& options_;
+  const std::vector<std::unique_ptr<SkeletonData>>& skeletons_;
+  // resolved_[k][i]: query frame i on skeleton k; bounds_[k][i] its box-bound form.
+  std::vector<std::vector<ResolvedFrame>> resolved_;
+  std::vector<std::vector<BoundQuery>> bounds_;
+  // cache_[k][i]: values of query frame i shared by pairs i-1 and i (world
+  // mode, interior frames of queries with 3 or more frames); empty otherwise.
+  std::vector<std::vector<FrameCache>> cache_;
+  std::vector<std::vector<FrameTiles>> tiles_;
+  // frame_lb_[k][i]: per skeleton frame lower bound of h(query frame i -> F)
+  // for partial query frames (exact mode, world), computed once per query
+  // frame and shared by its two pairs; empty otherwise.
+  std::vector<std::vector<std::vector<double>>> frame_lb_;
+};
+
+}  // namespace mocap::search_detail
