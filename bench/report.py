@@ -359,7 +359,7 @@ def search_sections_by_kind(w, se):
     w("|---|---|---|---|---|---|---|---|---|---|---|")
     for k, d in se["kinds"].items():
         ex, br, xs = d.get("exact", {}), d.get("brute", {}), d.get("exact_on_brute_queries", {})
-        kind = f"{d.get('frames')}, {d.get('query_frames')} frames"
+        kind = f"{d.get('frames')}, {fmt(value(d.get('query_frames')))} frames"
         if not value(br.get("queries")):
             brute = "| – | not measured in this run | | | |"
         else:
