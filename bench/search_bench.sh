@@ -10,11 +10,11 @@
 # said (each run as two processes, the relative queries and the others):
 #   - exact on the whole batch with 1 and with 2 threads (throughput; per
 #     query latencies from the 1-thread run, where each query runs on one core);
-#   - brute on a subset: the first N queries of each kind (N = 6 per relative
-#     kind, 40 per world or self kind by default: brute takes about 0.6 s per
-#     relative and 0.03 s per world query on set 2, so a default run spends
-#     about a minute in brute), compared with exact's times and rankings on
-#     the same queries;
+#   - brute on a subset: the first N queries of each kind (N = 12 per relative
+#     kind, 60 per world or self kind by default: brute takes about 0.5-2 s per
+#     relative and 0.01-0.08 s per world query on set 2, so a default run
+#     spends one to two minutes in brute), compared with exact's times and
+#     rankings on the same queries;
 #   - approx on the world and self queries of the subset (relative queries
 #     fall back to exact);
 # and prints per mode and kind the median and p99 latency of exact (whole
@@ -25,8 +25,8 @@
 # the machine: the JSON also records CPU seconds per run and the load average.
 set -euo pipefail
 JSON=${SEARCH_BENCH_JSON:-}
-BRUTE_REL=${SEARCH_BENCH_BRUTE_RELATIVE:-6}
-BRUTE_WORLD=${SEARCH_BENCH_BRUTE_WORLD:-40}
+BRUTE_REL=${SEARCH_BENCH_BRUTE_RELATIVE:-12}
+BRUTE_WORLD=${SEARCH_BENCH_BRUTE_WORLD:-60}
 while [[ ${1:-} == --* ]]; do
   case $1 in
     --json) JSON=$2 ;;
