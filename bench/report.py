@@ -282,9 +282,14 @@ def kinds_of(s):
     return get(s, "kinds", default={}) or {}
 
 
+MODE_NAMES = {"relative": "relative", "world": "world", "self": "self-retrieval (world, clip in the index)"}
+
+
 def search_headline(se):
     if not se:
         return []
+    if "kinds" in se:
+        return search_headline_by_kind(se)
     out = [
         ("search: exact vs brute speed-up, full-frame queries (sum of times)",
          get(se, "subset", "full_frame_speedup_sum"), 50, True),
@@ -297,9 +302,79 @@ def search_headline(se):
     return [o for o in out if o[1] is not None]
 
 
+def search_headline_by_kind(se):
+    """Headline rows of a search run with per-kind figures (held-out queries)."""
+    k = se["kinds"]
+    out = [
+        ("search: relative, held-out two-frame full-frame query, median ms (1 thread)",
+         get(k, "rel-full-2", "exact", "median_ms"), 5, False),
+        ("search: relative, held-out two-frame full-frame query, p99 ms (1 thread)",
+         get(k, "rel-full-2", "exact", "p99_ms"), 20, False),
+        ("search: relative, held-out two-frame full-frame, brute / exact (medians)",
+         get(k, "rel-full-2", "brute_vs_exact_median"), 50, True),
+        ("search: relative, held-out two-frame partial query, median ms (1 thread)",
+         get(k, "rel-partial-2", "exact", "median_ms"), 10, False),
+        ("search: relative, held-out three-frame partial query, median ms (1 thread)",
+         get(k, "rel-partial-3", "exact", "median_ms"), 10, False),
+        ("search: world, held-out two-frame full-frame query, median ms (1 thread)",
+         get(k, "world-full-2", "exact", "median_ms"), None, False),
+        ("search: world, held-out two-frame full-frame, brute / exact (medians)",
+         get(k, "world-full-2", "brute_vs_exact_median"), None, True),
+        ("search: batch throughput, 2 threads / 1 thread",
+         get(se, "batch", "speedup_2_vs_1_wall"), 1.8, True),
+        ("search: approx mean recall of the top r (world queries)",
+         get(se, "subset", "approx", "mean_recall"), None, True),
+    ]
+    return [o for o in out if o[1] is not None]
+
+
 def search_sections(w, se):
     if not se:
         return
+    if "kinds" in se:
+        search_sections_by_kind(w, se)
+    else:
+        search_sections_mixed(w, se)
+    search_batch_table(w, se)
+
+
+def search_sections_by_kind(w, se):
+    """Per mode and kind: exact on the whole batch, brute on a subset."""
+    count = value(get(se, "count"))
+    bp = se.get("brute_per_kind", {})
+    w("## Search (bench/search_bench.sh)")
+    w("")
+    w(f"Set-2 index; a batch of {fmt(count)} generated queries (bench/search_queries.py) that")
+    w("describe users: key poses from elsewhere, so a query made of a clip's frames excludes")
+    w("that clip (`filter.exclude`, held out). Kinds: relative and world mode, full frames or")
+    w("partial (root ground path, hand-written root path, one arm), two or three query frames")
+    w("spanning 0.5–2 s inside a clip; plus self-retrieval (world, full frames, the clip in")
+    w("the index, where the exact frames score h = 0). Top 10. Latency is each query's own")
+    w("`stats.time_ms` with one thread. Exact runs the whole batch; brute runs the first")
+    w(f"{fmt(value(bp.get('relative')))} queries of each relative kind and the first "
+      f"{fmt(value(bp.get('world')))} of each world or self kind; brute / exact")
+    w("compares the medians of the two on those same queries.")
+    w("")
+    w("| mode | query kind | queries | exact median ms | exact p99 ms | brute queries | brute median ms | brute p99 ms | exact median ms, same queries | brute / exact | exact = brute |")
+    w("|---|---|---|---|---|---|---|---|---|---|---|")
+    for k, d in se["kinds"].items():
+        ex, br, xs = d.get("exact", {}), d.get("brute", {}), d.get("exact_on_brute_queries", {})
+        kind = f"{d.get('frames')}, {fmt(value(d.get('query_frames')))} frames"
+        if not value(br.get("queries")):
+            brute = "| – | not measured in this run | | | |"
+        else:
+            brute = (f"| {fmt(value(br.get('queries')))} | {med(br.get('median_ms'))} | {med(br.get('p99_ms'))} | "
+                     f"{med(xs.get('median_ms'))} | {med(d.get('brute_vs_exact_median'))} |")
+        w(f"| {MODE_NAMES.get(d.get('mode'), d.get('mode'))} | {kind} | {fmt(value(ex.get('queries')))} | "
+          f"{med(ex.get('median_ms'))} | {med(ex.get('p99_ms'))} {brute} {d.get('exact_equals_brute')} |")
+    w("")
+    w("Each search run is two processes, the relative queries and the others, one after the")
+    w("other; wall times below are their sums.")
+    w("")
+
+
+def search_sections_mixed(w, se):
+    """Results of runs before per-kind figures (full-frame queries not held out)."""
     count = value(get(se, "count"))
     sub = get(se, "subset", default={})
     w("## Search (bench/search_bench.sh)")
@@ -321,6 +396,11 @@ def search_sections(w, se):
     w("")
     w("`approx` times include the exact run it measures its recall against.")
     w("")
+
+
+def search_batch_table(w, se):
+    count = value(get(se, "count"))
+    sub = get(se, "subset", default={})
     b = get(se, "batch", default={})
     s1 = b.get("exact_1_thread_summary", {})
     w("| batch (exact, whole batch) | |")
@@ -339,8 +419,9 @@ def search_sections(w, se):
     w(f"| clips considered / pruned (all pairs) | {med(s1.get('clips'))} / {med(s1.get('clips_pruned'))} |")
     w(f"| frames evaluated / pruned | {med(s1.get('frames_evaluated'))} / {med(s1.get('frames_pruned'))} |")
     w(f"| exact == brute on the subset (same clips and frames) | {sub.get('exact_equals_brute')} |")
-    w(f"| exact vs brute, full-frame: by sum / median per query | {med(sub.get('full_frame_speedup_sum'))} / {med(sub.get('full_frame_speedup_median_per_query'))} |")
-    w(f"| approx mean recall | {med(get(sub, 'approx', 'mean_recall'))} |")
+    if "full_frame_speedup_sum" in sub:
+        w(f"| exact vs brute, full-frame: by sum / median per query | {med(sub.get('full_frame_speedup_sum'))} / {med(sub.get('full_frame_speedup_median_per_query'))} |")
+    w(f"| approx mean recall{' (world and self queries of the subset)' if 'kinds' in se else ''} | {med(get(sub, 'approx', 'mean_recall'))} |")
     w("")
 
 
@@ -351,11 +432,17 @@ def paper_section(w, r):
     w("")
     w("The paper (section 2.3) searched 483 clips exhaustively in 952 s and 57 clips left")
     w("by range pruning in 33.72 s for one query, and needed about 5 s per supplementary")
-    w("motion (section 2.4). Ours: two-frame full-frame queries (one query-frame pair),")
-    w(f"{clips:,} clips, one thread.")
+    if "kinds" in se:
+        w("motion (section 2.4). Ours: held-out two-frame full-frame queries in world mode")
+        w(f"(one query-frame pair), {clips:,} clips, one thread.")
+        kb = get(se, "kinds", "world-full-2", "brute", default={})
+        ke = get(se, "kinds", "world-full-2", "exact", default={})
+    else:
+        w("motion (section 2.4). Ours: two-frame full-frame queries (one query-frame pair),")
+        w(f"{clips:,} clips, one thread.")
+        kb = kinds_of(get(se, "subset", "brute")).get("full-2", {})
+        ke = get(se, "two_frame_full_exact_1_core", default={})
     w("")
-    kb = kinds_of(get(se, "subset", "brute")).get("full-2", {})
-    ke = get(se, "two_frame_full_exact_1_core", default={})
 
     def per_clip(d):
         v = d.get("median_ms") if d else None

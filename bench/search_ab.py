@@ -11,7 +11,11 @@ machine hits them alike. Per binary it prints the sum over queries of each
 query's fastest time (the least disturbed estimate) and of its median time
 (`stats.time_ms`, the query alone, not opening the index), the frames
 evaluated, the peak resident memory, and whether every binary returned the
-same rankings as the first. Exit status 1 when the rankings differ.
+same rankings as the first. Exit status 1 when the rankings differ. A batch
+with relative and world queries (bench/search_queries.py's) is answered as
+two batches, one per mode (the baseline engine's exact mode corrupts its heap
+on a mixed batch; its BVH paths must then be absolute); times and frames are
+summed, the peak memory is the larger.
 
 With --vs-brute, each round also runs the first binary in brute mode, and
 each binary's line gives its speed-up over brute as the ratio of the sums of
@@ -36,6 +40,14 @@ times = {name: {} for name in a.specs + ([BRUTE] if a.vs_brute else [])}
 evaluated, rss, rankings = {}, {}, {}
 with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "out.jsonl")
+    lines = [line for line in open(a.queries) if line.strip()]
+    by_mode = [[line for line in lines if json.loads(line).get("relative", False) == rel] for rel in (True, False)]
+    parts = [a.queries]  # a mixed batch: its relative queries, then the others
+    if all(by_mode):
+        parts = [os.path.join(tmp, f"queries-{i}.jsonl") for i in range(2)]
+        for path, part in zip(parts, by_mode):
+            with open(path, "w") as fh:
+                fh.writelines(part)
     for _ in range(a.runs):
         for spec, mode, s in runs_of:
             *settings, exe = spec.split(",")
@@ -43,13 +55,15 @@ with tempfile.TemporaryDirectory() as tmp:
             for kv in settings:
                 k, v = kv.split("=", 1)
                 env[k] = v
-            p = subprocess.run(["/usr/bin/time", "-f", "%M", exe, "--index", a.index, "-q",
-                                "--queries", a.queries, "--mode", mode, "--threads",
-                                str(a.threads), "--out", out], env=env, capture_output=True, text=True)
-            if p.returncode not in (0, 1):  # 1: some queries failed (reported on their lines)
-                sys.exit(f"{exe} failed ({p.returncode}): {p.stderr[-2000:]}")
-            rss[s] = int(p.stderr.strip().splitlines()[-1])
-            rows = [json.loads(line) for line in open(out)]
+            rows, rss[s] = [], 0
+            for part in parts:
+                p = subprocess.run(["/usr/bin/time", "-f", "%M", exe, "--index", a.index, "-q",
+                                    "--queries", part, "--mode", mode, "--threads",
+                                    str(a.threads), "--out", out], env=env, capture_output=True, text=True)
+                if p.returncode not in (0, 1):  # 1: some queries failed (reported on their lines)
+                    sys.exit(f"{exe} failed ({p.returncode}): {p.stderr[-2000:]}")
+                rss[s] = max(rss[s], int(p.stderr.strip().splitlines()[-1]))
+                rows += [json.loads(line) for line in open(out)]
             for r in rows:
                 if "stats" in r:
                     times[s].setdefault(r["id"], []).append(r["stats"]["time_ms"])
