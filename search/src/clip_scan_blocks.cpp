@@ -87,10 +87,10 @@ bool eval_clip_blocks(const PairContext& pair, const ClipInfo& ci, double tau, c
   need_b.assign(nb, 0);
   scratch.done_a.assign(nb, 0);
   scratch.done_b.assign(nb, 0);
-  if (scratch.a.size() < k) {
-    scratch.a.resize(k);
-    scratch.b.resize(k);
-  }
+  // a and b are sized on their own: a relative scan leaves b shorter than a
+  // (it holds one partial motion's h values, not the clip's).
+  if (scratch.a.size() < k) scratch.a.resize(k);
+  if (scratch.b.size() < k) scratch.b.resize(k);
   double* a = scratch.a.data();
   double* b = scratch.b.data();
   const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);

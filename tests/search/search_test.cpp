@@ -954,3 +954,35 @@ TEST(Search, FrameBoundsFillsEveryField) {
   EXPECT_THROW((void)engine.frame_bounds(q, 2, 0), std::invalid_argument);
   EXPECT_THROW((void)engine.frame_bounds(q, 0, index.skeletons().size()), std::invalid_argument);
 }
+
+// A relative query leaves the thread's scratch with h arrays of different
+// lengths (b holds one partial motion); a world query run after it on the same
+// thread must size both again. It used to write past b: heap corruption that
+// aborted mixed batches. The world results must equal a run on a fresh engine.
+TEST(Search, WorldQueryAfterARelativeOneOnTheSameThread) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty());
+  const Index index = Index::open(set1_index());
+  const auto& clips = index.clips();
+  std::size_t longest = 0;
+  for (std::size_t c = 0; c < clips.size(); ++c)
+    if (clips[c].frame_count > clips[longest].frame_count) longest = c;
+  const auto frame = [&](std::size_t c, std::size_t f) {
+    return "{\"bvh\": \"" + clips[c].path + "\", \"frame\": " + std::to_string(f) + "}";
+  };
+  const std::size_t n = clips[longest].frame_count;
+  const Query relative = parse("{\"id\": \"rel\", \"relative\": true, \"frames\": [" +
+                               frame(longest, n / 5) + ", " + frame(longest, n / 5 + 30) + "]}");
+  const Query world = parse("{\"id\": \"world\", \"frames\": [" + frame(longest, n / 2) + ", " +
+                            frame(longest, n / 2 + 40) + "]}");
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const SearchEngine fresh(index);
+  const QueryOutcome alone = fresh.run(world, {});
+  const SearchEngine shared(index);
+  for (int round = 0; round < 3; ++round) {
+    const QueryOutcome r = shared.run(relative, {});
+    EXPECT_FALSE(r.pairs.empty());
+    const QueryOutcome w = shared.run(world, {});
+    expect_same_results(w, alone, "world after relative");
+  }
+}
