@@ -109,10 +109,12 @@ std::string show(std::string_view s);
 }
 
 /// Checks the invariants the writer relies on (a hand-built clip may break
-/// them): at least one joint, parents before children, names that BVH can
-/// hold, channels inside the frame row (at most 6 per joint), values of
-/// frame_count x channel_count, a positive finite frame time. Throws
-/// InputError(clip.source, 0, ...) naming what is wrong.
+/// them). Its shape is the calling code's, so a broken one (no joint, a
+/// parent after its child, channels past the frame row or more than 6 on a
+/// joint, values not frame_count x channel_count) throws std::invalid_argument;
+/// what it holds may come from input, so a joint name BVH cannot hold or a
+/// frame time that is not positive and finite throws
+/// InputError(clip.source, 0, ...).
 void check_clip(const RawClip& clip);
 
 }  // namespace mocap::detail

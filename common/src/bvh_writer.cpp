@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <system_error>
 
 #include "bvh_text.hpp"
@@ -17,23 +18,26 @@ namespace detail {
 
 // Checks the invariants the writer relies on (a hand-built clip may break them).
 void check_clip(const RawClip& clip) {
+  // The clip's shape is the calling code's: a broken one is a logic error.
+  const auto misuse = [&clip](const std::string& what) {
+    throw std::invalid_argument("write_bvh: " + clip.source + ": " + what);
+  };
   const std::size_t n = clip.joints.size();
-  if (n == 0) throw InputError(clip.source, 0, "clip has no joints: expected at least one ROOT");
+  if (n == 0) misuse("clip has no joints: expected at least one ROOT");
   for (std::size_t j = 0; j < n; ++j) {
     const RawJoint& rj = clip.joints[j];
     if (rj.parent >= static_cast<int>(j) || rj.parent < -1)
-      throw InputError(clip.source, 0, "joint '" + rj.name + "' must come after its parent");
+      misuse("joint '" + rj.name + "' must come after its parent");
     if (rj.name.empty() || rj.name.find_first_of("\r\n{}") != std::string::npos ||
         is_blank(rj.name.front()) || is_blank(rj.name.back()) ||
         std::any_of(rj.name.begin(), rj.name.end(), is_binary))
       throw InputError(clip.source, 0, "joint name " + show(rj.name) + " cannot be written to BVH");
     if (rj.first_column + rj.channels.size() > clip.channel_count)
-      throw InputError(clip.source, 0, "joint '" + rj.name + "' has channels past the frame row");
-    if (rj.channels.size() > 6)
-      throw InputError(clip.source, 0, "joint '" + rj.name + "' has more than 6 channels");
+      misuse("joint '" + rj.name + "' has channels past the frame row");
+    if (rj.channels.size() > 6) misuse("joint '" + rj.name + "' has more than 6 channels");
   }
   if (clip.values.size() != clip.frame_count * clip.channel_count)
-    throw InputError(clip.source, 0, "values size does not match frame_count x channel_count");
+    misuse("values size does not match frame_count x channel_count");
   if (!(clip.frame_time_s > 0.0) || !std::isfinite(clip.frame_time_s))
     throw InputError(clip.source, 0, "frame time must be a positive number of seconds");
 }
