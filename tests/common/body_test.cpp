@@ -5,11 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <random>
-#include <algorithm>
 #include <set>
 
 #include "mocap/bvh.hpp"
@@ -32,7 +32,9 @@ constexpr double kHeadPct = 6.94, kUptPct = 15.96, kMptPct = 16.33, kLptPct = 11
                  kUpperArmPct = 2.71, kForearmPct = 1.62, kHandPct = 0.61, kThighPct = 14.16,
                  kShankPct = 4.33, kFootPct = 1.37;
 
-std::filesystem::path source_dir() { return MOCAP_SOURCE_DIR; }
+std::filesystem::path source_dir() {
+  return MOCAP_SOURCE_DIR;
+}
 
 // ---------------------------------------------------------------------------
 // Names (character files and segment classes: character_test.cpp).
@@ -54,10 +56,10 @@ TEST(BodySegmentNames, CanonicalJointNames) {
 // Hand-built skeletons (metres, Y up, facing +Z, T-pose).
 
 struct HumanoidOptions {
-  bool cmu_hip_joints = false;    // zero-length LHipJoint/RHipJoint above the thighs
-  bool zero_hand_bones = false;   // hands end in a zero-length child and End Site
-  bool extra_unknown = false;     // a tail and a prop nobody recognises
-  std::string prefix;             // e.g. "mixamorig:"
+  bool cmu_hip_joints = false;   // zero-length LHipJoint/RHipJoint above the thighs
+  bool zero_hand_bones = false;  // hands end in a zero-length child and End Site
+  bool extra_unknown = false;    // a tail and a prop nobody recognises
+  std::string prefix;            // e.g. "mixamorig:"
 };
 
 HumanoidOptions options(bool cmu_hip_joints, bool zero_hand_bones, bool extra_unknown,
@@ -119,7 +121,9 @@ RawClip humanoid(const HumanoidOptions& o = HumanoidOptions()) {
   return b.build();
 }
 
-Skeleton skeleton_of(const RawClip& clip) { return build_skeleton(clip, 1.0); }
+Skeleton skeleton_of(const RawClip& clip) {
+  return build_skeleton(clip, 1.0);
+}
 
 int joint(const Skeleton& s, const std::string& name) {
   const int j = s.find(name);
@@ -156,7 +160,8 @@ void expect_well_formed(const Body& body, const Skeleton& skel) {
     EXPECT_LE(along, s.tip_local_m.squaredNorm() + 1e-15);
     const Eigen::Matrix3d& inertia = s.inertia_local_kgm2;
     EXPECT_LE((inertia - inertia.transpose()).norm(), 1e-15);
-    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
+    const Eigen::Vector3d ev =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
     EXPECT_GE(ev.minCoeff(), -1e-12);
     if (s.length_m == 0.0 || s.mass_kg == 0.0) {
       EXPECT_EQ(inertia.norm(), 0.0);
@@ -236,8 +241,8 @@ TEST(BodyHandBuilt, HumanoidUsesTheDeLevaTable) {
   EXPECT_NEAR((m.at({SC::foot, Side::left}) + m.at({SC::toes, Side::left})), kFootPct / 100 * M,
               1e-9);
   EXPECT_GT((m.at({SC::toes, Side::left})), 0.0);
-  EXPECT_NEAR((m.at({SC::head, Side::center}) + m.at({SC::neck, Side::center})),
-              kHeadPct / 100 * M, 1e-9);
+  EXPECT_NEAR((m.at({SC::head, Side::center}) + m.at({SC::neck, Side::center})), kHeadPct / 100 * M,
+              1e-9);
   EXPECT_NEAR((m.at({SC::upper_trunk, Side::center}) + m.at({SC::clavicle, Side::left}) +
                m.at({SC::clavicle, Side::right})),
               kUptPct / 100 * M, 1e-9);
@@ -342,9 +347,10 @@ TEST(BodyHandBuilt, UnrecognisedJointsGetNoMass) {
   }
   // The rest is classified as without them.
   const Body plain = build_body(skeleton_of(humanoid()), Character{});
-  EXPECT_NEAR(seg(body, skel, "LeftUpLeg").mass_kg,
-              plain.segments[static_cast<std::size_t>(skeleton_of(humanoid()).find("LeftUpLeg"))].mass_kg,
-              1e-12);
+  EXPECT_NEAR(
+      seg(body, skel, "LeftUpLeg").mass_kg,
+      plain.segments[static_cast<std::size_t>(skeleton_of(humanoid()).find("LeftUpLeg"))].mass_kg,
+      1e-12);
 }
 
 TEST(BodyHandBuilt, NoRecognisableJointsSharesMassByLength) {
@@ -400,8 +406,9 @@ void expect_naming_convention(const NameSet& n) {
   int top = pelvis;
   for (std::size_t i = 0; i < n.spine.size(); ++i) {
     top = b.joint(n.spine[i], top, V(0, 0.12, 0), {});
-    expected[top] = {i + 1 == n.spine.size() ? SegmentClass::upper_trunk : SegmentClass::middle_trunk,
-                     Side::center};
+    expected[top] = {
+        i + 1 == n.spine.size() ? SegmentClass::upper_trunk : SegmentClass::middle_trunk,
+        Side::center};
   }
   int up = top;
   for (const std::string& nk : n.neck) {
@@ -448,8 +455,8 @@ void expect_naming_convention(const NameSet& n) {
   const auto classes = classify_joints(skel);
   for (const auto& [j, want] : expected) {
     const auto& got = classes[static_cast<std::size_t>(j)];
-    EXPECT_EQ(got.first, want.first) << skel.names[static_cast<std::size_t>(j)] << " is "
-                                     << segment_class_name(got.first);
+    EXPECT_EQ(got.first, want.first)
+        << skel.names[static_cast<std::size_t>(j)] << " is " << segment_class_name(got.first);
     EXPECT_EQ(got.second, want.second) << skel.names[static_cast<std::size_t>(j)];
   }
   const Body body = build_body(skel, Character{});
@@ -459,49 +466,132 @@ void expect_naming_convention(const NameSet& n) {
 
 TEST(BodyHandBuilt, NamingConventions) {
   // CMU original (ASF to BVH): LeftShoulder is the clavicle here.
-  expect_naming_convention({"Left", "Right", "Hips", {"LowerBack", "Spine", "Spine1"},
-                            {"Neck", "Neck1"}, "Head", "#Shoulder", "#Arm", "#ForeArm", "#Hand",
-                            "#HandIndex1", "#HipJoint", "#UpLeg", "#Leg", "#Foot", "#ToeBase"});
+  expect_naming_convention({"Left",
+                            "Right",
+                            "Hips",
+                            {"LowerBack", "Spine", "Spine1"},
+                            {"Neck", "Neck1"},
+                            "Head",
+                            "#Shoulder",
+                            "#Arm",
+                            "#ForeArm",
+                            "#Hand",
+                            "#HandIndex1",
+                            "#HipJoint",
+                            "#UpLeg",
+                            "#Leg",
+                            "#Foot",
+                            "#ToeBase"});
   // CMU 3ds-max friendly: the joint at the shoulder owns the upper arm.
-  expect_naming_convention({"Left", "Right", "Hips", {"lowerback", "Chest", "Chest2"},
-                            {"lowerneck", "Neck"}, "Head", "#Collar", "#Shoulder", "#Elbow",
-                            "#Wrist", "#Fingers", "", "#Hip", "#Knee", "#Ankle", "#Toe"});
+  expect_naming_convention({"Left",
+                            "Right",
+                            "Hips",
+                            {"lowerback", "Chest", "Chest2"},
+                            {"lowerneck", "Neck"},
+                            "Head",
+                            "#Collar",
+                            "#Shoulder",
+                            "#Elbow",
+                            "#Wrist",
+                            "#Fingers",
+                            "",
+                            "#Hip",
+                            "#Knee",
+                            "#Ankle",
+                            "#Toe"});
   // Bandai Namco style suffixes.
-  expect_naming_convention({"L", "R", "Hips", {"Spine", "Chest"}, {"Neck"}, "Head", "Shoulder_#",
-                            "UpperArm_#", "LowerArm_#", "Hand_#", "Index_#", "", "UpperLeg_#",
-                            "LowerLeg_#", "Foot_#", "Toes_#"});
+  expect_naming_convention({"L",
+                            "R",
+                            "Hips",
+                            {"Spine", "Chest"},
+                            {"Neck"},
+                            "Head",
+                            "Shoulder_#",
+                            "UpperArm_#",
+                            "LowerArm_#",
+                            "Hand_#",
+                            "Index_#",
+                            "",
+                            "UpperLeg_#",
+                            "LowerLeg_#",
+                            "Foot_#",
+                            "Toes_#"});
   // 3ds Max biped.
-  expect_naming_convention({"L", "R", "Bip01 Pelvis", {"Bip01 Spine", "Bip01 Spine1"},
-                            {"Bip01 Neck"}, "Bip01 Head", "Bip01 # Clavicle", "Bip01 # UpperArm",
-                            "Bip01 # Forearm", "Bip01 # Hand", "Bip01 # Finger0", "",
-                            "Bip01 # Thigh", "Bip01 # Calf", "Bip01 # Foot", "Bip01 # Toe0"});
+  expect_naming_convention({"L",
+                            "R",
+                            "Bip01 Pelvis",
+                            {"Bip01 Spine", "Bip01 Spine1"},
+                            {"Bip01 Neck"},
+                            "Bip01 Head",
+                            "Bip01 # Clavicle",
+                            "Bip01 # UpperArm",
+                            "Bip01 # Forearm",
+                            "Bip01 # Hand",
+                            "Bip01 # Finger0",
+                            "",
+                            "Bip01 # Thigh",
+                            "Bip01 # Calf",
+                            "Bip01 # Foot",
+                            "Bip01 # Toe0"});
   // Blender (.L/.R) style, and a game-engine (l_/r_) style without clavicles.
-  expect_naming_convention({"L", "R", "pelvis", {"spine", "chest"}, {"neck"}, "head",
-                            "shoulder.#", "upper_arm.#", "forearm.#", "hand.#", "finger.#", "",
-                            "thigh.#", "shin.#", "foot.#", "toe.#"});
-  expect_naming_convention({"l", "r", "pelvis", {"spine_01", "spine_02", "spine_03"}, {"neck_01"},
-                            "head", "", "#_upperarm", "#_lowerarm", "#_hand", "#_thumb", "",
-                            "#_thigh", "#_calf", "#_foot", "#_ball"});
+  expect_naming_convention({"L",
+                            "R",
+                            "pelvis",
+                            {"spine", "chest"},
+                            {"neck"},
+                            "head",
+                            "shoulder.#",
+                            "upper_arm.#",
+                            "forearm.#",
+                            "hand.#",
+                            "finger.#",
+                            "",
+                            "thigh.#",
+                            "shin.#",
+                            "foot.#",
+                            "toe.#"});
+  expect_naming_convention({"l",
+                            "r",
+                            "pelvis",
+                            {"spine_01", "spine_02", "spine_03"},
+                            {"neck_01"},
+                            "head",
+                            "",
+                            "#_upperarm",
+                            "#_lowerarm",
+                            "#_hand",
+                            "#_thumb",
+                            "",
+                            "#_thigh",
+                            "#_calf",
+                            "#_foot",
+                            "#_ball"});
 }
 
 TEST(BodyHandBuilt, RandomSkeletonsKeepTheTotalMass) {
   // Random trees (several roots, zero offsets, names from the alias table and
   // nonsense) never crash and always carry exactly the total mass.
-  const std::vector<std::string> words = {
-      "Hips", "Spine", "Chest", "Neck", "Head", "LeftShoulder", "RightShoulder", "LeftArm",
-      "RightArm", "LeftForeArm", "RightForeArm", "LeftHand", "RightHand", "LeftUpLeg",
-      "RightUpLeg", "LeftLeg", "RightLeg", "LeftFoot", "RightFoot", "LeftToe", "RightToe",
-      "LHipJoint", "lhand", "LThumb", "joint_Root", "Tail", "Prop", "HeadTop_End", "Hand_L",
-      "UpperArm_R", "l_calf", "spine.001", ""};
+  const std::vector<std::string> words = {"Hips",          "Spine",        "Chest",
+                                          "Neck",          "Head",         "LeftShoulder",
+                                          "RightShoulder", "LeftArm",      "RightArm",
+                                          "LeftForeArm",   "RightForeArm", "LeftHand",
+                                          "RightHand",     "LeftUpLeg",    "RightUpLeg",
+                                          "LeftLeg",       "RightLeg",     "LeftFoot",
+                                          "RightFoot",     "LeftToe",      "RightToe",
+                                          "LHipJoint",     "lhand",        "LThumb",
+                                          "joint_Root",    "Tail",         "Prop",
+                                          "HeadTop_End",   "Hand_L",       "UpperArm_R",
+                                          "l_calf",        "spine.001",    ""};
   std::mt19937 rng(7);
   for (int trial = 0; trial < 300; ++trial) {
     RawClipBuilder b;
     const int n = 1 + static_cast<int>(rng() % 40);
     for (int j = 0; j < n; ++j) {
-      const int parent = j == 0 || rng() % 10 == 0 ? -1 : static_cast<int>(rng() % static_cast<unsigned>(j));
+      const int parent =
+          j == 0 || rng() % 10 == 0 ? -1 : static_cast<int>(rng() % static_cast<unsigned>(j));
       const double len = rng() % 4 == 0 ? 0.0 : 0.01 * static_cast<double>(rng() % 50);
-      const int id = b.joint(words[rng() % words.size()], parent,
-                             V(len, -0.5 * len, 0.25 * len), {});
+      const int id =
+          b.joint(words[rng() % words.size()], parent, V(len, -0.5 * len, 0.25 * len), {});
       if (rng() % 3 == 0) b.end_site(id, V(0, 0.01 * static_cast<double>(rng() % 20), 0));
     }
     const Skeleton skel = skeleton_of(b.build());
@@ -512,8 +602,9 @@ TEST(BodyHandBuilt, RandomSkeletonsKeepTheTotalMass) {
     ASSERT_EQ(body.segments.size(), skel.joint_count());
     double bones = 0.0;
     for (const Segment& s : body.segments) bones += s.length_m;
-    const bool recognised = std::any_of(body.segments.begin(), body.segments.end(),
-                                        [](const Segment& s) { return s.cls != SegmentClass::none; });
+    const bool recognised =
+        std::any_of(body.segments.begin(), body.segments.end(),
+                    [](const Segment& s) { return s.cls != SegmentClass::none; });
     if (recognised || bones > 0.0) {
       EXPECT_NEAR(body.total_mass_kg, 70.0, 1e-9) << "trial " << trial;
     } else {
@@ -617,10 +708,9 @@ RealClip load(const char* rel, LengthUnit unit) {
 constexpr SegmentClass kCenter[] = {SegmentClass::head, SegmentClass::neck,
                                     SegmentClass::upper_trunk, SegmentClass::middle_trunk,
                                     SegmentClass::lower_trunk};
-constexpr SegmentClass kSided[] = {SegmentClass::clavicle, SegmentClass::upper_arm,
-                                   SegmentClass::forearm,  SegmentClass::hand,
-                                   SegmentClass::thigh,    SegmentClass::shank,
-                                   SegmentClass::foot,     SegmentClass::toes};
+constexpr SegmentClass kSided[] = {
+    SegmentClass::clavicle, SegmentClass::upper_arm, SegmentClass::forearm, SegmentClass::hand,
+    SegmentClass::thigh,    SegmentClass::shank,     SegmentClass::foot,    SegmentClass::toes};
 
 void expect_full_body(const Skeleton& skel, const Body& body) {
   expect_well_formed(body, skel);
@@ -638,7 +728,8 @@ void expect_full_body(const Skeleton& skel, const Body& body) {
     if (s.cls == SegmentClass::none) continue;
     const int j = find_joint_by_alias(skel, canonical_joint_name(s.cls, s.side));
     ASSERT_GE(j, 0) << canonical_joint_name(s.cls, s.side);
-    const bool trunk_name = s.cls == SegmentClass::middle_trunk || s.cls == SegmentClass::upper_trunk;
+    const bool trunk_name =
+        s.cls == SegmentClass::middle_trunk || s.cls == SegmentClass::upper_trunk;
     const SegmentClass got = body.segments[static_cast<std::size_t>(j)].cls;
     if (trunk_name) {
       EXPECT_TRUE(got == SegmentClass::middle_trunk || got == SegmentClass::upper_trunk);
@@ -733,7 +824,8 @@ TEST(BodyReal, HeavyUpperArmChangesOnlyTheUpperArms) {
   const Character heavy =
       read_character_file(source_dir() / "docs/examples/character-heavy-arms.json");
   const Character def = read_character_file(source_dir() / "docs/examples/character-default.json");
-  for (const auto& [file, unit] : {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
+  for (const auto& [file, unit] :
+       {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
     SCOPED_TRACE(file);
     const RealClip c = load(file, unit);
     const Body a = build_body(c.skel, def);
@@ -744,7 +836,8 @@ TEST(BodyReal, HeavyUpperArmChangesOnlyTheUpperArms) {
       EXPECT_EQ(a.segments[j].mass_kg, plain.segments[j].mass_kg);
       if (a.segments[j].cls == SegmentClass::upper_arm) {
         EXPECT_NEAR(b.segments[j].mass_kg, heavy.class_mass_kg.at(SegmentClass::upper_arm), 1e-12);
-        EXPECT_GT(b.segments[j].inertia_local_kgm2.trace(), a.segments[j].inertia_local_kgm2.trace());
+        EXPECT_GT(b.segments[j].inertia_local_kgm2.trace(),
+                  a.segments[j].inertia_local_kgm2.trace());
       } else {
         EXPECT_EQ(b.segments[j].mass_kg, a.segments[j].mass_kg) << c.skel.names[j];
         EXPECT_EQ(b.segments[j].inertia_local_kgm2, a.segments[j].inertia_local_kgm2);
@@ -758,7 +851,8 @@ TEST(BodyReal, LengthScaleMovesBonesAndForwardKinematics) {
   MOCAP_REQUIRE_DATA();
   Character ch;
   ch.class_length_scale[SegmentClass::upper_arm] = 1.25;
-  for (const auto& [file, unit] : {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
+  for (const auto& [file, unit] :
+       {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
     SCOPED_TRACE(file);
     const RealClip c = load(file, unit);
     const Skeleton scaled = apply_length_scales(c.skel, ch);
@@ -787,8 +881,10 @@ TEST(BodyReal, LengthScaleMovesBonesAndForwardKinematics) {
       const V arm0 = w0.positions_m[fa] - w0.positions_m[u];
       const V arm1 = w1.positions_m[fa] - w1.positions_m[u];
       EXPECT_LT((arm1 - 1.25 * arm0).norm(), 1e-9);
-      EXPECT_LT(((w1.positions_m[h] - w1.positions_m[fa]) - (w0.positions_m[h] - w0.positions_m[fa])).norm(),
-                1e-9);
+      EXPECT_LT(
+          ((w1.positions_m[h] - w1.positions_m[fa]) - (w0.positions_m[h] - w0.positions_m[fa]))
+              .norm(),
+          1e-9);
       EXPECT_LT((w1.positions_m[u] - w0.positions_m[u]).norm(), 1e-12);
     }
   }
@@ -816,7 +912,8 @@ TEST(BodyReal, EveryBandaiNamcoSet1SkeletonIsComplete) {
   // All set-1 clips share one hierarchy; check a spread of them anyway.
   std::set<std::uint64_t> ids;
   int checked = 0;
-  for (const auto& e : std::filesystem::directory_iterator(test::data_dir() / "bandai-namco-1/data")) {
+  for (const auto& e :
+       std::filesystem::directory_iterator(test::data_dir() / "bandai-namco-1/data")) {
     if (e.path().extension() != ".bvh" || (checked++ % 25) != 0) continue;
     const Skeleton skel = build_skeleton(read_bvh_file(e.path()), 0.01);
     if (!ids.insert(skel.id()).second) continue;
