@@ -1,5 +1,6 @@
-// Tests for common/src/bvh.cpp: validity first (one test per malformed input),
-// then behaviour on tiny hand-written BVH, then round trips, then the export layout.
+// Tests for the BVH reader, writer and export layout (common/src/bvh_*.cpp): validity first (one
+// test per malformed input), then behaviour on tiny hand-written BVH, then round trips, then the
+// export layout.
 #include <gtest/gtest.h>
 
 #include <algorithm>
