@@ -1,15 +1,22 @@
+// RawClip helpers: BVH channel names and axes, joint lookup by name.
 #include "mocap/raw_clip.hpp"
 
 namespace mocap {
 
 const char* channel_name(Channel c) {
   switch (c) {
-    case Channel::Xposition: return "Xposition";
-    case Channel::Yposition: return "Yposition";
-    case Channel::Zposition: return "Zposition";
-    case Channel::Xrotation: return "Xrotation";
-    case Channel::Yrotation: return "Yrotation";
-    case Channel::Zrotation: return "Zrotation";
+    case Channel::Xposition:
+      return "Xposition";
+    case Channel::Yposition:
+      return "Yposition";
+    case Channel::Zposition:
+      return "Zposition";
+    case Channel::Xrotation:
+      return "Xrotation";
+    case Channel::Yrotation:
+      return "Yrotation";
+    case Channel::Zrotation:
+      return "Zrotation";
   }
   return "?";
 }
@@ -17,11 +24,14 @@ const char* channel_name(Channel c) {
 int channel_axis(Channel c) {
   switch (c) {
     case Channel::Xposition:
-    case Channel::Xrotation: return 0;
+    case Channel::Xrotation:
+      return 0;
     case Channel::Yposition:
-    case Channel::Yrotation: return 1;
+    case Channel::Yrotation:
+      return 1;
     case Channel::Zposition:
-    case Channel::Zrotation: return 2;
+    case Channel::Zrotation:
+      return 2;
   }
   return 0;
 }

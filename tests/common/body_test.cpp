@@ -1,14 +1,15 @@
-// Body model: character files, segment classes, de Leva masses, COMs, inertias.
+// Body model: joint classes, de Leva masses, COMs, inertias, length scales
+// (character files and segment-class names: character_test.cpp).
 #include "mocap/body.hpp"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <random>
-#include <algorithm>
 #include <set>
 
 #include "mocap/bvh.hpp"
@@ -31,163 +32,12 @@ constexpr double kHeadPct = 6.94, kUptPct = 15.96, kMptPct = 16.33, kLptPct = 11
                  kUpperArmPct = 2.71, kForearmPct = 1.62, kHandPct = 0.61, kThighPct = 14.16,
                  kShankPct = 4.33, kFootPct = 1.37;
 
-std::filesystem::path source_dir() { return MOCAP_SOURCE_DIR; }
-
-// ---------------------------------------------------------------------------
-// Character JSON: invalid input first, one test per kind of error.
-
-/// Parses `text`, expects an InputError whose message starts with `field: `.
-void expect_field_error(const std::string& text, const std::string& field) {
-  try {
-    (void)parse_character_json(text, "<char>");
-    ADD_FAILURE() << "no error for " << text;
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.source(), "<char>");
-    EXPECT_EQ(e.line(), 0u);
-    EXPECT_EQ(e.detail().rfind(field + ": ", 0), 0u)
-        << "message '" << e.detail() << "' does not name " << field;
-  }
-}
-
-TEST(BodyCharacterJson, RejectsMalformedJson) {
-  try {
-    (void)parse_character_json("{\"total_mass_kg\": 70,", "<char>");
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(e.detail().find("invalid JSON"), std::string::npos) << e.detail();
-    EXPECT_EQ(e.source(), "<char>");
-  }
-}
-
-TEST(BodyCharacterJson, RejectsNonObjectDocument) { expect_field_error("[1, 2]", "<document>"); }
-
-TEST(BodyCharacterJson, RejectsUnknownTopLevelKey) {
-  expect_field_error(R"({"weight_kg": 70})", "weight_kg");
-}
-
-TEST(BodyCharacterJson, RejectsWrongTypes) {
-  expect_field_error(R"({"total_mass_kg": "70"})", "total_mass_kg");
-  expect_field_error(R"({"total_mass_kg": true})", "total_mass_kg");
-  expect_field_error(R"({"name": 3})", "name");
-  expect_field_error(R"({"name": ""})", "name");
-  expect_field_error(R"({"segments": []})", "segments");
-  expect_field_error(R"({"segments": {"upper_arm": 3}})", "segments.upper_arm");
-  expect_field_error(R"({"segments": {"hand": {"length_scale": false}}})",
-                     "segments.hand.length_scale");
-  expect_field_error(R"({"joints": {"LeftArm": [1]}})", "joints.LeftArm");
-  expect_field_error(R"({"joints": {"LeftArm": {"mass_kg": null}}})", "joints.LeftArm.mass_kg");
-}
-
-TEST(BodyCharacterJson, RejectsNonPositiveMassesAndScales) {
-  expect_field_error(R"({"total_mass_kg": 0})", "total_mass_kg");
-  expect_field_error(R"({"total_mass_kg": -70})", "total_mass_kg");
-  expect_field_error(R"({"segments": {"upper_arm": {"mass_kg": -3}}})",
-                     "segments.upper_arm.mass_kg");
-  expect_field_error(R"({"segments": {"thigh": {"mass_scale": 0}}})", "segments.thigh.mass_scale");
-  expect_field_error(R"({"segments": {"shank": {"length_scale": -1.1}}})",
-                     "segments.shank.length_scale");
-  expect_field_error(R"({"joints": {"LeftArm": {"length_scale": 0}}})",
-                     "joints.LeftArm.length_scale");
-  expect_field_error(R"({"joints": {"Head": {"mass_kg": -0.5}}})", "joints.Head.mass_kg");
-}
-
-TEST(BodyCharacterJson, RejectsInfiniteNumbers) {
-  // JSON has no NaN or Infinity literal; an overflowing number is the way in.
-  expect_field_error(R"({"segments": {"upper_arm": {"mass_kg": 1e999}}})",
-                     "segments.upper_arm.mass_kg");
-  expect_field_error(R"({"total_mass_kg": -1e999})", "total_mass_kg");
-}
-
-TEST(BodyCharacterJson, RejectsBadSex) {
-  expect_field_error(R"({"sex": "robot"})", "sex");
-  expect_field_error(R"({"sex": 1})", "sex");
-}
-
-TEST(BodyCharacterJson, RejectsUnknownClasses) {
-  expect_field_error(R"({"segments": {"wing": {"mass_kg": 1}}})", "segments.wing");
-  expect_field_error(R"({"segments": {"none": {"mass_kg": 1}}})", "segments.none");
-  expect_field_error(R"({"segments": {"Upper_Arm": {"mass_kg": 1}}})", "segments.Upper_Arm");
-}
-
-TEST(BodyCharacterJson, RejectsUnknownEntryKeys) {
-  expect_field_error(R"({"segments": {"upper_arm": {"mass": 3}}})", "segments.upper_arm.mass");
-  expect_field_error(R"({"joints": {"LeftArm": {"mass_scale": 2}}})",
-                     "joints.LeftArm.mass_scale");
-}
-
-TEST(BodyCharacterJson, RejectsMassAndScaleTogether) {
-  expect_field_error(R"({"segments": {"upper_arm": {"mass_kg": 3, "mass_scale": 2}}})",
-                     "segments.upper_arm");
-}
-
-TEST(BodyCharacterJson, RejectsEmptyJointName) {
-  expect_field_error(R"({"joints": {"": {"mass_kg": 1}}})", "joints");
-}
-
-TEST(BodyCharacterJson, RejectsUnsupportedVersion) {
-  expect_field_error(R"({"version": 2})", "version");
-  expect_field_error(R"({"version": "1"})", "version");
-}
-
-TEST(BodyCharacterJson, MissingFileNamesThePath) {
-  const auto path = test::temp_dir("body") / "absent.json";
-  try {
-    (void)read_character_file(path);
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.source(), path.string());
-  }
-}
-
-TEST(BodyCharacterJson, ParsesEveryField) {
-  const Character ch = parse_character_json(R"({
-    "version": 1, "name": "tall", "total_mass_kg": 82.5, "sex": "female",
-    "segments": {"upper_arm": {"mass_kg": 3.0, "length_scale": 1.1},
-                 "thigh": {"mass_scale": 1.5}},
-    "joints": {"LeftArm": {"mass_kg": 2.5, "length_scale": 1.2}}})",
-                                            "<char>");
-  EXPECT_EQ(ch.name, "tall");
-  EXPECT_EQ(ch.total_mass_kg, 82.5);
-  EXPECT_EQ(ch.sex, Sex::female);
-  EXPECT_EQ(ch.class_mass_kg.at(SegmentClass::upper_arm), 3.0);
-  EXPECT_EQ(ch.class_length_scale.at(SegmentClass::upper_arm), 1.1);
-  EXPECT_EQ(ch.class_mass_scale.at(SegmentClass::thigh), 1.5);
-  EXPECT_EQ(ch.class_mass_kg.count(SegmentClass::thigh), 0u);
-  EXPECT_EQ(ch.joint_mass_kg.at("LeftArm"), 2.5);
-  EXPECT_EQ(ch.joint_length_scale.at("LeftArm"), 1.2);
-}
-
-TEST(BodyCharacterJson, EmptyObjectIsTheDefault) {
-  const Character ch = parse_character_json("{}", "<char>");
-  EXPECT_EQ(ch.name, "default");
-  EXPECT_EQ(ch.total_mass_kg, 70.0);
-  EXPECT_EQ(ch.sex, Sex::male);
-}
-
-TEST(BodyCharacterJson, ExampleFilesParse) {
-  const Character def = read_character_file(source_dir() / "docs/examples/character-default.json");
-  EXPECT_EQ(def.total_mass_kg, 70.0);
-  EXPECT_TRUE(def.class_mass_kg.empty());
-  const Character heavy =
-      read_character_file(source_dir() / "docs/examples/character-heavy-arms.json");
-  ASSERT_EQ(heavy.class_mass_kg.count(SegmentClass::upper_arm), 1u);
-  EXPECT_GT(heavy.class_mass_kg.at(SegmentClass::upper_arm), kUpperArmPct / 100.0 * 70.0);
+std::filesystem::path source_dir() {
+  return MOCAP_SOURCE_DIR;
 }
 
 // ---------------------------------------------------------------------------
-// Names.
-
-TEST(BodySegmentNames, RoundTrip) {
-  for (SegmentClass c :
-       {SegmentClass::none, SegmentClass::head, SegmentClass::neck, SegmentClass::upper_trunk,
-        SegmentClass::middle_trunk, SegmentClass::lower_trunk, SegmentClass::clavicle,
-        SegmentClass::upper_arm, SegmentClass::forearm, SegmentClass::hand, SegmentClass::thigh,
-        SegmentClass::shank, SegmentClass::foot, SegmentClass::toes})
-    EXPECT_EQ(parse_segment_class(segment_class_name(c)), c);
-  EXPECT_FALSE(parse_segment_class("arm").has_value());
-  EXPECT_STREQ(side_name(Side::left), "left");
-  EXPECT_STREQ(side_name(Side::center), "center");
-}
+// Names (character files and segment classes: character_test.cpp).
 
 TEST(BodySegmentNames, CanonicalJointNames) {
   EXPECT_EQ(canonical_joint_name(SegmentClass::lower_trunk, Side::center), "Hips");
@@ -206,10 +56,10 @@ TEST(BodySegmentNames, CanonicalJointNames) {
 // Hand-built skeletons (metres, Y up, facing +Z, T-pose).
 
 struct HumanoidOptions {
-  bool cmu_hip_joints = false;    // zero-length LHipJoint/RHipJoint above the thighs
-  bool zero_hand_bones = false;   // hands end in a zero-length child and End Site
-  bool extra_unknown = false;     // a tail and a prop nobody recognises
-  std::string prefix;             // e.g. "mixamorig:"
+  bool cmu_hip_joints = false;   // zero-length LHipJoint/RHipJoint above the thighs
+  bool zero_hand_bones = false;  // hands end in a zero-length child and End Site
+  bool extra_unknown = false;    // a tail and a prop nobody recognises
+  std::string prefix;            // e.g. "mixamorig:"
 };
 
 HumanoidOptions options(bool cmu_hip_joints, bool zero_hand_bones, bool extra_unknown,
@@ -271,7 +121,9 @@ RawClip humanoid(const HumanoidOptions& o = HumanoidOptions()) {
   return b.build();
 }
 
-Skeleton skeleton_of(const RawClip& clip) { return build_skeleton(clip, 1.0); }
+Skeleton skeleton_of(const RawClip& clip) {
+  return build_skeleton(clip, 1.0);
+}
 
 int joint(const Skeleton& s, const std::string& name) {
   const int j = s.find(name);
@@ -308,7 +160,8 @@ void expect_well_formed(const Body& body, const Skeleton& skel) {
     EXPECT_LE(along, s.tip_local_m.squaredNorm() + 1e-15);
     const Eigen::Matrix3d& inertia = s.inertia_local_kgm2;
     EXPECT_LE((inertia - inertia.transpose()).norm(), 1e-15);
-    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
+    const Eigen::Vector3d ev =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
     EXPECT_GE(ev.minCoeff(), -1e-12);
     if (s.length_m == 0.0 || s.mass_kg == 0.0) {
       EXPECT_EQ(inertia.norm(), 0.0);
@@ -388,8 +241,8 @@ TEST(BodyHandBuilt, HumanoidUsesTheDeLevaTable) {
   EXPECT_NEAR((m.at({SC::foot, Side::left}) + m.at({SC::toes, Side::left})), kFootPct / 100 * M,
               1e-9);
   EXPECT_GT((m.at({SC::toes, Side::left})), 0.0);
-  EXPECT_NEAR((m.at({SC::head, Side::center}) + m.at({SC::neck, Side::center})),
-              kHeadPct / 100 * M, 1e-9);
+  EXPECT_NEAR((m.at({SC::head, Side::center}) + m.at({SC::neck, Side::center})), kHeadPct / 100 * M,
+              1e-9);
   EXPECT_NEAR((m.at({SC::upper_trunk, Side::center}) + m.at({SC::clavicle, Side::left}) +
                m.at({SC::clavicle, Side::right})),
               kUptPct / 100 * M, 1e-9);
@@ -494,9 +347,10 @@ TEST(BodyHandBuilt, UnrecognisedJointsGetNoMass) {
   }
   // The rest is classified as without them.
   const Body plain = build_body(skeleton_of(humanoid()), Character{});
-  EXPECT_NEAR(seg(body, skel, "LeftUpLeg").mass_kg,
-              plain.segments[static_cast<std::size_t>(skeleton_of(humanoid()).find("LeftUpLeg"))].mass_kg,
-              1e-12);
+  EXPECT_NEAR(
+      seg(body, skel, "LeftUpLeg").mass_kg,
+      plain.segments[static_cast<std::size_t>(skeleton_of(humanoid()).find("LeftUpLeg"))].mass_kg,
+      1e-12);
 }
 
 TEST(BodyHandBuilt, NoRecognisableJointsSharesMassByLength) {
@@ -552,8 +406,9 @@ void expect_naming_convention(const NameSet& n) {
   int top = pelvis;
   for (std::size_t i = 0; i < n.spine.size(); ++i) {
     top = b.joint(n.spine[i], top, V(0, 0.12, 0), {});
-    expected[top] = {i + 1 == n.spine.size() ? SegmentClass::upper_trunk : SegmentClass::middle_trunk,
-                     Side::center};
+    expected[top] = {
+        i + 1 == n.spine.size() ? SegmentClass::upper_trunk : SegmentClass::middle_trunk,
+        Side::center};
   }
   int up = top;
   for (const std::string& nk : n.neck) {
@@ -600,8 +455,8 @@ void expect_naming_convention(const NameSet& n) {
   const auto classes = classify_joints(skel);
   for (const auto& [j, want] : expected) {
     const auto& got = classes[static_cast<std::size_t>(j)];
-    EXPECT_EQ(got.first, want.first) << skel.names[static_cast<std::size_t>(j)] << " is "
-                                     << segment_class_name(got.first);
+    EXPECT_EQ(got.first, want.first)
+        << skel.names[static_cast<std::size_t>(j)] << " is " << segment_class_name(got.first);
     EXPECT_EQ(got.second, want.second) << skel.names[static_cast<std::size_t>(j)];
   }
   const Body body = build_body(skel, Character{});
@@ -611,49 +466,132 @@ void expect_naming_convention(const NameSet& n) {
 
 TEST(BodyHandBuilt, NamingConventions) {
   // CMU original (ASF to BVH): LeftShoulder is the clavicle here.
-  expect_naming_convention({"Left", "Right", "Hips", {"LowerBack", "Spine", "Spine1"},
-                            {"Neck", "Neck1"}, "Head", "#Shoulder", "#Arm", "#ForeArm", "#Hand",
-                            "#HandIndex1", "#HipJoint", "#UpLeg", "#Leg", "#Foot", "#ToeBase"});
+  expect_naming_convention({"Left",
+                            "Right",
+                            "Hips",
+                            {"LowerBack", "Spine", "Spine1"},
+                            {"Neck", "Neck1"},
+                            "Head",
+                            "#Shoulder",
+                            "#Arm",
+                            "#ForeArm",
+                            "#Hand",
+                            "#HandIndex1",
+                            "#HipJoint",
+                            "#UpLeg",
+                            "#Leg",
+                            "#Foot",
+                            "#ToeBase"});
   // CMU 3ds-max friendly: the joint at the shoulder owns the upper arm.
-  expect_naming_convention({"Left", "Right", "Hips", {"lowerback", "Chest", "Chest2"},
-                            {"lowerneck", "Neck"}, "Head", "#Collar", "#Shoulder", "#Elbow",
-                            "#Wrist", "#Fingers", "", "#Hip", "#Knee", "#Ankle", "#Toe"});
+  expect_naming_convention({"Left",
+                            "Right",
+                            "Hips",
+                            {"lowerback", "Chest", "Chest2"},
+                            {"lowerneck", "Neck"},
+                            "Head",
+                            "#Collar",
+                            "#Shoulder",
+                            "#Elbow",
+                            "#Wrist",
+                            "#Fingers",
+                            "",
+                            "#Hip",
+                            "#Knee",
+                            "#Ankle",
+                            "#Toe"});
   // Bandai Namco style suffixes.
-  expect_naming_convention({"L", "R", "Hips", {"Spine", "Chest"}, {"Neck"}, "Head", "Shoulder_#",
-                            "UpperArm_#", "LowerArm_#", "Hand_#", "Index_#", "", "UpperLeg_#",
-                            "LowerLeg_#", "Foot_#", "Toes_#"});
+  expect_naming_convention({"L",
+                            "R",
+                            "Hips",
+                            {"Spine", "Chest"},
+                            {"Neck"},
+                            "Head",
+                            "Shoulder_#",
+                            "UpperArm_#",
+                            "LowerArm_#",
+                            "Hand_#",
+                            "Index_#",
+                            "",
+                            "UpperLeg_#",
+                            "LowerLeg_#",
+                            "Foot_#",
+                            "Toes_#"});
   // 3ds Max biped.
-  expect_naming_convention({"L", "R", "Bip01 Pelvis", {"Bip01 Spine", "Bip01 Spine1"},
-                            {"Bip01 Neck"}, "Bip01 Head", "Bip01 # Clavicle", "Bip01 # UpperArm",
-                            "Bip01 # Forearm", "Bip01 # Hand", "Bip01 # Finger0", "",
-                            "Bip01 # Thigh", "Bip01 # Calf", "Bip01 # Foot", "Bip01 # Toe0"});
+  expect_naming_convention({"L",
+                            "R",
+                            "Bip01 Pelvis",
+                            {"Bip01 Spine", "Bip01 Spine1"},
+                            {"Bip01 Neck"},
+                            "Bip01 Head",
+                            "Bip01 # Clavicle",
+                            "Bip01 # UpperArm",
+                            "Bip01 # Forearm",
+                            "Bip01 # Hand",
+                            "Bip01 # Finger0",
+                            "",
+                            "Bip01 # Thigh",
+                            "Bip01 # Calf",
+                            "Bip01 # Foot",
+                            "Bip01 # Toe0"});
   // Blender (.L/.R) style, and a game-engine (l_/r_) style without clavicles.
-  expect_naming_convention({"L", "R", "pelvis", {"spine", "chest"}, {"neck"}, "head",
-                            "shoulder.#", "upper_arm.#", "forearm.#", "hand.#", "finger.#", "",
-                            "thigh.#", "shin.#", "foot.#", "toe.#"});
-  expect_naming_convention({"l", "r", "pelvis", {"spine_01", "spine_02", "spine_03"}, {"neck_01"},
-                            "head", "", "#_upperarm", "#_lowerarm", "#_hand", "#_thumb", "",
-                            "#_thigh", "#_calf", "#_foot", "#_ball"});
+  expect_naming_convention({"L",
+                            "R",
+                            "pelvis",
+                            {"spine", "chest"},
+                            {"neck"},
+                            "head",
+                            "shoulder.#",
+                            "upper_arm.#",
+                            "forearm.#",
+                            "hand.#",
+                            "finger.#",
+                            "",
+                            "thigh.#",
+                            "shin.#",
+                            "foot.#",
+                            "toe.#"});
+  expect_naming_convention({"l",
+                            "r",
+                            "pelvis",
+                            {"spine_01", "spine_02", "spine_03"},
+                            {"neck_01"},
+                            "head",
+                            "",
+                            "#_upperarm",
+                            "#_lowerarm",
+                            "#_hand",
+                            "#_thumb",
+                            "",
+                            "#_thigh",
+                            "#_calf",
+                            "#_foot",
+                            "#_ball"});
 }
 
 TEST(BodyHandBuilt, RandomSkeletonsKeepTheTotalMass) {
   // Random trees (several roots, zero offsets, names from the alias table and
   // nonsense) never crash and always carry exactly the total mass.
-  const std::vector<std::string> words = {
-      "Hips", "Spine", "Chest", "Neck", "Head", "LeftShoulder", "RightShoulder", "LeftArm",
-      "RightArm", "LeftForeArm", "RightForeArm", "LeftHand", "RightHand", "LeftUpLeg",
-      "RightUpLeg", "LeftLeg", "RightLeg", "LeftFoot", "RightFoot", "LeftToe", "RightToe",
-      "LHipJoint", "lhand", "LThumb", "joint_Root", "Tail", "Prop", "HeadTop_End", "Hand_L",
-      "UpperArm_R", "l_calf", "spine.001", ""};
+  const std::vector<std::string> words = {"Hips",          "Spine",        "Chest",
+                                          "Neck",          "Head",         "LeftShoulder",
+                                          "RightShoulder", "LeftArm",      "RightArm",
+                                          "LeftForeArm",   "RightForeArm", "LeftHand",
+                                          "RightHand",     "LeftUpLeg",    "RightUpLeg",
+                                          "LeftLeg",       "RightLeg",     "LeftFoot",
+                                          "RightFoot",     "LeftToe",      "RightToe",
+                                          "LHipJoint",     "lhand",        "LThumb",
+                                          "joint_Root",    "Tail",         "Prop",
+                                          "HeadTop_End",   "Hand_L",       "UpperArm_R",
+                                          "l_calf",        "spine.001",    ""};
   std::mt19937 rng(7);
   for (int trial = 0; trial < 300; ++trial) {
     RawClipBuilder b;
     const int n = 1 + static_cast<int>(rng() % 40);
     for (int j = 0; j < n; ++j) {
-      const int parent = j == 0 || rng() % 10 == 0 ? -1 : static_cast<int>(rng() % static_cast<unsigned>(j));
+      const int parent =
+          j == 0 || rng() % 10 == 0 ? -1 : static_cast<int>(rng() % static_cast<unsigned>(j));
       const double len = rng() % 4 == 0 ? 0.0 : 0.01 * static_cast<double>(rng() % 50);
-      const int id = b.joint(words[rng() % words.size()], parent,
-                             V(len, -0.5 * len, 0.25 * len), {});
+      const int id =
+          b.joint(words[rng() % words.size()], parent, V(len, -0.5 * len, 0.25 * len), {});
       if (rng() % 3 == 0) b.end_site(id, V(0, 0.01 * static_cast<double>(rng() % 20), 0));
     }
     const Skeleton skel = skeleton_of(b.build());
@@ -664,8 +602,9 @@ TEST(BodyHandBuilt, RandomSkeletonsKeepTheTotalMass) {
     ASSERT_EQ(body.segments.size(), skel.joint_count());
     double bones = 0.0;
     for (const Segment& s : body.segments) bones += s.length_m;
-    const bool recognised = std::any_of(body.segments.begin(), body.segments.end(),
-                                        [](const Segment& s) { return s.cls != SegmentClass::none; });
+    const bool recognised =
+        std::any_of(body.segments.begin(), body.segments.end(),
+                    [](const Segment& s) { return s.cls != SegmentClass::none; });
     if (recognised || bones > 0.0) {
       EXPECT_NEAR(body.total_mass_kg, 70.0, 1e-9) << "trial " << trial;
     } else {
@@ -769,10 +708,9 @@ RealClip load(const char* rel, LengthUnit unit) {
 constexpr SegmentClass kCenter[] = {SegmentClass::head, SegmentClass::neck,
                                     SegmentClass::upper_trunk, SegmentClass::middle_trunk,
                                     SegmentClass::lower_trunk};
-constexpr SegmentClass kSided[] = {SegmentClass::clavicle, SegmentClass::upper_arm,
-                                   SegmentClass::forearm,  SegmentClass::hand,
-                                   SegmentClass::thigh,    SegmentClass::shank,
-                                   SegmentClass::foot,     SegmentClass::toes};
+constexpr SegmentClass kSided[] = {
+    SegmentClass::clavicle, SegmentClass::upper_arm, SegmentClass::forearm, SegmentClass::hand,
+    SegmentClass::thigh,    SegmentClass::shank,     SegmentClass::foot,    SegmentClass::toes};
 
 void expect_full_body(const Skeleton& skel, const Body& body) {
   expect_well_formed(body, skel);
@@ -790,7 +728,8 @@ void expect_full_body(const Skeleton& skel, const Body& body) {
     if (s.cls == SegmentClass::none) continue;
     const int j = find_joint_by_alias(skel, canonical_joint_name(s.cls, s.side));
     ASSERT_GE(j, 0) << canonical_joint_name(s.cls, s.side);
-    const bool trunk_name = s.cls == SegmentClass::middle_trunk || s.cls == SegmentClass::upper_trunk;
+    const bool trunk_name =
+        s.cls == SegmentClass::middle_trunk || s.cls == SegmentClass::upper_trunk;
     const SegmentClass got = body.segments[static_cast<std::size_t>(j)].cls;
     if (trunk_name) {
       EXPECT_TRUE(got == SegmentClass::middle_trunk || got == SegmentClass::upper_trunk);
@@ -885,7 +824,8 @@ TEST(BodyReal, HeavyUpperArmChangesOnlyTheUpperArms) {
   const Character heavy =
       read_character_file(source_dir() / "docs/examples/character-heavy-arms.json");
   const Character def = read_character_file(source_dir() / "docs/examples/character-default.json");
-  for (const auto& [file, unit] : {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
+  for (const auto& [file, unit] :
+       {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
     SCOPED_TRACE(file);
     const RealClip c = load(file, unit);
     const Body a = build_body(c.skel, def);
@@ -896,7 +836,8 @@ TEST(BodyReal, HeavyUpperArmChangesOnlyTheUpperArms) {
       EXPECT_EQ(a.segments[j].mass_kg, plain.segments[j].mass_kg);
       if (a.segments[j].cls == SegmentClass::upper_arm) {
         EXPECT_NEAR(b.segments[j].mass_kg, heavy.class_mass_kg.at(SegmentClass::upper_arm), 1e-12);
-        EXPECT_GT(b.segments[j].inertia_local_kgm2.trace(), a.segments[j].inertia_local_kgm2.trace());
+        EXPECT_GT(b.segments[j].inertia_local_kgm2.trace(),
+                  a.segments[j].inertia_local_kgm2.trace());
       } else {
         EXPECT_EQ(b.segments[j].mass_kg, a.segments[j].mass_kg) << c.skel.names[j];
         EXPECT_EQ(b.segments[j].inertia_local_kgm2, a.segments[j].inertia_local_kgm2);
@@ -910,7 +851,8 @@ TEST(BodyReal, LengthScaleMovesBonesAndForwardKinematics) {
   MOCAP_REQUIRE_DATA();
   Character ch;
   ch.class_length_scale[SegmentClass::upper_arm] = 1.25;
-  for (const auto& [file, unit] : {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
+  for (const auto& [file, unit] :
+       {std::pair{kBandaiFile, LengthUnit::cm}, {kCmuFile, LengthUnit::cmu}}) {
     SCOPED_TRACE(file);
     const RealClip c = load(file, unit);
     const Skeleton scaled = apply_length_scales(c.skel, ch);
@@ -939,8 +881,10 @@ TEST(BodyReal, LengthScaleMovesBonesAndForwardKinematics) {
       const V arm0 = w0.positions_m[fa] - w0.positions_m[u];
       const V arm1 = w1.positions_m[fa] - w1.positions_m[u];
       EXPECT_LT((arm1 - 1.25 * arm0).norm(), 1e-9);
-      EXPECT_LT(((w1.positions_m[h] - w1.positions_m[fa]) - (w0.positions_m[h] - w0.positions_m[fa])).norm(),
-                1e-9);
+      EXPECT_LT(
+          ((w1.positions_m[h] - w1.positions_m[fa]) - (w0.positions_m[h] - w0.positions_m[fa]))
+              .norm(),
+          1e-9);
       EXPECT_LT((w1.positions_m[u] - w0.positions_m[u]).norm(), 1e-12);
     }
   }
@@ -968,7 +912,8 @@ TEST(BodyReal, EveryBandaiNamcoSet1SkeletonIsComplete) {
   // All set-1 clips share one hierarchy; check a spread of them anyway.
   std::set<std::uint64_t> ids;
   int checked = 0;
-  for (const auto& e : std::filesystem::directory_iterator(test::data_dir() / "bandai-namco-1/data")) {
+  for (const auto& e :
+       std::filesystem::directory_iterator(test::data_dir() / "bandai-namco-1/data")) {
     if (e.path().extension() != ".bvh" || (checked++ % 25) != 0) continue;
     const Skeleton skel = build_skeleton(read_bvh_file(e.path()), 0.01);
     if (!ids.insert(skel.id()).second) continue;

@@ -1,5 +1,6 @@
-// Tests for common/src/bvh.cpp: validity first (one test per malformed input),
-// then behaviour on tiny hand-written BVH, then round trips, then the export layout.
+// Tests for the BVH reader, writer and export layout (common/src/bvh_*.cpp): validity first (one
+// test per malformed input), then behaviour on tiny hand-written BVH, then round trips, then the
+// export layout.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -31,31 +32,33 @@ void expect_input_error(const std::string& text, std::size_t line, const std::st
   } catch (const InputError& e) {
     EXPECT_EQ(e.source(), "test.bvh");
     EXPECT_EQ(e.line(), line) << e.what();
-    EXPECT_NE(std::string(e.what()).find("test.bvh:" + std::to_string(line) + ":"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("test.bvh:" + std::to_string(line) + ":"),
+              std::string::npos)
         << e.what();
-    EXPECT_NE(e.detail().find(word), std::string::npos) << "message: " << e.what() << "\nexpected word: " << word;
+    EXPECT_NE(e.detail().find(word), std::string::npos)
+        << "message: " << e.what() << "\nexpected word: " << word;
   }
 }
 
 // A two-joint skeleton with 6 + 3 channels; `motion` follows "MOTION\n".
 std::string two_joints(const std::string& motion) {
-  return "HIERARCHY\n"                                   // 1
-         "ROOT Hips\n"                                   // 2
-         "{\n"                                           // 3
-         "  OFFSET 0 0 0\n"                              // 4
+  return "HIERARCHY\n"                                                                 // 1
+         "ROOT Hips\n"                                                                 // 2
+         "{\n"                                                                         // 3
+         "  OFFSET 0 0 0\n"                                                            // 4
          "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"  // 5
-         "  JOINT Spine\n"                               // 6
-         "  {\n"                                         // 7
-         "    OFFSET 0 10 0\n"                           // 8
-         "    CHANNELS 3 Zrotation Xrotation Yrotation\n"  // 9
-         "    End Site\n"                                // 10
-         "    {\n"                                       // 11
-         "      OFFSET 0 5 0\n"                          // 12
-         "    }\n"                                       // 13
-         "  }\n"                                         // 14
-         "}\n"                                           // 15
-         "MOTION\n" +                                    // 16
-         motion;                                         // 17: Frames, 18: Frame Time, 19..: rows
+         "  JOINT Spine\n"                                                             // 6
+         "  {\n"                                                                       // 7
+         "    OFFSET 0 10 0\n"                                                         // 8
+         "    CHANNELS 3 Zrotation Xrotation Yrotation\n"                              // 9
+         "    End Site\n"                                                              // 10
+         "    {\n"                                                                     // 11
+         "      OFFSET 0 5 0\n"                                                        // 12
+         "    }\n"                                                                     // 13
+         "  }\n"                                                                       // 14
+         "}\n"                                                                         // 15
+         "MOTION\n" +                                                                  // 16
+         motion;  // 17: Frames, 18: Frame Time, 19..: rows
 }
 
 // ---------------------------------------------------------------------------
@@ -68,8 +71,12 @@ TEST(BvhValidity, EmptyFile) {
 }
 
 TEST(BvhValidity, BinaryGarbage) {
-  expect_input_error(std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10), 1, "binary");
-  expect_input_error(std::string("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHA\0NNELS 3\n", 50), 5, "binary");
+  expect_input_error(std::string("\x7f"
+                                 "ELF\x02\x01\x01\0\0\0",
+                                 10),
+                     1, "binary");
+  expect_input_error(std::string("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHA\0NNELS 3\n", 50),
+                     5, "binary");
   // Random bytes never crash and always end in InputError.
   std::mt19937 rng(7);
   for (int i = 0; i < 200; ++i) {
@@ -79,7 +86,9 @@ TEST(BvhValidity, BinaryGarbage) {
   }
 }
 
-TEST(BvhValidity, NotAHierarchy) { expect_input_error("\n{\"json\": true}\n", 2, "HIERARCHY"); }
+TEST(BvhValidity, NotAHierarchy) {
+  expect_input_error("\n{\"json\": true}\n", 2, "HIERARCHY");
+}
 
 TEST(BvhValidity, TruncatedHierarchy) {
   const std::string full = two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n");
@@ -133,8 +142,9 @@ TEST(BvhValidity, DuplicateChannel) {
 }
 
 TEST(BvhValidity, NonNumericValue) {
-  expect_input_error(two_joints("Frames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 abc 0 0 0 0\n"), 20,
-                     "number");
+  expect_input_error(
+      two_joints("Frames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 abc 0 0 0 0\n"), 20,
+      "number");
   expect_input_error(two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 0 0 1,5 0\n"), 19, "number");
   expect_input_error(two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 nan 0 0 0\n"), 19, "finite");
   std::string offset = two_joints("Frames: 0\nFrame Time: 0.1\n");
@@ -143,29 +153,36 @@ TEST(BvhValidity, NonNumericValue) {
 }
 
 TEST(BvhValidity, TooFewValuesOnFrameLine) {
-  expect_input_error(two_joints("Frames: 3\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"),
-                     20, "too few");
+  expect_input_error(
+      two_joints(
+          "Frames: 3\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"),
+      20, "too few");
 }
 
 TEST(BvhValidity, TooManyValuesOnFrameLine) {
-  expect_input_error(two_joints("Frames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"), 19,
-                     "too many");
+  expect_input_error(
+      two_joints("Frames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"), 19,
+      "too many");
 }
 
 TEST(BvhValidity, FewerFramesThanDeclared) {
-  expect_input_error(two_joints("Frames: 3\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"), 21,
-                     "fewer frame lines (2)");
+  expect_input_error(
+      two_joints("Frames: 3\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"), 21,
+      "fewer frame lines (2)");
 }
 
 TEST(BvhValidity, MoreFramesThanDeclared) {
   expect_input_error(
-      two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n\n0 0 0 0 0 0 0 0 0\n"), 21, "more frame lines");
+      two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n\n0 0 0 0 0 0 0 0 0\n"), 21,
+      "more frame lines");
 }
 
 TEST(BvhValidity, LyingFrameCountAllocatesNothingHuge) {
   // 10^15 frames x 9 channels would need 72 PB; the reader must stop at the text's end.
-  expect_input_error(two_joints("Frames: 1000000000000000\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n"), 20, "fewer");
-  expect_input_error(two_joints("Frames: 99999999999999999999999\nFrame Time: 0.1\n"), 17, "frame count");
+  expect_input_error(two_joints("Frames: 1000000000000000\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n"),
+                     20, "fewer");
+  expect_input_error(two_joints("Frames: 99999999999999999999999\nFrame Time: 0.1\n"), 17,
+                     "frame count");
   expect_input_error(two_joints("Frames: -3\nFrame Time: 0.1\n"), 17, "frame count");
 }
 
@@ -235,8 +252,9 @@ TEST(BvhParse, EveryEulerOrder) {
   const char* orders[6][3] = {{"X", "Y", "Z"}, {"X", "Z", "Y"}, {"Y", "X", "Z"},
                               {"Y", "Z", "X"}, {"Z", "X", "Y"}, {"Z", "Y", "X"}};
   for (const auto& o : orders) {
-    const std::string text = std::string("HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 3 ") + o[0] + "rotation " +
-                             o[1] + "rotation " + o[2] + "rotation\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n10 20 30\n";
+    const std::string text = std::string("HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 3 ") + o[0] +
+                             "rotation " + o[1] + "rotation " + o[2] +
+                             "rotation\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n10 20 30\n";
     const RawClip clip = parse_bvh(text, "order");
     ASSERT_EQ(clip.joints[0].channels.size(), 3u);
     for (int k = 0; k < 3; ++k) {
@@ -252,7 +270,8 @@ TEST(BvhParse, ChannelSubsetsAndZeroLengthJoints) {
   const std::string text =
       "HIERARCHY\nROOT Root\n{\n OFFSET 1 2 3\n CHANNELS 2 Zposition Xposition\n"
       " JOINT Fixed\n {\n  OFFSET 0 0 0\n"
-      "  JOINT Hinge\n  {\n   OFFSET 0 0 0\n   CHANNELS 1 Yrotation\n   End Site\n   {\n    OFFSET 0 0 0\n   }\n  }\n"
+      "  JOINT Hinge\n  {\n   OFFSET 0 0 0\n   CHANNELS 1 Yrotation\n   End Site\n   {\n    OFFSET "
+      "0 0 0\n   }\n  }\n"
       " }\n}\nMOTION\nFrames: 1\nFrame Time: 0.5\n7 8 9\n";
   const RawClip clip = parse_bvh(text, "subset");
   ASSERT_EQ(clip.joints.size(), 3u);
@@ -291,10 +310,27 @@ TEST(BvhParse, NumbersMatchFromChars) {
   // bit for bit, for every form: signs, leading/trailing dots, long mantissas
   // (fast path off), exponents inside and outside +-22.
   std::mt19937_64 rng(11);
-  std::vector<std::string> numbers = {"0",      "-0",     "+0.0",   ".5",    "-.5",   "5.",     "+7",
-                                      "1e-05",  "1E+3",   "-2.5e+2", "9007199254740993", "0.1",  "1e22",
-                                      "1e23",   "123456789012345678901234567890", "4.9e-324", "1.7976931348623157e308",
-                                      "0.000000000000000000000001234", "00012.50", "-1e-22", "3e-23"};
+  std::vector<std::string> numbers = {"0",
+                                      "-0",
+                                      "+0.0",
+                                      ".5",
+                                      "-.5",
+                                      "5.",
+                                      "+7",
+                                      "1e-05",
+                                      "1E+3",
+                                      "-2.5e+2",
+                                      "9007199254740993",
+                                      "0.1",
+                                      "1e22",
+                                      "1e23",
+                                      "123456789012345678901234567890",
+                                      "4.9e-324",
+                                      "1.7976931348623157e308",
+                                      "0.000000000000000000000001234",
+                                      "00012.50",
+                                      "-1e-22",
+                                      "3e-23"};
   for (int i = 0; i < 20000; ++i) {
     std::string s;
     if (rng() % 3 == 0) s += (rng() % 2) ? '-' : '+';
@@ -305,11 +341,13 @@ TEST(BvhParse, NumbersMatchFromChars) {
       s += '.';
       for (int d = 0; d < std::max(frac_digits, 1); ++d) s += static_cast<char>('0' + rng() % 10);
     }
-    if (rng() % 4 == 0) s += (rng() % 2 ? "e" : "E") + std::to_string(static_cast<int>(rng() % 61) - 30);
+    if (rng() % 4 == 0)
+      s += (rng() % 2 ? "e" : "E") + std::to_string(static_cast<int>(rng() % 61) - 30);
     numbers.push_back(s);
   }
-  std::string text = "HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\n}\nMOTION\nFrames: " +
-                     std::to_string(numbers.size()) + "\nFrame Time: 0.01\n";
+  std::string text =
+      "HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\n}\nMOTION\nFrames: " +
+      std::to_string(numbers.size()) + "\nFrame Time: 0.01\n";
   for (const std::string& n : numbers) text += n + "\n";
   const RawClip clip = parse_bvh(text, "numbers");
   ASSERT_EQ(clip.values.size(), numbers.size());
@@ -328,7 +366,8 @@ TEST(BvhParse, NumbersMatchFromChars) {
 TEST(BvhParse, SeveralRoots) {
   const std::string text =
       "HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n"
-      "JOINT A1\n{\nOFFSET 1 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\nEnd Site\n{\nOFFSET 1 0 0\n}\n}\n}\n"
+      "JOINT A1\n{\nOFFSET 1 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\nEnd Site\n{\nOFFSET 1 "
+      "0 0\n}\n}\n}\n"
       "ROOT B\n{\nOFFSET 5 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\n}\n"
       "MOTION\nFrames: 1\nFrame Time: 0.04\n1 2 3 4 5 6 7 8 9\n";
   const RawClip clip = parse_bvh(text, "roots");
@@ -344,7 +383,8 @@ TEST(BvhParse, SeveralRoots) {
 
 TEST(BvhParse, ZeroFramesAndBraceOnNameLine) {
   const RawClip clip = parse_bvh(
-      "HIERARCHY\nROOT R {\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n JOINT C {\n  OFFSET 0 1 0\n }\n}\n"
+      "HIERARCHY\nROOT R {\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n JOINT C {\n "
+      " OFFSET 0 1 0\n }\n}\n"
       "MOTION\nFrames: 0\nFrame Time: 0.01\n",
       "zero");
   EXPECT_EQ(clip.joints.size(), 2u);
@@ -394,8 +434,10 @@ void expect_same_clip(const RawClip& a, const RawClip& b, double rel) {
 
 TEST(BvhRoundTrip, HandWritten) {
   const std::string texts[] = {
-      two_joints("Frames: 2\nFrame Time: 0.0333333\n1 2 3 4 5 6 7 8 9\n-1.25 2e-7 -3 4 5 6 7 8 123456.789\n"),
-      "HIERARCHY\nROOT A\n{\nOFFSET 1 2 3\nCHANNELS 2 Zposition Xposition\nJOINT B\n{\nOFFSET 0 0 0\n}\n}\n"
+      two_joints("Frames: 2\nFrame Time: 0.0333333\n1 2 3 4 5 6 7 8 9\n-1.25 2e-7 -3 4 5 6 7 8 "
+                 "123456.789\n"),
+      "HIERARCHY\nROOT A\n{\nOFFSET 1 2 3\nCHANNELS 2 Zposition Xposition\nJOINT B\n{\nOFFSET 0 0 "
+      "0\n}\n}\n"
       "ROOT C\n{\nOFFSET 0 0 0\nCHANNELS 1 Yrotation\nEnd Site\n{\nOFFSET 0 0 1\n}\n}\n"
       "MOTION\nFrames: 1\nFrame Time: .0083333\n+1 -.5 1e-05\n"};
   for (const std::string& text : texts) {
@@ -434,17 +476,18 @@ TEST(BvhRoundTrip, WriterRejectsBrokenClips) {
   EXPECT_THROW((void)write_bvh(nan_value), InputError);
   RawClip short_values = clip;
   short_values.values.pop_back();
-  EXPECT_THROW((void)write_bvh(short_values), InputError);
+  EXPECT_THROW((void)write_bvh(short_values), std::invalid_argument);
   RawClip bad_parent = clip;
   bad_parent.joints[0].parent = 1;
-  EXPECT_THROW((void)write_bvh(bad_parent), InputError);
+  EXPECT_THROW((void)write_bvh(bad_parent), std::invalid_argument);
   RawClip bad_name = clip;
   bad_name.joints[1].name = "a\nb";
   EXPECT_THROW((void)write_bvh(bad_name), InputError);
 }
 
 TEST(BvhRoundTrip, WriteFileIsAtomicAndReadable) {
-  const RawClip clip = parse_bvh(two_joints("Frames: 1\nFrame Time: 0.01\n1 2 3 4 5 6 7 8 9\n"), "f");
+  const RawClip clip =
+      parse_bvh(two_joints("Frames: 1\nFrame Time: 0.01\n1 2 3 4 5 6 7 8 9\n"), "f");
   const auto dir = test::temp_dir("bvh-write");
   const auto path = dir / "out.bvh";
   write_bvh_file(clip, path);
@@ -494,14 +537,18 @@ double max_world_difference_m(const RawClip& a, const RawClip& b, double scale_m
   WorldPose wa, wb;
   std::vector<Eigen::Vector3d> ea, eb;
   for (std::size_t f = 0; f < std::min(ma.frame_count, mb.frame_count); ++f) {
-    wa.positions_m.assign(ma.world_positions_m.begin() + static_cast<std::ptrdiff_t>(f * ma.joint_count()),
-                          ma.world_positions_m.begin() + static_cast<std::ptrdiff_t>((f + 1) * ma.joint_count()));
-    wa.rotations.assign(ma.world_rotations.begin() + static_cast<std::ptrdiff_t>(f * ma.joint_count()),
-                        ma.world_rotations.begin() + static_cast<std::ptrdiff_t>((f + 1) * ma.joint_count()));
-    wb.positions_m.assign(mb.world_positions_m.begin() + static_cast<std::ptrdiff_t>(f * mb.joint_count()),
-                          mb.world_positions_m.begin() + static_cast<std::ptrdiff_t>((f + 1) * mb.joint_count()));
-    wb.rotations.assign(mb.world_rotations.begin() + static_cast<std::ptrdiff_t>(f * mb.joint_count()),
-                        mb.world_rotations.begin() + static_cast<std::ptrdiff_t>((f + 1) * mb.joint_count()));
+    wa.positions_m.assign(
+        ma.world_positions_m.begin() + static_cast<std::ptrdiff_t>(f * ma.joint_count()),
+        ma.world_positions_m.begin() + static_cast<std::ptrdiff_t>((f + 1) * ma.joint_count()));
+    wa.rotations.assign(
+        ma.world_rotations.begin() + static_cast<std::ptrdiff_t>(f * ma.joint_count()),
+        ma.world_rotations.begin() + static_cast<std::ptrdiff_t>((f + 1) * ma.joint_count()));
+    wb.positions_m.assign(
+        mb.world_positions_m.begin() + static_cast<std::ptrdiff_t>(f * mb.joint_count()),
+        mb.world_positions_m.begin() + static_cast<std::ptrdiff_t>((f + 1) * mb.joint_count()));
+    wb.rotations.assign(
+        mb.world_rotations.begin() + static_cast<std::ptrdiff_t>(f * mb.joint_count()),
+        mb.world_rotations.begin() + static_cast<std::ptrdiff_t>((f + 1) * mb.joint_count()));
     end_site_positions(ma.skeleton, wa, ea);
     end_site_positions(mb.skeleton, wb, eb);
     for (std::size_t j = 0; j < ma.joint_count(); ++j) {
@@ -600,8 +647,8 @@ TEST(BvhExport, BandaiNamcoLiftsHipsMotionToStaticRoot) {
   const RawClip back = parse_bvh(write_bvh(e), "back");
   const double written_m = max_world_difference_m(clip, back, 0.01, {"joint_Root"});
   EXPECT_LT(written_m, 1e-6);
-  std::printf("  largest world position change: exported %.3g m, written and read back %.3g m\n", exported_m,
-              written_m);
+  std::printf("  largest world position change: exported %.3g m, written and read back %.3g m\n",
+              exported_m, written_m);
 }
 
 TEST(BvhExport, CmuKeepsAllWorldPositions) {
@@ -614,8 +661,8 @@ TEST(BvhExport, CmuKeepsAllWorldPositions) {
   const RawClip back = parse_bvh(write_bvh(e), "back");
   const double written_m = max_world_difference_m(clip, back, unit_scale_m(LengthUnit::cmu));
   EXPECT_LT(written_m, 1e-6);
-  std::printf("  largest world position change: exported %.3g m, written and read back %.3g m\n", exported_m,
-              written_m);
+  std::printf("  largest world position change: exported %.3g m, written and read back %.3g m\n",
+              exported_m, written_m);
 }
 
 // ---------------------------------------------------------------------------
@@ -624,7 +671,8 @@ TEST(BvhExport, CmuKeepsAllWorldPositions) {
 
 void expect_window_equals_full(const std::string& text, const RawClip& full) {
   for (std::size_t first = 0; first <= full.frame_count + 1; ++first)
-    for (std::size_t count : {std::size_t{0}, std::size_t{1}, std::size_t{5}, full.frame_count + 3}) {
+    for (std::size_t count :
+         {std::size_t{0}, std::size_t{1}, std::size_t{5}, full.frame_count + 3}) {
       const BvhWindow w = parse_bvh_window(text, "w.bvh", first, count);
       EXPECT_EQ(w.file_frame_count, full.frame_count);
       EXPECT_EQ(w.first_frame, std::min(first, full.frame_count));
@@ -647,8 +695,9 @@ TEST(BvhWindow, EqualsWholeParseWithBlankLines) {
       "\t-1 -2 -3 -4 -5 -6 -7 -8 -9\r\n\n1e-3 2 3 4 5 6 7 8 +9\n\n");
   expect_window_equals_full(text, parse_bvh(text, "w.bvh"));
   // Lines past the window are not read: a bad last line goes unnoticed.
-  const std::string bad = two_joints("Frames: 3\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n"
-                                     "1 2 3 4 5 6 7 8 9\nnot numbers\n");
+  const std::string bad = two_joints(
+      "Frames: 3\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n"
+      "1 2 3 4 5 6 7 8 9\nnot numbers\n");
   EXPECT_EQ(parse_bvh_window(bad, "w.bvh", 0, 2).clip.frame_count, 2u);
   EXPECT_THROW((void)parse_bvh_window(bad, "w.bvh", 1, 2), InputError);
 }
@@ -663,7 +712,8 @@ TEST(BvhWindow, EqualsWholeParseOnRealFiles) {
     ASSERT_TRUE(in) << path;
     const RawClip full = parse_bvh(text, path.string());
     ASSERT_GT(full.frame_count, 10u);
-    for (std::size_t first : {std::size_t{0}, std::size_t{3}, full.frame_count / 2, full.frame_count - 2}) {
+    for (std::size_t first :
+         {std::size_t{0}, std::size_t{3}, full.frame_count / 2, full.frame_count - 2}) {
       const BvhWindow w = parse_bvh_window(text, path.string(), first, 5);
       ASSERT_EQ(w.clip.frame_count, std::min<std::size_t>(5, full.frame_count - first));
       for (std::size_t i = 0; i < w.clip.values.size(); ++i)

@@ -47,10 +47,15 @@ none of each kind, which holds for the CMU and Bandai Namco files.
 
 import builtins
 import json
+import os
 import re
 import sys
 
 import bpy
+
+# Blender does not put the script's folder on the module path.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bvh_header import read_motion_header  # noqa: E402
 
 
 def _parse_args(argv):
@@ -78,26 +83,6 @@ def _parse_args(argv):
     return positional[0], frames, out_path
 
 
-def _header(path):
-    """Frames and Frame Time from the MOTION header (read here, not by Blender)."""
-    frame_count = None
-    frame_time = None
-    with builtins.open(path, "r", encoding="utf-8", errors="replace") as f:
-        in_motion = False
-        for line in f:
-            words = line.split()
-            if not words:
-                continue
-            if words[0].upper() == "MOTION":
-                in_motion = True
-            elif in_motion and words[0].lower() == "frames:":
-                frame_count = int(words[1])
-            elif in_motion and words[0].lower() == "frame" and len(words) >= 3:
-                frame_time = float(words[2])
-                break
-    return frame_count, frame_time
-
-
 def _open_without_universal_newlines(file, mode="r", *args, **kwargs):
     if isinstance(mode, str) and "U" in mode:
         mode = mode.replace("U", "") or "r"
@@ -106,7 +91,7 @@ def _open_without_universal_newlines(file, mode="r", *args, **kwargs):
 
 def main():
     path, requested, out_path = _parse_args(sys.argv)
-    frame_count, frame_time = _header(path)
+    frame_count, frame_time = read_motion_header(path)  # read here, not by Blender
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     import addon_utils

@@ -27,6 +27,8 @@ import subprocess
 import sys
 import tempfile
 
+from bvh_header import read_motion_header
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -47,15 +49,10 @@ def run(cmd, what):
 
 def header_frame_count(path):
     """'Frames:' from the MOTION header (only used when --bin is absent)."""
-    with open(path, "r", encoding="utf-8", errors="replace") as f:
-        in_motion = False
-        for line in f:
-            words = line.split()
-            if words and words[0].upper() == "MOTION":
-                in_motion = True
-            elif in_motion and words and words[0].lower() == "frames:":
-                return int(words[1])
-    raise ToolError("%s: no 'Frames:' line" % path)
+    frame_count, _ = read_motion_header(path)
+    if frame_count is None:
+        raise ToolError("%s: no 'Frames:' line" % path)
+    return frame_count
 
 
 def sample_frames(path, count, n_random, seed, explicit):

@@ -71,6 +71,12 @@ RawClip read_bvh_file(const std::filesystem::path& path);
 /// BVH text for a clip. Every joint's channels are written as they are in
 /// `clip` (so a parsed clip round-trips exactly to print precision).
 /// `precision`: significant digits for numbers (default keeps 1e-6 relative).
+/// A clip of a broken shape (no joint, a parent after its child, channels past
+/// the frame row or more than 6 on a joint, values not frame_count x
+/// channel_count) throws std::invalid_argument; a joint name BVH cannot hold
+/// (empty, blank at either end, braces, line breaks, binary bytes), a
+/// non-finite value or a frame time that is not positive and finite throws
+/// InputError(clip.source, 0, ...).
 std::string write_bvh(const RawClip& clip, int precision = 9);
 
 /// Writes to a file (through a temporary file + rename); throws InputError on failure.
@@ -93,7 +99,8 @@ namespace mocap {
 /// frame-0 translation as OFFSET. World positions of every joint and End Site
 /// are kept exactly, except those of that chain's ancestors (which move with
 /// the root). Channels keep their values; a root without position channels
-/// gets its OFFSET as position values.
+/// gets its OFFSET as position values. A clip of a broken shape throws as in
+/// write_bvh.
 RawClip to_export_layout(const RawClip& clip, double tolerance = 1e-4);
 
 }  // namespace mocap

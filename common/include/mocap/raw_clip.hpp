@@ -2,8 +2,10 @@
 // RawClip: a capture clip exactly as read from a file (offline type).
 //
 // It keeps the file's own units, channel order and Euler degrees; nothing is
-// converted. build_skeleton() (skeleton.hpp) turns it into the runtime
-// Skeleton in metres, and clip_from_raw() (kinematics.hpp) into local poses.
+// converted. parse_bvh() (bvh.hpp) makes one from BVH text and write_bvh()
+// writes it back; build_skeleton() (skeleton.hpp) turns it into the runtime
+// Skeleton in metres, clip_motion_from_raw() (kinematics.hpp) into local and
+// world poses, and clip_locals_from_raw() into local poses only.
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
@@ -13,7 +15,14 @@
 namespace mocap {
 
 /// One BVH channel. Positions are in the file's length unit, rotations in degrees.
-enum class Channel : std::uint8_t { Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation };
+enum class Channel : std::uint8_t {
+  Xposition,
+  Yposition,
+  Zposition,
+  Xrotation,
+  Yrotation,
+  Zrotation
+};
 
 /// "Xposition", ... as written in BVH.
 const char* channel_name(Channel c);
@@ -51,8 +60,9 @@ struct RawClip {
   /// frame_count x channel_count, row-major, file units and degrees.
   std::vector<double> values;
 
+  /// Row of frame f (f < frame_count, unchecked): channel_count values.
   const double* frame(std::size_t f) const { return values.data() + f * channel_count; }
-  /// -1 if absent.
+  /// Index of the first joint named exactly `name` (case-sensitive), -1 if absent.
   int find_joint(const std::string& name) const;
 };
 
