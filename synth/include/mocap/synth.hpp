@@ -25,7 +25,7 @@
 //    exact_lookahead is off) is kept, provided it slides
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
-//    Optionally followed by refine_transition (SupplementParams::
+//    Optionally followed by refine_transition (refine.hpp; SupplementParams::
 //    refine_iterations): L-BFGS on every inserted frame at once, exact g.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
@@ -210,76 +210,10 @@ std::size_t choose_transition_frames(const GapProblem& gap, const SupplementPara
 /// A*-based supplementation (header). Throws std::invalid_argument on a bad gap.
 std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
                                          SupplementStats* stats = nullptr);
-/// Refinement of a transition (docs/synthesis.md "Refinement"): at most
-/// `iterations` quasi-Newton iterations (L-BFGS, the last 10 pairs) on all
-/// inserted frames at once (each frame's root position, m, and a rotation
-/// vector, rad, on every joint's local rotation but the dummies above the
-/// root), minimising the transition's g (measure_transition's energy_J).
-/// Gradients by forward differences (1e-6), each recomputing only the steps
-/// the varied frame touches; a step is accepted only when the whole path's g
-/// is lower (Armijo condition, at most 30 halvings) and, with `keep_limits`,
-/// its foot sliding is at most max(that of `frames` as given,
-/// `foot_sliding_limit_m`), its peak joint angular speed at most max(that of
-/// `frames` as given, end_steps_peak_angular_speed(gap),
-/// `angular_speed_limit_radps`), and it has no more range
-/// violations than `frames` as given: the result is never worse than the
-/// input in g (nor, with the limits, in sliding, speed or violations). Stops
-/// early when no step along the gradient is accepted. With `smoothing_J` = s > 0, a continuation: a
-/// quarter of the iterations each on g smoothed at s, s / 10 and s / 100 joules
-/// (NewtonEulerWorkspace::smoothing_J: L-BFGS stalls at the kinks of the
-/// exact g, its terms being absolute values), each stage's frames kept only
-/// if their exact g is lower and within the limits, then the rest on the
-/// exact g. Then at most `polish_sweeps` sweeps of coordinate polishing on
-/// the exact g (each variable alone, +-d with d per variable doubling on a
-/// kept move and halving otherwise, from 1e-2 to 1e-5; moves evaluated and
-/// applied locally, under the same limits; serial), with
-/// `polish_max_window` > 1 also of runs of 2, 4, ... consecutive frames
-/// moved together, with `polish_segment_moves` also of single segments
-/// turned alone, and with `polish_smoothing_J` > 0 after a first pass on g
-/// smoothed at that level (kept only if the exact g is lower). The sliding
-/// limit has 1e-10 m of slack (the same sum as measure_transition's); the local
-/// updates are checked against a rebuild after each pass (std::logic_error
-/// if they disagree: a bug, not an input error). `steps` counts accepted
-/// iterations and kept moves. Deterministic; an iteration costs about frames x (3 + 3 x
-/// joints) local re-evaluations, the frames' in parallel (TBB; the result
-/// does not depend on the thread count). `frames` is replaced by the result. Throws
-/// std::invalid_argument on a bad gap or frame.
 /// Largest local joint angular speed (TransitionMeasures::peak_angular_speed_radps's
 /// definition), rad/s, of the captured steps at the gap's ends, S_-1 -> S_0
 /// and S_G -> S_G+1: how fast the clips themselves turn a joint there.
 double end_steps_peak_angular_speed(const GapProblem& gap);
-
-struct RefineOptions {
-  std::size_t iterations = 0;
-  /// Metres; the input's own sliding is always allowed.
-  double foot_sliding_limit_m = 0.0;
-  /// false: no sliding, speed or range condition (measures how low g can go).
-  bool keep_limits = true;
-  /// Joules, >= 0 (finite); 0: no smoothed stages.
-  double smoothing_J = 0.0;
-  /// After the iterations: at most this many sweeps of coordinate polishing
-  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
-  std::size_t polish_sweeps = 0;
-  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
-  /// and end_steps_peak_angular_speed(gap) are always allowed.
-  double angular_speed_limit_radps = 0.0;
-  /// Polishing also moves one variable of w consecutive frames together,
-  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
-  std::size_t polish_max_window = 1;
-  /// Polishing also turns each segment alone (its joint one way, the
-  /// joint's children back).
-  bool polish_segment_moves = false;
-  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
-  /// level first, then the exact pass.
-  double polish_smoothing_J = 0.0;
-};
-struct RefineResult {
-  std::size_t steps = 0;  // accepted iterations + kept polishing moves
-  double energy_before_J = 0.0;
-  double energy_after_J = 0.0;
-};
-RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
-                               const RefineOptions& options);
 
 /// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
