@@ -51,7 +51,8 @@ ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const Inde
   ResolvedQueryFrame out;
   out.root_m = pose.given.root_position_m;
   out.heading_rad = pose.given.root_heading_rad;
-  for (const auto& [j, rot] : pose.given.joint_rotations) out.joints.emplace_back(j, rot.normalized());
+  for (const auto& [j, rot] : pose.given.joint_rotations)
+    out.joints.emplace_back(j, rot.normalized());
   return out;
 }
 
@@ -73,7 +74,8 @@ SynthFrame complete_query(const SynthSkeleton& sk, const ResolvedQueryFrame& q, 
   for (std::size_t k = 0; k < 3; ++k)
     if (q.root_m[k])
       out.root_position_m[static_cast<Eigen::Index>(k)] =
-          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) + *q.root_m[k];
+          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) +
+          *q.root_m[k];
   return out;
 }
 
@@ -81,7 +83,8 @@ std::vector<Channel> parse_channels(const std::string& s) {
   std::vector<Channel> out;
   std::istringstream in(s);
   std::string w;
-  static const char* names[] = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+  static const char* names[] = {"Xposition", "Yposition", "Zposition",
+                                "Xrotation", "Yrotation", "Zrotation"};
   while (in >> w)
     for (int k = 0; k < 6; ++k)
       if (w == names[k]) out.push_back(static_cast<Channel>(k));
@@ -90,8 +93,8 @@ std::vector<Channel> parse_channels(const std::string& s) {
 
 }  // namespace
 
-std::vector<RankedPair> read_search_results(const std::filesystem::path& path, const std::string& query_id,
-                                            const Index& index) {
+std::vector<PairResults> read_search_results(const std::filesystem::path& path,
+                                             const std::string& query_id, const Index& index) {
   std::ifstream in(path);
   if (!in) throw InputError(path.string(), 0, "cannot read the search results");
   std::string line;
@@ -111,16 +114,18 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
     const std::string id = j["id"].get<std::string>();
     ids.push_back(id);
     if (id != query_id) continue;
-    if (j.contains("error")) throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
-    if (!j.contains("pairs") || !j["pairs"].is_array()) throw InputError(path.string(), n, "pairs: expected an array");
-    std::vector<RankedPair> pairs;
+    if (j.contains("error"))
+      throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
+    if (!j.contains("pairs") || !j["pairs"].is_array())
+      throw InputError(path.string(), n, "pairs: expected an array");
+    std::vector<PairResults> pairs;
     try {
       for (const auto& jp : j["pairs"]) {
-        RankedPair p;
+        PairResults p;
         p.from = jp.at("from").get<std::size_t>();
         p.to = jp.at("to").get<std::size_t>();
         for (const auto& jr : jp.at("results")) {
-          RankedMotion r;
+          SearchResult r;
           r.rank = jr.at("rank").get<std::size_t>();
           r.clip_index = jr.at("clip_index").get<std::size_t>();
           r.clip = jr.at("clip").get<std::string>();
@@ -134,13 +139,15 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
               (index.clips()[r.clip_index].path != r.clip &&
                base_name(index.clips()[r.clip_index].path) != base_name(r.clip)))
             throw InputError(path.string(), n,
-                             "unknown clip \"" + r.clip + "\" (clip_index " + std::to_string(r.clip_index) +
-                                 ") in index " + index.path().string());
+                             "unknown clip \"" + r.clip + "\" (clip_index " +
+                                 std::to_string(r.clip_index) + ") in index " +
+                                 index.path().string());
           const std::size_t fc = index.clips()[r.clip_index].frame_count;
           if (!(r.start_frame < r.end_frame && r.end_frame < fc))
             throw InputError(path.string(), n,
-                             "frames " + std::to_string(r.start_frame) + ".." + std::to_string(r.end_frame) +
-                                 " out of range for \"" + r.clip + "\" (" + std::to_string(fc) + " frames)");
+                             "frames " + std::to_string(r.start_frame) + ".." +
+                                 std::to_string(r.end_frame) + " out of range for \"" + r.clip +
+                                 "\" (" + std::to_string(fc) + " frames)");
           p.results.push_back(std::move(r));
         }
         pairs.push_back(std::move(p));
@@ -152,8 +159,9 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
   }
   std::string known;
   for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
-  throw InputError(path.string(), 0, "no results for query \"" + query_id + "\" (ids in the file: " +
-                                         (known.empty() ? "none" : known) + ")");
+  throw InputError(path.string(), 0,
+                   "no results for query \"" + query_id +
+                       "\" (ids in the file: " + (known.empty() ? "none" : known) + ")");
 }
 
 Pick parse_pick(const std::string& text) {
@@ -169,30 +177,36 @@ Pick parse_pick(const std::string& text) {
   return p;
 }
 
-SynthResult synthesize(const Index& index, const Query& query, const std::vector<RankedPair>& ranked,
-                       const SynthOptions& options, std::optional<SynthSkeleton>& skeleton_out) {
+SynthResult synthesize(const Index& index, const Query& query,
+                       const std::vector<PairResults>& ranked, const SynthOptions& options,
+                       std::optional<SynthSkeleton>& skeleton_out) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::string src = "<query " + query.id + ">";
   const std::size_t H = query.frames.size();
   if (H < 2) throw InputError(src, 0, "frames: a query needs at least 2 frames");
   if (ranked.size() != H - 1)
-    throw InputError(src, 0, "the search results have " + std::to_string(ranked.size()) + " pairs, the query " +
-                                 std::to_string(H - 1));
+    throw InputError(src, 0,
+                     "the search results have " + std::to_string(ranked.size()) +
+                         " pairs, the query " + std::to_string(H - 1));
   // Choices: rank 1 unless picked.
   std::vector<std::size_t> rank(H - 1, 1);
   for (const Pick& p : options.picks) {
     if (p.pair > H - 1)
-      throw InputError("--pick", 0, "pair " + std::to_string(p.pair) + " out of range (the query has " +
-                                        std::to_string(H - 1) + " pairs)");
+      throw InputError("--pick", 0,
+                       "pair " + std::to_string(p.pair) + " out of range (the query has " +
+                           std::to_string(H - 1) + " pairs)");
     rank[p.pair - 1] = p.rank;
   }
   SynthResult res;
   for (std::size_t h = 0; h + 1 < H; ++h) {
     const auto& rs = ranked[h].results;
-    auto it = std::find_if(rs.begin(), rs.end(), [&](const RankedMotion& m) { return m.rank == rank[h]; });
+    auto it = std::find_if(rs.begin(), rs.end(),
+                           [&](const SearchResult& m) { return m.rank == rank[h]; });
     if (it == rs.end())
-      throw InputError("--pick", 0, "pair " + std::to_string(h + 1) + " has no result of rank " +
-                                        std::to_string(rank[h]) + " (" + std::to_string(rs.size()) + " results)");
+      throw InputError("--pick", 0,
+                       "pair " + std::to_string(h + 1) + " has no result of rank " +
+                           std::to_string(rank[h]) + " (" + std::to_string(rs.size()) +
+                           " results)");
     res.chosen.push_back(*it);
   }
   // Target skeleton: the first chosen clip's.
@@ -201,12 +215,14 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
   // same canonical body part); refused when a target joint cannot be mapped.
   const Skeleton& target = index.skeletons()[c0.skeleton].skeleton;
   std::map<std::uint32_t, std::vector<int>> joint_maps;
-  for (const RankedMotion& m : res.chosen) {
+  for (const SearchResult& m : res.chosen) {
     const IndexClip& c = index.clips()[m.clip_index];
     if (std::abs(c.frame_time_s - c0.frame_time_s) > 1e-9)
-      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" has frame time " + std::to_string(c.frame_time_s) +
-                                   " s, the target (\"" + base_name(c0.path) + "\") " +
-                                   std::to_string(c0.frame_time_s) + " s: pick clips of one frame rate");
+      throw InputError(src, 0,
+                       "clip \"" + base_name(c.path) + "\" has frame time " +
+                           std::to_string(c.frame_time_s) + " s, the target (\"" +
+                           base_name(c0.path) + "\") " + std::to_string(c0.frame_time_s) +
+                           " s: pick clips of one frame rate");
     if (c.skeleton == c0.skeleton || joint_maps.count(c.skeleton)) continue;
     const Skeleton& other = index.skeletons()[c.skeleton].skeleton;
     std::vector<int> map(target.joint_count(), -1);
@@ -215,12 +231,15 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
       int o = other.find(target.names[j]);
       if (o < 0) o = find_joint_by_alias(other, target.names[j]);
       map[j] = o;
-      if (o < 0 && target.channels[j].rotation_count > 0) missing += (missing.empty() ? "" : ", ") + target.names[j];
+      if (o < 0 && target.channels[j].rotation_count > 0)
+        missing += (missing.empty() ? "" : ", ") + target.names[j];
     }
     if (!missing.empty())
-      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
-                                   ", which cannot be mapped to the target skeleton " + std::to_string(c0.skeleton) +
-                                   " (from \"" + base_name(c0.path) + "\"): no joint for " + missing);
+      throw InputError(
+          src, 0,
+          "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
+              ", which cannot be mapped to the target skeleton " + std::to_string(c0.skeleton) +
+              " (from \"" + base_name(c0.path) + "\"): no joint for " + missing);
     joint_maps[c.skeleton] = std::move(map);
   }
   auto piece_frame = [&](std::size_t clip, std::size_t f) {
@@ -231,7 +250,8 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
     mapped.root_position_m = fr.root_position_m;
     mapped.local_rotations.assign(target.joint_count(), Eigen::Quaterniond::Identity());
     for (std::size_t j = 0; j < target.joint_count(); ++j)
-      if (it->second[j] >= 0) mapped.local_rotations[j] = fr.local_rotations[static_cast<std::size_t>(it->second[j])];
+      if (it->second[j] >= 0)
+        mapped.local_rotations[j] = fr.local_rotations[static_cast<std::size_t>(it->second[j])];
     return mapped;
   };
   skeleton_out.emplace(make_synth_skeleton(index, c0.skeleton, res.chosen[0].clip_index));
@@ -244,15 +264,17 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
   const RangeOfMotion rom = range_of_motion(index, sk, clips);
   std::vector<ResolvedQueryFrame> qf;
   QueryBvhCache bvh_cache;
-  for (std::size_t i = 0; i < H; ++i) qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
+  for (std::size_t i = 0; i < H; ++i)
+    qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
   const double T = query.transition_time_s;
 
   // Place the partial motions.
   std::vector<std::vector<SynthFrame>> pieces(H - 1);
   for (std::size_t h = 0; h + 1 < H; ++h) {
-    const RankedMotion& m = res.chosen[h];
+    const SearchResult& m = res.chosen[h];
     std::vector<SynthFrame> raw;
-    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f) raw.push_back(piece_frame(m.clip_index, f));
+    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
+      raw.push_back(piece_frame(m.clip_index, f));
     Placement p;
     const bool world_xz = !query.relative && qf[h].root_m[0] && qf[h].root_m[2];
     if (h > 0 && !world_xz) {
@@ -274,7 +296,8 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
     } else {
       const auto& pc = pieces[h - 1];
       const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
-      res.query_frames.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
+      res.query_frames.push_back(
+          complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
     }
   }
   // The gaps: into each partial motion from its query frame and out of it
@@ -321,7 +344,8 @@ SynthResult synthesize(const Index& index, const Query& query, const std::vector
     }
     tr.time_ms = ms_since(ts);
     tr.measures = measure_transition(t.gap, t.frames);
-    for (TransitionMethod other : {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
+    for (TransitionMethod other :
+         {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
       if (other == options.method || other == TransitionMethod::astar) continue;
       const auto bf = other == TransitionMethod::slerp
                           ? slerp_transition(t.gap, t.frames.size())
@@ -384,8 +408,9 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       if (static_cast<int>(j) == sk.root_joint) {
         const int p = s.parents[j];
         t = p < 0 ? fr.root_position_m
-                  : Eigen::Vector3d(w.rotations[static_cast<std::size_t>(p)].conjugate() *
-                                    (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
+                  : Eigen::Vector3d(
+                        w.rotations[static_cast<std::size_t>(p)].conjugate() *
+                        (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
       }
       t /= unit;
       const auto& cm = s.channels[j];
@@ -393,8 +418,10 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       if (cm.rotation_count == 3) e = quaternion_to_euler(fr.local_rotations[j], cm.rotation_axis);
       std::size_t col = raw.joints[j].first_column, rot_k = 0;
       for (Channel c : chans[j]) {
-        if (channel_is_rotation(c)) row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
-        else row[col++] = t[channel_axis(c)];
+        if (channel_is_rotation(c))
+          row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
+        else
+          row[col++] = t[channel_axis(c)];
       }
     }
   }

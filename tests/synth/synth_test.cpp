@@ -236,8 +236,21 @@ TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
   mocap::Query q = mocap::parse_query_text(
       R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}]})", "q.json", 0,
       ".", "q");
-  mocap::RankedPair pair;
-  pair.results.push_back({1, w1, index.clips()[w1].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+  mocap::PairResults pair;
+  // A result of rank 1 for frames 5 .. 30 of `clip`.
+  const auto result = [&](std::size_t clip) {
+    mocap::SearchResult r;
+    r.rank = 1;
+    r.clip_index = clip;
+    r.clip = index.clips()[clip].path;
+    r.start_frame = 5;
+    r.end_frame = 30;
+    r.score_J = 1.0;
+    r.h_in_J = 0.5;
+    r.h_out_J = 0.5;
+    return r;
+  };
+  pair.results.push_back(result(w1));
   std::optional<mocap::SynthSkeleton> sk;
   mocap::SynthOptions opt;
   opt.picks = {{2, 1}};
@@ -250,8 +263,8 @@ TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
   mocap::Query q3 = mocap::parse_query_text(
       R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}, {"root_heading_deg": 0}]})",
       "q.json", 0, ".", "q");
-  mocap::RankedPair other;
-  other.results.push_back({1, cmu, index.clips()[cmu].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+  mocap::PairResults other;
+  other.results.push_back(result(cmu));
   try {
     mocap::synthesize(index, q3, {pair, other}, opt, sk);
     FAIL() << "clips of different frame rates accepted";
