@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mocap/synth_job.hpp"
+#include "mocap/synth_json.hpp"
 
 namespace mocap {
 namespace {
@@ -14,16 +15,6 @@ namespace {
 std::string base_name(const std::string& path) {
   const auto s = path.find_last_of('/');
   return s == std::string::npos ? path : path.substr(s + 1);
-}
-
-nlohmann::json measures_json(const TransitionMeasures& m) {
-  return {{"frames", m.frames},
-          {"g_J", m.energy_J},
-          {"h_J", m.approximate_energy_J},
-          {"foot_sliding_m", m.foot_sliding_m},
-          {"range_violations", m.range_violations},
-          {"peak_angular_speed_radps", m.peak_angular_speed_radps},
-          {"step_energies_J", m.step_energies_J}};
 }
 
 std::string esc(const std::string& s) {
@@ -165,15 +156,8 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                  {"segments", segs},
                  {"g_total_J", total},
                  {"step_energies_J", result.step_energies_J}};
-  j["parameters"] = {{"transition", transition_method_name(options.method)},
-                     {"max_states", options.params.max_states},
-                     {"cost_threshold_J", options.params.cost_threshold_J},
-                     {"refine_iterations", options.params.refine_iterations},
-                     {"refine_smoothing_J", options.params.refine_smoothing_J},
-                     {"refine_polish_sweeps", options.params.refine_polish_sweeps},
-                     {"refine_polish_window", options.params.refine_polish_window},
-                     {"refine_polish_segments", options.params.refine_polish_segments},
-                     {"refine_polish_smoothing_J", options.params.refine_polish_smoothing_J}};
+  j["parameters"] = supplement_params_json(options.params);
+  j["parameters"]["transition"] = transition_method_name(options.method);
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return j.dump(2) + "\n";
 }

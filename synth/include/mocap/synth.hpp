@@ -249,6 +249,16 @@ struct TransitionMeasures {
     double joint_J = 0.0;
     double residual_work_J = 0.0;
     double residual_impulse_J = 0.0;
+    /// Adds `o` term by term (sums over transitions).
+    EnergySplit& operator+=(const EnergySplit& o) {
+      h_J += o.h_J;
+      adjacent_J += o.adjacent_J;
+      contact_J += o.contact_J;
+      joint_J += o.joint_J;
+      residual_work_J += o.residual_work_J;
+      residual_impulse_J += o.residual_impulse_J;
+      return *this;
+    }
   } energy_split;
 };
 TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames);
