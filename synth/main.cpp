@@ -74,8 +74,7 @@ int main(int argc, char** argv) {
                               "expected astar, slerp or inertialize, got \"" + method + "\"");
     options.method = methods.at(method);
     if (options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
-    if (!(options.params.cost_threshold_J >= 0.0))
-      throw mocap::InputError("--cost-threshold", 0, "must be >= 0");
+    mocap::check_supplement_options(options.params);
     for (const auto& p : picks) options.picks.push_back(mocap::parse_pick(p));
 
     std::ifstream qin(query_path);

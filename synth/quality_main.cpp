@@ -77,6 +77,7 @@ int main(int argc, char** argv) {
   params.choose_length = !no_choose;
   params.refine_keep_limits = !refine_free;
   try {
+    mocap::check_supplement_options(params);
     const mocap::Index index = mocap::Index::open(index_path);
     // Clips by label value (index order), skeleton of the first.
     std::map<std::string, std::vector<std::size_t>> by_label;

@@ -1,10 +1,13 @@
 // The refinement options of mocap-synth and mocap-synth-quality (one
-// declaration for both tools; docs/synthesis.md "Refinement").
+// declaration for both tools; docs/synthesis.md "Refinement") and the check
+// of the supplementation values read from their command lines.
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstddef>
 
+#include "mocap/error.hpp"
 #include "mocap/synth.hpp"
 
 namespace mocap {
@@ -39,6 +42,17 @@ inline void add_refine_options(CLI::App& app, SupplementParams& params) {
                  "--refine-polish-window 8 --refine-polish-smoothing 0.3")
       ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
+}
+
+/// The values read from the command line that CLI11's ranges let through
+/// (NaN passes a range check): InputError naming the option. T_c must be a
+/// number >= 0 joules, the smoothing levels finite.
+inline void check_supplement_options(const SupplementParams& params) {
+  if (!(params.cost_threshold_J >= 0.0)) throw InputError("--cost-threshold", 0, "must be >= 0");
+  if (!std::isfinite(params.refine_smoothing_J))
+    throw InputError("--refine-smoothing", 0, "must be a finite number of joules >= 0");
+  if (!std::isfinite(params.refine_polish_smoothing_J))
+    throw InputError("--refine-polish-smoothing", 0, "must be a finite number of joules >= 0");
 }
 
 }  // namespace mocap
