@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
   params.plant_feet = !no_plant;
   params.exact_lookahead = !h_lookahead;
   params.choose_length = !no_choose;
-  params.refine_keep_limits = !refine_free;
+  params.refine.keep_limits = !refine_free;
   try {
     mocap::check_supplement_options(params);
     const mocap::Index index = mocap::Index::open(index_path);

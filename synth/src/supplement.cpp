@@ -71,19 +71,16 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   st = SupplementStats{};
   std::vector<SynthFrame> frames =
       synth_detail::astar_search(gap, params, choose_transition_frames(gap, params), &st);
-  if (params.refine_iterations > 0 || params.refine_polish_sweeps > 0) {
+  if (params.refine.iterations > 0 || params.refine.polish_sweeps > 0) {
     // Feet may slide as much as the slerp transition of the same length's
     // (the search's own bound), not more; no joint may turn faster than in
     // that slerp, the search's path or the captured steps at either end.
     PathCache slerp_path;
     const std::vector<SynthFrame> slerp = slerp_transition(gap, frames.size());
     slerp_path.build_poses(gap, slerp);
-    const RefineOptions ro{
-        params.refine_iterations,        slerp_path.foot_sliding(gap),
-        params.refine_keep_limits,       params.refine_smoothing_J,
-        params.refine_polish_sweeps,     synth_detail::peak_angular_speed(gap, slerp),
-        params.refine_polish_window,     params.refine_polish_segments,
-        params.refine_polish_smoothing_J};
+    RefineOptions ro = params.refine;
+    ro.foot_sliding_limit_m = slerp_path.foot_sliding(gap);
+    ro.angular_speed_limit_radps = synth_detail::peak_angular_speed(gap, slerp);
     const RefineResult r = refine_transition(gap, frames, ro);
     st.refine_steps = r.steps;
     st.refine_gain_J = r.energy_before_J - r.energy_after_J;

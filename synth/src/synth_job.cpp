@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
+#include <utility>
 
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
@@ -31,51 +32,44 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// A query frame on the target skeleton: the DOFs it gives, from the search
-// library's resolver (mocap/query_pose.hpp), errors naming the query file.
-struct ResolvedQueryFrame {
-  std::array<std::optional<double>, 3> root_m;
-  std::optional<double> heading_rad;
-  std::vector<std::pair<int, Eigen::Quaterniond>> joints;
-};
-
-ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const Index& index,
-                                       const SynthSkeleton& sk, QueryBvhCache& cache,
-                                       const std::string& source) {
+// Query frame i on the target skeleton: the DOFs it gives (the search
+// library's resolver, mocap/query_pose.hpp; joint rotations normalised),
+// errors naming the query file.
+PartialPoseSpec resolve_query_frame(const Query& q, std::size_t i, const Index& index,
+                                    const SynthSkeleton& sk, QueryBvhCache& cache,
+                                    const std::string& source) {
   ResolvedQueryPose pose;
   try {
     pose = resolve_query_pose(q, i, index.skeletons()[sk.index_skeleton], sk.model, cache);
   } catch (const InputError& e) {
     throw InputError(source, 0, e.detail());
   }
-  ResolvedQueryFrame out;
-  out.root_m = pose.given.root_position_m;
-  out.heading_rad = pose.given.root_heading_rad;
-  for (const auto& [j, rot] : pose.given.joint_rotations)
-    out.joints.emplace_back(j, rot.normalized());
+  PartialPoseSpec out = std::move(pose.given);
+  for (auto& [j, rot] : out.joint_rotations) rot = rot.normalized();
   return out;
 }
 
 // Q_F: F with the given DOFs replaced. `shift` is added to the horizontal
 // root position when the query does not give it.
-SynthFrame complete_query(const SynthSkeleton& sk, const ResolvedQueryFrame& q, const SynthFrame& f,
+SynthFrame complete_query(const SynthSkeleton& sk, const PartialPoseSpec& q, const SynthFrame& f,
                           bool relative, const Eigen::Vector3d& shift) {
   SynthFrame out = f;
-  for (const auto& [j, rot] : q.joints) out.local_rotations[static_cast<std::size_t>(j)] = rot;
-  if (q.heading_rad) {
+  for (const auto& [j, rot] : q.joint_rotations)
+    out.local_rotations[static_cast<std::size_t>(j)] = rot;
+  if (q.root_heading_rad) {
     Placement p;
-    p.yaw_rad = *q.heading_rad - root_heading(sk, out);
+    p.yaw_rad = *q.root_heading_rad - root_heading(sk, out);
     const Eigen::Vector3d keep = out.root_position_m;
     out = place_frame(sk, out, p);
     out.root_position_m = keep;
   }
-  const bool xz_given = q.root_m[0] && q.root_m[2];
+  const bool xz_given = q.root_position_m[0] && q.root_position_m[2];
   if (!xz_given) out.root_position_m += Eigen::Vector3d(shift.x(), 0.0, shift.z());
   for (std::size_t k = 0; k < 3; ++k)
-    if (q.root_m[k])
+    if (q.root_position_m[k])
       out.root_position_m[static_cast<Eigen::Index>(k)] =
           (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) +
-          *q.root_m[k];
+          *q.root_position_m[k];
   return out;
 }
 
@@ -262,7 +256,7 @@ SynthResult synthesize(const Index& index, const Query& query,
   // Range of motion: union over every clip of the target skeleton in the index.
   const std::vector<std::size_t>& clips = index.skeletons()[c0.skeleton].clips;
   const RangeOfMotion rom = range_of_motion(index, sk, clips);
-  std::vector<ResolvedQueryFrame> qf;
+  std::vector<PartialPoseSpec> qf;
   QueryBvhCache bvh_cache;
   for (std::size_t i = 0; i < H; ++i)
     qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
@@ -276,12 +270,12 @@ SynthResult synthesize(const Index& index, const Query& query,
     for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
       raw.push_back(piece_frame(m.clip_index, f));
     Placement p;
-    const bool world_xz = !query.relative && qf[h].root_m[0] && qf[h].root_m[2];
+    const bool world_xz = !query.relative && qf[h].root_position_m[0] && qf[h].root_position_m[2];
     if (h > 0 && !world_xz) {
       const auto& prev = pieces[h - 1];
       const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
       const Eigen::Vector3d vs = horizontal_root_velocity(raw[0], raw[1], dt);
-      const double* heading = qf[h].heading_rad ? &*qf[h].heading_rad : nullptr;
+      const double* heading = qf[h].root_heading_rad ? &*qf[h].root_heading_rad : nullptr;
       p = continuation_placement(sk, prev.back(), ve, raw[0], vs, T, heading);
     }
     for (SynthFrame& f : raw) f = place_frame(sk, f, p);

@@ -23,12 +23,12 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
 nlohmann::json supplement_params_json(const SupplementParams& params) {
   return {{"max_states", params.max_states},
           {"cost_threshold_J", params.cost_threshold_J},
-          {"refine_iterations", params.refine_iterations},
-          {"refine_smoothing_J", params.refine_smoothing_J},
-          {"refine_polish_sweeps", params.refine_polish_sweeps},
-          {"refine_polish_window", params.refine_polish_window},
-          {"refine_polish_segments", params.refine_polish_segments},
-          {"refine_polish_smoothing_J", params.refine_polish_smoothing_J}};
+          {"refine_iterations", params.refine.iterations},
+          {"refine_smoothing_J", params.refine.smoothing_J},
+          {"refine_polish_sweeps", params.refine.polish_sweeps},
+          {"refine_polish_window", params.refine.polish_max_window},
+          {"refine_polish_segments", params.refine.polish_segment_moves},
+          {"refine_polish_smoothing_J", params.refine.polish_smoothing_J}};
 }
 
 }  // namespace mocap

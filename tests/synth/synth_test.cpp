@@ -650,7 +650,7 @@ TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   const auto plain = mocap::supplement_astar(g->gap, p, &plain_stats);
   EXPECT_EQ(plain_stats.refine_steps, 0u);
   EXPECT_EQ(plain_stats.refine_gain_J, 0.0);
-  p.refine_iterations = 10;
+  p.refine.iterations = 10;
   const auto refined = mocap::supplement_astar(g->gap, p, &refined_stats);
   ASSERT_EQ(refined.size(), plain.size());
   const auto mp = mocap::measure_transition(g->gap, plain);

@@ -14,30 +14,6 @@
 
 namespace mocap {
 
-struct RefineOptions {
-  std::size_t iterations = 0;
-  /// Metres; the input's own sliding is always allowed.
-  double foot_sliding_limit_m = 0.0;
-  /// false: no sliding, speed or range condition (measures how low g can go).
-  bool keep_limits = true;
-  /// Joules, >= 0 (finite); 0: no smoothed stages.
-  double smoothing_J = 0.0;
-  /// After the iterations: at most this many sweeps of coordinate polishing
-  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
-  std::size_t polish_sweeps = 0;
-  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
-  /// and end_steps_peak_angular_speed(gap) are always allowed.
-  double angular_speed_limit_radps = 0.0;
-  /// Polishing also moves one variable of w consecutive frames together,
-  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
-  std::size_t polish_max_window = 1;
-  /// Polishing also turns each segment alone (its joint one way, the
-  /// joint's children back).
-  bool polish_segment_moves = false;
-  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
-  /// level first, then the exact pass.
-  double polish_smoothing_J = 0.0;
-};
 struct RefineResult {
   std::size_t steps = 0;  // accepted iterations + kept polishing moves
   double energy_before_J = 0.0;

@@ -26,7 +26,7 @@
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
 //    Optionally followed by refine_transition (refine.hpp; SupplementParams::
-//    refine_iterations): L-BFGS on every inserted frame at once, exact g.
+//    refine): L-BFGS on every inserted frame at once, exact g.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
 //    velocity) plus the start offset decayed by Bollo's quintic.
@@ -120,6 +120,32 @@ SynthFrame place_frame(const SynthSkeleton& sk, const SynthFrame& frame, const P
 /// Heading of the root joint's world rotation (dynamics.hpp heading_rad), radians.
 double root_heading(const SynthSkeleton& sk, const SynthFrame& frame);
 
+/// The refinement's settings (refine_transition, mocap/refine.hpp).
+struct RefineOptions {
+  std::size_t iterations = 0;
+  /// Metres; the input's own sliding is always allowed.
+  double foot_sliding_limit_m = 0.0;
+  /// false: no sliding, speed or range condition (measures how low g can go).
+  bool keep_limits = true;
+  /// Joules, >= 0 (finite); 0: no smoothed stages.
+  double smoothing_J = 0.0;
+  /// After the iterations: at most this many sweeps of coordinate polishing
+  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
+  std::size_t polish_sweeps = 0;
+  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
+  /// and end_steps_peak_angular_speed(gap) are always allowed.
+  double angular_speed_limit_radps = 0.0;
+  /// Polishing also moves one variable of w consecutive frames together,
+  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
+  std::size_t polish_max_window = 1;
+  /// Polishing also turns each segment alone (its joint one way, the
+  /// joint's children back).
+  bool polish_segment_moves = false;
+  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
+  /// level first, then the exact pass.
+  double polish_smoothing_J = 0.0;
+};
+
 enum class TransitionMethod { astar, slerp, inertialize };
 const char* transition_method_name(TransitionMethod m);
 
@@ -149,29 +175,15 @@ struct SupplementParams {
   bool choose_length = true;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
-  /// After the search: at most this many refinement iterations
-  /// (refine_transition) on the whole path, its feet sliding at most as much
-  /// as the slerp transition of the same length and no joint turning faster
-  /// than in that slerp or in the captured steps at either end; 0: none (the
-  /// default, which the median-time goal is measured with).
-  std::size_t refine_iterations = 0;
-  /// false: the refinement may slide the feet and leave the range of motion
-  /// (RefineOptions::keep_limits; for measurement only).
-  bool refine_keep_limits = true;
-  /// Joules; > 0: the refinement starts on a smoothed g
-  /// (RefineOptions::smoothing_J); 0: on the exact g throughout.
-  double refine_smoothing_J = 0.0;
-  /// After the refinement's iterations: at most this many sweeps of
-  /// coordinate polishing (RefineOptions::polish_sweeps); 0: none.
-  std::size_t refine_polish_sweeps = 0;
-  /// Polishing also moves runs of up to this many consecutive frames
-  /// together (RefineOptions::polish_max_window); 1: single frames only.
-  std::size_t refine_polish_window = 1;
-  /// Polishing also turns single segments (RefineOptions::polish_segment_moves).
-  bool refine_polish_segments = false;
-  /// Joules; > 0: polishing first on g smoothed at this level
-  /// (RefineOptions::polish_smoothing_J).
-  double refine_polish_smoothing_J = 0.0;
+  /// After the search: the refinement of the whole path (refine_transition,
+  /// mocap/refine.hpp); none when refine.iterations and refine.polish_sweeps
+  /// are 0 (the default, which the median-time goal is measured with).
+  /// supplement_astar sets refine.foot_sliding_limit_m and
+  /// refine.angular_speed_limit_radps to those of the slerp transition of
+  /// the same length (the values given are not used): the feet slide at most
+  /// as much as in that slerp and no joint turns faster than in it, in the
+  /// search's path or in the captured steps at either end.
+  RefineOptions refine;
 };
 
 struct GapProblem {
@@ -192,7 +204,7 @@ struct SupplementStats {
   /// Why the search stopped: "threshold" (g(S -> S_G) < T_c), "horizon"
   /// (the Hermite path's planned length was used up), "max_states" (T_n).
   std::string stop_reason;
-  /// Refinement (SupplementParams::refine_iterations): steps accepted, and
+  /// Refinement (SupplementParams::refine): steps accepted, and
   /// how much g they took off the search's path, joules.
   std::size_t refine_steps = 0;
   double refine_gain_J = 0.0;

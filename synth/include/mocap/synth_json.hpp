@@ -14,7 +14,7 @@ namespace mocap {
 nlohmann::json measures_json(const TransitionMeasures& m);
 
 /// The supplementation parameters both tools report: max_states,
-/// cost_threshold_J and the refinement's (refine_iterations,
+/// cost_threshold_J and the refinement's (SupplementParams::refine: refine_iterations,
 /// refine_smoothing_J, refine_polish_sweeps, refine_polish_window,
 /// refine_polish_segments, refine_polish_smoothing_J).
 nlohmann::json supplement_params_json(const SupplementParams& params);
