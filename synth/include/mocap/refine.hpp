@@ -61,8 +61,9 @@ RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& f
 /// and what its stages share (the path cache, the variables x of each frame
 /// relative to its base frame, the limits, the L-BFGS history, scratch).
 /// refine_transition(gap, frames, options) is
-/// TransitionRefinement(gap, frames, options).run(). `gap`, `frames` and
-/// `options` must outlive the job; not copyable (one job, one run).
+/// TransitionRefinement(gap, frames, options).run(). `gap` and `frames`
+/// must outlive the job (the options are copied); not copyable (one job,
+/// one run).
 class TransitionRefinement {
  public:
   /// Checks the gap, the frames and the options (std::invalid_argument),
@@ -130,7 +131,7 @@ class TransitionRefinement {
 
   const GapProblem& gap_;
   std::vector<SynthFrame>& frames_;
-  const RefineOptions& options_;
+  const RefineOptions options_;
   std::size_t m_ = 0;  // inserted frames
   // Varied joints: every joint but the dummies above the root.
   std::vector<int> joints_;
