@@ -194,7 +194,7 @@ BENCHMARK(BM_SupplementAStar)->Unit(benchmark::kMillisecond)->MinTime(3.0);
 void BM_SupplementAStarRefined(benchmark::State& st) {
   const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   SupplementParams params;
-  params.refine_iterations = static_cast<std::size_t>(st.range(0));
+  params.refine.iterations = static_cast<std::size_t>(st.range(0));
   run_gaps(st, [&](const Gap& g) { return supplement_astar(g.problem, params); });
 }
 BENCHMARK(BM_SupplementAStarRefined)->Arg(30)->Unit(benchmark::kMillisecond)->MinTime(10.0);

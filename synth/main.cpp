@@ -19,11 +19,9 @@
 #include "mocap/error.hpp"
 #include "mocap/index.hpp"
 #include "mocap/query.hpp"
+#include "mocap/search.hpp"
 #include "mocap/synth_job.hpp"
 #include "refine_options.hpp"
-#ifdef MOCAP_SYNTH_HAVE_SEARCH
-#include "mocap/search.hpp"
-#endif
 
 namespace {
 
@@ -35,15 +33,18 @@ void write_text(const std::filesystem::path& path, const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mocap-synth: synthesise the target motion of a query (A* supplementation, paper 2.4)"};
-  std::string index_path, query_path, results_path, out_path, report_path, html_path, method = "astar";
+  CLI::App app{
+      "mocap-synth: synthesise the target motion of a query (A* supplementation, paper 2.4)"};
+  std::string index_path, query_path, results_path, out_path, report_path, html_path,
+      method = "astar";
   std::vector<std::string> picks;
   mocap::SynthOptions options;
   app.add_option("--index", index_path, "index file (mocap-index build)")->required();
   app.add_option("--query", query_path, "query file (one JSON query)")->required();
   app.add_option("--results", results_path,
                  "search results (mocap-search JSONL); without it the search runs here");
-  app.add_option("--pick", picks, "PAIR:RANK: take rank RANK for pair PAIR (1-based; default rank 1)");
+  app.add_option("--pick", picks,
+                 "PAIR:RANK: take rank RANK for pair PAIR (1-based; default rank 1)");
   app.add_option("--out", out_path, "output BVH")->required();
   app.add_option("--report", report_path, "REPORT.json");
   app.add_option("--html", html_path, "REPORT.html (self-contained)");
@@ -69,11 +70,11 @@ int main(int argc, char** argv) {
         {"slerp", mocap::TransitionMethod::slerp},
         {"inertialize", mocap::TransitionMethod::inertialize}};
     if (!methods.count(method))
-      throw mocap::InputError("--transition", 0, "expected astar, slerp or inertialize, got \"" + method + "\"");
+      throw mocap::InputError("--transition", 0,
+                              "expected astar, slerp or inertialize, got \"" + method + "\"");
     options.method = methods.at(method);
     if (options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
-    if (!(options.params.cost_threshold_J >= 0.0))
-      throw mocap::InputError("--cost-threshold", 0, "must be >= 0");
+    mocap::check_supplement_options(options.params);
     for (const auto& p : picks) options.picks.push_back(mocap::parse_pick(p));
 
     std::ifstream qin(query_path);
@@ -85,46 +86,39 @@ int main(int argc, char** argv) {
         mocap::parse_query_text(qs.str(), query_path, 0, qp.parent_path(), qp.stem().string());
     const mocap::Index index = mocap::Index::open(index_path);
 
-    std::vector<mocap::RankedPair> ranked;
+    std::vector<mocap::PairResults> ranked;
     double search_ms = 0.0;
     if (!results_path.empty()) {
       ranked = mocap::read_search_results(results_path, query.id, index);
     } else {
-#ifdef MOCAP_SYNTH_HAVE_SEARCH
       const auto ts = std::chrono::steady_clock::now();
       const mocap::SearchEngine engine(index);
-      const mocap::QueryOutcome outcome = engine.run(query, mocap::SearchOptions{});
+      mocap::QueryOutcome outcome = engine.run(query, mocap::SearchOptions{});
       if (outcome.error) throw mocap::InputError(query_path, 0, "search failed: " + *outcome.error);
-      for (const auto& p : outcome.pairs) {
-        mocap::RankedPair rp;
-        rp.from = p.from;
-        rp.to = p.to;
-        for (const auto& r : p.results)
-          rp.results.push_back({r.rank, r.clip_index, r.clip, r.start_frame, r.end_frame, r.score_J, r.h_in_J,
-                                r.h_out_J, r.path_cost_J});
-        ranked.push_back(std::move(rp));
-      }
-      search_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count();
-#else
-      throw mocap::InputError("--results", 0, "required: this build has no search engine (MOCAP_SYNTH_STANDALONE)");
-#endif
+      ranked = std::move(outcome.pairs);
+      search_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count();
     }
     std::optional<mocap::SynthSkeleton> skeleton;
     const mocap::SynthResult result = mocap::synthesize(index, query, ranked, options, skeleton);
     mocap::write_motion_bvh(result, out_path);
-    const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double total_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!report_path.empty())
-      write_text(report_path, mocap::synth_report_json(index, query, query_path, ranked, result, options, search_ms,
-                                                       total_ms, out_path));
+      write_text(report_path, mocap::synth_report_json(index, query, query_path, ranked, result,
+                                                       options, search_ms, total_ms, out_path));
     if (!html_path.empty())
       write_text(html_path, mocap::synth_report_html(index, query, ranked, result, options));
     std::size_t inserted = 0;
     for (const auto& t : result.transitions) inserted += t.measures.frames;
-    std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " (" << result.frames.size()
-              << " frames, " << inserted << " supplementary, " << result.transitions.size() << " transitions by "
+    std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " ("
+              << result.frames.size() << " frames, " << inserted << " supplementary, "
+              << result.transitions.size() << " transitions by "
               << mocap::transition_method_name(options.method) << ")\n";
-    if (!report_path.empty()) std::cout << "report: " << std::filesystem::absolute(report_path).string() << "\n";
-    if (!html_path.empty()) std::cout << "html:   " << std::filesystem::absolute(html_path).string() << "\n";
+    if (!report_path.empty())
+      std::cout << "report: " << std::filesystem::absolute(report_path).string() << "\n";
+    if (!html_path.empty())
+      std::cout << "html:   " << std::filesystem::absolute(html_path).string() << "\n";
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "mocap-synth: " << e.what() << "\n";

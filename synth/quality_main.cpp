@@ -21,6 +21,7 @@
 #include "mocap/error.hpp"
 #include "mocap/index.hpp"
 #include "mocap/synth.hpp"
+#include "mocap/synth_json.hpp"
 #include "refine_options.hpp"
 
 namespace {
@@ -32,36 +33,6 @@ std::string file_name(const std::string& path) {
   return n;
 }
 
-nlohmann::json measures_json(const mocap::TransitionMeasures& m) {
-  return {{"frames", m.frames},
-          {"g_J", m.energy_J},
-          {"h_J", m.approximate_energy_J},
-          {"foot_sliding_m", m.foot_sliding_m},
-          {"range_violations", m.range_violations},
-          {"peak_angular_speed_radps", m.peak_angular_speed_radps},
-          {"step_energies_J", m.step_energies_J},
-          {"g_split_J",
-           {{"h", m.energy_split.h_J},
-            {"adjacent", m.energy_split.adjacent_J},
-            {"contact", m.energy_split.contact_J},
-            {"joint", m.energy_split.joint_J},
-            {"residual_work", m.energy_split.residual_work_J},
-            {"residual_impulse", m.energy_split.residual_impulse_J}}}};
-}
-
-// Sums of the g terms over gaps (one method).
-struct SplitSum {
-  double h = 0, adjacent = 0, contact = 0, joint = 0, residual_work = 0, residual_impulse = 0;
-  void add(const mocap::TransitionMeasures& m) {
-    h += m.energy_split.h_J;
-    adjacent += m.energy_split.adjacent_J;
-    contact += m.energy_split.contact_J;
-    joint += m.energy_split.joint_J;
-    residual_work += m.energy_split.residual_work_J;
-    residual_impulse += m.energy_split.residual_impulse_J;
-  }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -72,21 +43,24 @@ int main(int argc, char** argv) {
   mocap::SupplementParams params;
   app.add_option("--index", index_path, "index file (mocap-index build)")->required();
   app.add_option("--gaps", max_gaps, "at most this many gaps")->capture_default_str();
-  app.add_option("--pairs-per-label", pairs_per_label, "gaps per content label")->capture_default_str();
+  app.add_option("--pairs-per-label", pairs_per_label, "gaps per content label")
+      ->capture_default_str();
   app.add_option("--from-fraction", from_fraction, "gap start: this fraction of X's frames")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--to-fraction", to_fraction, "gap goal: this fraction of Y's frames")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  app.add_option("--label", label_key, "label key whose equal values make a gap")->capture_default_str();
+  app.add_option("--label", label_key, "label key whose equal values make a gap")
+      ->capture_default_str();
   app.add_option("--max-states", params.max_states, "T_n")->capture_default_str();
   app.add_option("--cost-threshold", params.cost_threshold_J, "T_c, joules")->capture_default_str();
   bool h_lookahead = false;
   app.add_flag("--h-lookahead", h_lookahead,
                "cost the middle of a candidate's completion with h instead of g");
   bool no_plant = false, no_choose = false;
-  app.add_flag("--no-choose-length", no_choose, "plan with the length estimate instead of choosing the length");
+  app.add_flag("--no-choose-length", no_choose,
+               "plan with the length estimate instead of choosing the length");
   app.add_flag("--no-plant-feet", no_plant, "no contact-aware (foot planting) proposals");
   mocap::add_refine_options(app, params);
   bool refine_free = false;
@@ -101,8 +75,9 @@ int main(int argc, char** argv) {
   params.plant_feet = !no_plant;
   params.exact_lookahead = !h_lookahead;
   params.choose_length = !no_choose;
-  params.refine_keep_limits = !refine_free;
+  params.refine.keep_limits = !refine_free;
   try {
+    mocap::check_supplement_options(params);
     const mocap::Index index = mocap::Index::open(index_path);
     // Clips by label value (index order), skeleton of the first.
     std::map<std::string, std::vector<std::size_t>> by_label;
@@ -132,27 +107,35 @@ int main(int argc, char** argv) {
       for (const auto& v : per_label)
         if (round < v.size()) specs.push_back(v[round]);
     if (specs.size() > max_gaps) specs.resize(max_gaps);
-    if (specs.empty()) throw mocap::InputError(index_path, 0, "no clips with label '" + label_key + "'");
+    if (specs.empty())
+      throw mocap::InputError(index_path, 0, "no clips with label '" + label_key + "'");
 
     nlohmann::json rows = nlohmann::json::array();
     std::vector<double> times_ms, cpu_times_ms;
     std::size_t lower = 0, slide_ok = 0;
     double sum_a = 0, sum_s = 0, sum_i = 0, slide_a = 0, slide_s = 0, slide_i = 0;
     std::size_t viol_a = 0, viol_s = 0, viol_i = 0;
-    SplitSum split_a, split_s;
-    std::printf("| # | from (frame) | to (frame) | frames | g A* (J) | g slerp (J) | g inert. (J) | A*/slerp | slide A* (m) | slide slerp (m) | viol. A*/slerp | peak ω A* (rad/s) | time A* (ms) |\n");
+    // Sums of the g terms over the gaps (A*, slerp).
+    mocap::TransitionMeasures::EnergySplit split_a, split_s;
+    std::printf(
+        "| # | from (frame) | to (frame) | frames | g A* (J) | g slerp (J) | g inert. (J) | "
+        "A*/slerp | slide A* (m) | slide slerp (m) | viol. A*/slerp | peak ω A* (rad/s) | time A* "
+        "(ms) |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (std::size_t gi = 0; gi < specs.size(); ++gi) {
       const auto [x, y] = specs[gi];
       const mocap::IndexClip& cx = index.clips()[x];
       const mocap::IndexClip& cy = index.clips()[y];
       const mocap::SynthSkeleton sk = mocap::make_synth_skeleton(index, cx.skeleton, x);
-      const mocap::RangeOfMotion rom = mocap::range_of_motion(index, sk, index.skeletons()[cx.skeleton].clips);
+      const mocap::RangeOfMotion rom =
+          mocap::range_of_motion(index, sk, index.skeletons()[cx.skeleton].clips);
       const auto frame_at = [](std::size_t count, double fraction) {
         return static_cast<std::size_t>(std::floor(fraction * static_cast<double>(count) + 1e-9));
       };
-      const std::size_t a = std::clamp<std::size_t>(frame_at(cx.frame_count, from_fraction), 1, cx.frame_count - 1);
-      const std::size_t b = std::min<std::size_t>(frame_at(cy.frame_count, to_fraction), cy.frame_count - 2);
+      const std::size_t a =
+          std::clamp<std::size_t>(frame_at(cx.frame_count, from_fraction), 1, cx.frame_count - 1);
+      const std::size_t b =
+          std::min<std::size_t>(frame_at(cy.frame_count, to_fraction), cy.frame_count - 2);
       mocap::GapProblem gap;
       gap.skeleton = &sk;
       gap.range = &rom;
@@ -169,7 +152,8 @@ int main(int argc, char** argv) {
       gap.goal = mocap::place_frame(sk, g0, p);
       gap.after = mocap::place_frame(sk, g1, p);
       const std::size_t est = mocap::estimate_transition_frames(gap, params);
-      p = mocap::continuation_placement(sk, gap.start, ve, g0, vf, static_cast<double>(est + 1) * dt);
+      p = mocap::continuation_placement(sk, gap.start, ve, g0, vf,
+                                        static_cast<double>(est + 1) * dt);
       gap.goal = mocap::place_frame(sk, g0, p);
       gap.after = mocap::place_frame(sk, g1, p);
 
@@ -201,20 +185,22 @@ int main(int argc, char** argv) {
       viol_a += ma.range_violations;
       viol_s += ms_.range_violations;
       viol_i += mi.range_violations;
-      split_a.add(ma);
-      split_s.add(ms_);
-      std::printf("| %zu | %s (%zu) | %s (%zu) | %zu | %.1f | %.1f | %.1f | %.2f | %.3f | %.3f | %zu/%zu | %.1f | %.1f |\n",
-                  gi + 1, file_name(cx.path).c_str(), a, file_name(cy.path).c_str(), b, ma.frames,
-                  ma.energy_J, ms_.energy_J, mi.energy_J, ma.energy_J / ms_.energy_J, ma.foot_sliding_m,
-                  ms_.foot_sliding_m, ma.range_violations, ms_.range_violations,
-                  ma.peak_angular_speed_radps, ms);
+      split_a += ma.energy_split;
+      split_s += ms_.energy_split;
+      std::printf(
+          "| %zu | %s (%zu) | %s (%zu) | %zu | %.1f | %.1f | %.1f | %.2f | %.3f | %.3f | %zu/%zu | "
+          "%.1f | %.1f |\n",
+          gi + 1, file_name(cx.path).c_str(), a, file_name(cy.path).c_str(), b, ma.frames,
+          ma.energy_J, ms_.energy_J, mi.energy_J, ma.energy_J / ms_.energy_J, ma.foot_sliding_m,
+          ms_.foot_sliding_m, ma.range_violations, ms_.range_violations,
+          ma.peak_angular_speed_radps, ms);
       rows.push_back({{"from", file_name(cx.path)},
                       {"from_frame", a},
                       {"to", file_name(cy.path)},
                       {"to_frame", b},
-                      {"astar", measures_json(ma)},
-                      {"slerp", measures_json(ms_)},
-                      {"inertialize", measures_json(mi)},
+                      {"astar", mocap::measures_json(ma)},
+                      {"slerp", mocap::measures_json(ms_)},
+                      {"inertialize", mocap::measures_json(mi)},
                       {"astar_ms", ms},
                       {"astar_cpu_ms", cpu_ms},
                       {"stop_reason", stats.stop_reason},
@@ -233,29 +219,41 @@ int main(int argc, char** argv) {
     const double cpu_median = median_of(cpu_times_ms);
     const double cpu_max = *std::max_element(cpu_times_ms.begin(), cpu_times_ms.end());
     const double n = static_cast<double>(specs.size());
-    std::printf("\nGaps: %zu. A* g lower than slerp in %zu (%.0f%%); mean g A* %.1f J, slerp %.1f J (ratio %.2f), "
-                "inertialize %.1f J.\n",
-                specs.size(), lower, 100.0 * static_cast<double>(lower) / n, sum_a / n, sum_s / n, sum_a / sum_s,
-                sum_i / n);
-    std::printf("Foot sliding (total): A* %.3f m, slerp %.3f m, inertialize %.3f m; A* <= slerp in %zu gaps. "
-                "Range violations: A* %zu, slerp %zu, inertialize %zu.\n",
-                slide_a, slide_s, slide_i, slide_ok, viol_a, viol_s, viol_i);
-    std::printf("A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time median %.1f ms, "
-                "max %.1f ms.\n",
-                median, sorted.back(), cpu_median, cpu_max);
+    std::printf(
+        "\nGaps: %zu. A* g lower than slerp in %zu (%.0f%%); mean g A* %.1f J, slerp %.1f J (ratio "
+        "%.2f), "
+        "inertialize %.1f J.\n",
+        specs.size(), lower, 100.0 * static_cast<double>(lower) / n, sum_a / n, sum_s / n,
+        sum_a / sum_s, sum_i / n);
+    std::printf(
+        "Foot sliding (total): A* %.3f m, slerp %.3f m, inertialize %.3f m; A* <= slerp in %zu "
+        "gaps. "
+        "Range violations: A* %zu, slerp %zu, inertialize %zu.\n",
+        slide_a, slide_s, slide_i, slide_ok, viol_a, viol_s, viol_i);
+    std::printf(
+        "A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time "
+        "median %.1f ms, "
+        "max %.1f ms.\n",
+        median, sorted.back(), cpu_median, cpu_max);
     const auto share = [&](double part, double sum) { return 100.0 * part / sum; };
     const double ta = sum_a, ts = sum_s;
-    std::printf("g by term (mean per gap, J; %% of the method's g), A* / slerp: h %.1f / %.1f (%.0f%% / %.0f%%), "
-                "adjacent %.1f / %.1f (%.0f%% / %.0f%%), contact %.1f / %.1f (%.0f%% / %.0f%%), joint %.1f / %.1f "
-                "(%.0f%% / %.0f%%), residual work %.1f / %.1f (%.0f%% / %.0f%%), residual impulse %.1f / %.1f "
-                "(%.0f%% / %.0f%%).\n",
-                split_a.h / n, split_s.h / n, share(split_a.h, ta), share(split_s.h, ts), split_a.adjacent / n,
-                split_s.adjacent / n, share(split_a.adjacent, ta), share(split_s.adjacent, ts), split_a.contact / n,
-                split_s.contact / n, share(split_a.contact, ta), share(split_s.contact, ts), split_a.joint / n,
-                split_s.joint / n, share(split_a.joint, ta), share(split_s.joint, ts), split_a.residual_work / n,
-                split_s.residual_work / n, share(split_a.residual_work, ta), share(split_s.residual_work, ts),
-                split_a.residual_impulse / n, split_s.residual_impulse / n, share(split_a.residual_impulse, ta),
-                share(split_s.residual_impulse, ts));
+    std::printf(
+        "g by term (mean per gap, J; %% of the method's g), A* / slerp: h %.1f / %.1f (%.0f%% / "
+        "%.0f%%), "
+        "adjacent %.1f / %.1f (%.0f%% / %.0f%%), contact %.1f / %.1f (%.0f%% / %.0f%%), joint %.1f "
+        "/ %.1f "
+        "(%.0f%% / %.0f%%), residual work %.1f / %.1f (%.0f%% / %.0f%%), residual impulse %.1f / "
+        "%.1f "
+        "(%.0f%% / %.0f%%).\n",
+        split_a.h_J / n, split_s.h_J / n, share(split_a.h_J, ta), share(split_s.h_J, ts),
+        split_a.adjacent_J / n, split_s.adjacent_J / n, share(split_a.adjacent_J, ta),
+        share(split_s.adjacent_J, ts), split_a.contact_J / n, split_s.contact_J / n,
+        share(split_a.contact_J, ta), share(split_s.contact_J, ts), split_a.joint_J / n,
+        split_s.joint_J / n, share(split_a.joint_J, ta), share(split_s.joint_J, ts),
+        split_a.residual_work_J / n, split_s.residual_work_J / n,
+        share(split_a.residual_work_J, ta), share(split_s.residual_work_J, ts),
+        split_a.residual_impulse_J / n, split_s.residual_impulse_J / n,
+        share(split_a.residual_impulse_J, ta), share(split_s.residual_impulse_J, ts));
     if (!json_path.empty()) {
       nlohmann::json out = {{"gaps", rows},
                             {"summary",
@@ -271,18 +269,10 @@ int main(int argc, char** argv) {
                               {"median_ms", median},
                               {"median_cpu_ms", cpu_median},
                               {"max_ms", sorted.back()}}},
-                            {"params",
-                             {{"max_states", params.max_states},
-                              {"cost_threshold_J", params.cost_threshold_J},
-                              {"exact_lookahead", params.exact_lookahead},
-                              {"refine_iterations", params.refine_iterations},
-                              {"refine_smoothing_J", params.refine_smoothing_J},
-                              {"refine_polish_sweeps", params.refine_polish_sweeps},
-                              {"refine_polish_window", params.refine_polish_window},
-                              {"refine_polish_segments", params.refine_polish_segments},
-                              {"refine_polish_smoothing_J", params.refine_polish_smoothing_J},
-                              {"from_fraction", from_fraction},
-                              {"to_fraction", to_fraction}}}};
+                            {"params", mocap::supplement_params_json(params)}};
+      out["params"]["exact_lookahead"] = params.exact_lookahead;
+      out["params"]["from_fraction"] = from_fraction;
+      out["params"]["to_fraction"] = to_fraction;
       std::ofstream(json_path) << out.dump(2) << "\n";
     }
     return 0;

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mocap/synth_job.hpp"
+#include "mocap/synth_json.hpp"
 
 namespace mocap {
 namespace {
@@ -16,25 +17,24 @@ std::string base_name(const std::string& path) {
   return s == std::string::npos ? path : path.substr(s + 1);
 }
 
-nlohmann::json measures_json(const TransitionMeasures& m) {
-  return {{"frames", m.frames},
-          {"g_J", m.energy_J},
-          {"h_J", m.approximate_energy_J},
-          {"foot_sliding_m", m.foot_sliding_m},
-          {"range_violations", m.range_violations},
-          {"peak_angular_speed_radps", m.peak_angular_speed_radps},
-          {"step_energies_J", m.step_energies_J}};
-}
-
 std::string esc(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
+      case '&':
+        o += "&amp;";
+        break;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -49,14 +49,15 @@ std::string fmt(int digits, double v) {
 
 // One stick figure (side view: screen x = world x turned by -heading0, y up),
 // drawn in a cell of width w and height h.
-void stick_figure(std::ostringstream& o, const SynthSkeleton& sk, const SynthFrame& f, double x0, double w,
-                  double h, const char* colour) {
+void stick_figure(std::ostringstream& o, const SynthSkeleton& sk, const SynthFrame& f, double x0,
+                  double w, double h, const char* colour) {
   WorldPose wp;
   synth_world_pose(sk, f, wp);
   const Eigen::Vector3d root = f.root_position_m;
   const double scale = h / 2.0;  // 2 m tall cell
   auto px = [&](const Eigen::Vector3d& p) {
-    return std::pair<double, double>{x0 + w / 2 + (p.x() - root.x()) * scale, h - 4 - p.y() * scale};
+    return std::pair<double, double>{x0 + w / 2 + (p.x() - root.x()) * scale,
+                                     h - 4 - p.y() * scale};
   };
   for (std::size_t j = 0; j < sk.joint_count(); ++j) {
     const int p = sk.skeleton.parents[j];
@@ -71,16 +72,17 @@ void stick_figure(std::ostringstream& o, const SynthSkeleton& sk, const SynthFra
   (void)head;
 }
 
-void filmstrip(std::ostringstream& o, const std::string& id, const std::string& title, const SynthSkeleton& sk,
-               const std::vector<SynthFrame>& frames, std::size_t max_figures, const char* colour) {
+void filmstrip(std::ostringstream& o, const std::string& id, const std::string& title,
+               const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+               std::size_t max_figures, const char* colour) {
   const std::size_t n = frames.size();
   const std::size_t k = std::min(n, max_figures);
   const double w = 70, h = 150;
   o << "<figure data-figure=\"" << id << "\"><figcaption>" << esc(title) << "</figcaption>";
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w * static_cast<double>(k) << "\" height=\"" << h
-    << "\"><rect width=\"100%\" height=\"100%\" fill=\"#f7f7f2\"/>"
-    << "<line x1=\"0\" y1=\"" << h - 4 << "\" x2=\"" << w * static_cast<double>(k) << "\" y2=\"" << h - 4
-    << "\" stroke=\"#999\"/>";
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w * static_cast<double>(k)
+    << "\" height=\"" << h << "\"><rect width=\"100%\" height=\"100%\" fill=\"#f7f7f2\"/>"
+    << "<line x1=\"0\" y1=\"" << h - 4 << "\" x2=\"" << w * static_cast<double>(k) << "\" y2=\""
+    << h - 4 << "\" stroke=\"#999\"/>";
   for (std::size_t i = 0; i < k; ++i) {
     const std::size_t f = k <= 1 ? 0 : i * (n - 1) / (k - 1);
     stick_figure(o, sk, frames[f], w * static_cast<double>(i), w, h, colour);
@@ -91,26 +93,39 @@ void filmstrip(std::ostringstream& o, const std::string& id, const std::string& 
 }  // namespace
 
 std::string synth_report_json(const Index& index, const Query& query, const std::string& query_path,
-                              const std::vector<RankedPair>& ranked, const SynthResult& result,
+                              const std::vector<PairResults>& ranked, const SynthResult& result,
                               const SynthOptions& options, double search_ms, double total_ms,
                               const std::string& bvh_path) {
   nlohmann::json j;
-  j["query"] = {{"id", query.id}, {"file", query_path}, {"frames", query.frames.size()},
-                {"transition_time_s", query.transition_time_s}, {"relative", query.relative}};
+  j["query"] = {{"id", query.id},
+                {"file", query_path},
+                {"frames", query.frames.size()},
+                {"transition_time_s", query.transition_time_s},
+                {"relative", query.relative}};
   j["index"] = index.path().string();
   nlohmann::json chosen = nlohmann::json::array();
   for (std::size_t h = 0; h < result.chosen.size(); ++h) {
-    const RankedMotion& m = result.chosen[h];
-    chosen.push_back({{"pair", h + 1}, {"from", ranked[h].from}, {"to", ranked[h].to}, {"rank", m.rank},
-                      {"clip", m.clip}, {"clip_index", m.clip_index}, {"start_frame", m.start_frame},
-                      {"end_frame", m.end_frame}, {"frames", m.end_frame - m.start_frame + 1},
-                      {"score_J", m.score_J}, {"h_in_J", m.h_in_J}, {"h_out_J", m.h_out_J},
+    const SearchResult& m = result.chosen[h];
+    chosen.push_back({{"pair", h + 1},
+                      {"from", ranked[h].from},
+                      {"to", ranked[h].to},
+                      {"rank", m.rank},
+                      {"clip", m.clip},
+                      {"clip_index", m.clip_index},
+                      {"start_frame", m.start_frame},
+                      {"end_frame", m.end_frame},
+                      {"frames", m.end_frame - m.start_frame + 1},
+                      {"score_J", m.score_J},
+                      {"h_in_J", m.h_in_J},
+                      {"h_out_J", m.h_out_J},
                       {"path_cost_J", m.path_cost_J}});
   }
   j["chosen"] = chosen;
   nlohmann::json trs = nlohmann::json::array();
   for (const TransitionReport& t : result.transitions) {
-    nlohmann::json tj = {{"pair", t.pair}, {"side", t.side}, {"method", transition_method_name(t.method)},
+    nlohmann::json tj = {{"pair", t.pair},
+                         {"side", t.side},
+                         {"method", transition_method_name(t.method)},
                          {"time_ms", t.time_ms}};
     tj.update(measures_json(t.measures));
     if (t.method == TransitionMethod::astar)
@@ -128,78 +143,91 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
   j["transitions"] = trs;
   nlohmann::json segs = nlohmann::json::array();
   for (const MotionSegment& s : result.segments)
-    segs.push_back({{"kind", s.kind}, {"pair", s.pair}, {"first_frame", s.first_frame}, {"frames", s.frame_count}});
+    segs.push_back({{"kind", s.kind},
+                    {"pair", s.pair},
+                    {"first_frame", s.first_frame},
+                    {"frames", s.frame_count}});
   double total = 0.0;
   for (double e : result.step_energies_J) total += e;
-  j["motion"] = {{"bvh", bvh_path}, {"frames", result.frames.size()}, {"frame_time_s", result.frame_time_s},
-                 {"skeleton", result.skeleton->index_skeleton}, {"segments", segs},
-                 {"g_total_J", total}, {"step_energies_J", result.step_energies_J}};
-  j["parameters"] = {{"transition", transition_method_name(options.method)},
-                     {"max_states", options.params.max_states},
-                     {"cost_threshold_J", options.params.cost_threshold_J},
-                     {"refine_iterations", options.params.refine_iterations},
-                     {"refine_smoothing_J", options.params.refine_smoothing_J},
-                     {"refine_polish_sweeps", options.params.refine_polish_sweeps},
-                     {"refine_polish_window", options.params.refine_polish_window},
-                     {"refine_polish_segments", options.params.refine_polish_segments},
-                     {"refine_polish_smoothing_J", options.params.refine_polish_smoothing_J}};
+  j["motion"] = {{"bvh", bvh_path},
+                 {"frames", result.frames.size()},
+                 {"frame_time_s", result.frame_time_s},
+                 {"skeleton", result.skeleton->index_skeleton},
+                 {"segments", segs},
+                 {"g_total_J", total},
+                 {"step_energies_J", result.step_energies_J}};
+  j["parameters"] = supplement_params_json(options.params);
+  j["parameters"]["transition"] = transition_method_name(options.method);
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return j.dump(2) + "\n";
 }
 
-std::string synth_report_html(const Index& index, const Query& query, const std::vector<RankedPair>& ranked,
-                              const SynthResult& result, const SynthOptions& options) {
+std::string synth_report_html(const Index& index, const Query& query,
+                              const std::vector<PairResults>& ranked, const SynthResult& result,
+                              const SynthOptions& options) {
   const SynthSkeleton& sk = *result.skeleton;
   std::ostringstream o;
-  o << "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>mocap-synth: " << esc(query.id)
+  o << "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>mocap-synth: "
+    << esc(query.id)
     << "</title><style>body{font-family:sans-serif;margin:24px;background:#fff;color:#222}"
        "figure{margin:12px 0}figcaption{font-weight:bold;margin-bottom:4px}"
        "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:3px 8px;font-size:13px}"
-       "th{background:#e8eef8}tr.chosen td{background:#fff3c4}</style></head><body data-report=\"mocap-synth\">\n";
-  o << "<h1>Motion synthesis: " << esc(query.id) << "</h1>\n<p>" << query.frames.size() << " query frames, "
-    << result.frames.size() << " output frames at " << fmt(1, 1.0 / result.frame_time_s)
-    << " fps, transitions by " << transition_method_name(options.method) << ".</p>\n";
-  filmstrip(o, "filmstrip-query", "Query frames (completed, Q_F)", sk, result.query_frames, 12, "#1f5fbf");
+       "th{background:#e8eef8}tr.chosen td{background:#fff3c4}</style></head><body "
+       "data-report=\"mocap-synth\">\n";
+  o << "<h1>Motion synthesis: " << esc(query.id) << "</h1>\n<p>" << query.frames.size()
+    << " query frames, " << result.frames.size() << " output frames at "
+    << fmt(1, 1.0 / result.frame_time_s) << " fps, transitions by "
+    << transition_method_name(options.method) << ".</p>\n";
+  filmstrip(o, "filmstrip-query", "Query frames (completed, Q_F)", sk, result.query_frames, 12,
+            "#1f5fbf");
   // Ranked partial motions (the paper's figures 6 to 10), same skeleton only.
   // Clips of other skeletons are drawn on their own skeleton.
   std::map<std::uint32_t, SynthSkeleton> others;
   for (std::size_t h = 0; h < ranked.size(); ++h)
-    for (const RankedMotion& m : ranked[h].results) {
+    for (const SearchResult& m : ranked[h].results) {
       if (m.rank > 5) continue;
       const std::uint32_t k = index.clips()[m.clip_index].skeleton;
-      if (k != sk.index_skeleton && !others.count(k)) others.emplace(k, make_synth_skeleton(index, k, m.clip_index));
+      if (k != sk.index_skeleton && !others.count(k))
+        others.emplace(k, make_synth_skeleton(index, k, m.clip_index));
       const SynthSkeleton& own = k == sk.index_skeleton ? sk : others.at(k);
       std::vector<SynthFrame> fr;
-      for (std::size_t f = m.start_frame; f <= m.end_frame; ++f) fr.push_back(clip_frame(index, m.clip_index, f));
+      for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
+        fr.push_back(clip_frame(index, m.clip_index, f));
       filmstrip(o, "filmstrip-pair" + std::to_string(h + 1) + "-rank" + std::to_string(m.rank),
-                "Pair " + std::to_string(h + 1) + ", rank " + std::to_string(m.rank) + ": " + base_name(m.clip) +
-                    " frames " + std::to_string(m.start_frame) + "-" + std::to_string(m.end_frame),
+                "Pair " + std::to_string(h + 1) + ", rank " + std::to_string(m.rank) + ": " +
+                    base_name(m.clip) + " frames " + std::to_string(m.start_frame) + "-" +
+                    std::to_string(m.end_frame),
                 own, fr, 8, m.rank == result.chosen[h].rank ? "#b8860b" : "#555");
     }
   filmstrip(o, "filmstrip-motion", "Synthesised motion", sk, result.frames, 16, "#c0392b");
   // Ranking table.
-  o << "<figure data-figure=\"ranking\"><figcaption>Ranking (score = h_in + h_out + lambda path cost, J)</figcaption>"
-       "<table><tr><th>pair</th><th>rank</th><th>clip</th><th>frames</th><th>score (J)</th><th>h in</th><th>h out</th></tr>";
+  o << "<figure data-figure=\"ranking\"><figcaption>Ranking (score = h_in + h_out + lambda path "
+       "cost, J)</figcaption>"
+       "<table><tr><th>pair</th><th>rank</th><th>clip</th><th>frames</th><th>score (J)</th><th>h "
+       "in</th><th>h out</th></tr>";
   for (std::size_t h = 0; h < ranked.size(); ++h)
-    for (const RankedMotion& m : ranked[h].results)
-      o << "<tr" << (m.rank == result.chosen[h].rank ? " class=\"chosen\"" : "") << "><td>" << h + 1 << "</td><td>"
-        << m.rank << "</td><td>" << esc(base_name(m.clip)) << "</td><td>" << m.start_frame << "-" << m.end_frame
-        << "</td><td>" << fmt(1, m.score_J) << "</td><td>" << fmt(1, m.h_in_J) << "</td><td>"
-        << fmt(1, m.h_out_J) << "</td></tr>";
+    for (const SearchResult& m : ranked[h].results)
+      o << "<tr" << (m.rank == result.chosen[h].rank ? " class=\"chosen\"" : "") << "><td>" << h + 1
+        << "</td><td>" << m.rank << "</td><td>" << esc(base_name(m.clip)) << "</td><td>"
+        << m.start_frame << "-" << m.end_frame << "</td><td>" << fmt(1, m.score_J) << "</td><td>"
+        << fmt(1, m.h_in_J) << "</td><td>" << fmt(1, m.h_out_J) << "</td></tr>";
   o << "</table></figure>\n";
   // Transitions table.
-  o << "<figure data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</th><th>side</th>"
+  o << "<figure "
+       "data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</"
+       "th><th>side</th>"
        "<th>method</th><th>frames</th><th>g (J)</th><th>slerp g (J)</th><th>foot sliding (m)</th>"
        "<th>range violations</th><th>peak ang. speed (rad/s)</th></tr>";
   for (const TransitionReport& t : result.transitions) {
     double slerp_g = std::nan("");
     for (const auto& [m, ms] : t.baselines)
       if (m == TransitionMethod::slerp) slerp_g = ms.energy_J;
-    o << "<tr><td>" << t.pair << "</td><td>" << t.side << "</td><td>" << transition_method_name(t.method)
-      << "</td><td>" << t.measures.frames << "</td><td>" << fmt(1, t.measures.energy_J) << "</td><td>"
+    o << "<tr><td>" << t.pair << "</td><td>" << t.side << "</td><td>"
+      << transition_method_name(t.method) << "</td><td>" << t.measures.frames << "</td><td>"
+      << fmt(1, t.measures.energy_J) << "</td><td>"
       << (std::isnan(slerp_g) ? std::string("-") : fmt(1, slerp_g)) << "</td><td>"
-      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << t.measures.range_violations << "</td><td>"
-      << fmt(1, t.measures.peak_angular_speed_radps) << "</td></tr>";
+      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << t.measures.range_violations
+      << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps) << "</td></tr>";
   }
   o << "</table></figure>\n";
   // Energy along the motion.
@@ -207,19 +235,22 @@ std::string synth_report_html(const Index& index, const Query& query, const std:
   const double W = 1100, Hh = 220;
   double emax = 1e-9;
   for (double v : e) emax = std::max(emax, v);
-  o << "<figure data-figure=\"energy\"><figcaption>Full energy change g per step along the motion (J; max "
-    << fmt(1, emax) << "); shaded: transitions</figcaption><svg xmlns=\"http://www.w3.org/2000/svg\" width=\""
-    << W << "\" height=\"" << Hh << "\"><rect width=\"100%\" height=\"100%\" fill=\"#fbfbfb\" stroke=\"#ccc\"/>";
+  o << "<figure data-figure=\"energy\"><figcaption>Full energy change g per step along the motion "
+       "(J; max "
+    << fmt(1, emax)
+    << "); shaded: transitions</figcaption><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W
+    << "\" height=\"" << Hh
+    << "\"><rect width=\"100%\" height=\"100%\" fill=\"#fbfbfb\" stroke=\"#ccc\"/>";
   const double nsteps = std::max<double>(1.0, static_cast<double>(e.size()));
   for (const MotionSegment& s : result.segments)
     if (s.kind == "transition" && s.frame_count > 0)
-      o << "<rect x=\"" << fmt(1, W * static_cast<double>(s.first_frame) / nsteps) << "\" y=\"0\" width=\""
-        << fmt(1, W * static_cast<double>(s.frame_count) / nsteps) << "\" height=\"" << Hh
-        << "\" fill=\"#ffe0d0\"/>";
+      o << "<rect x=\"" << fmt(1, W * static_cast<double>(s.first_frame) / nsteps)
+        << "\" y=\"0\" width=\"" << fmt(1, W * static_cast<double>(s.frame_count) / nsteps)
+        << "\" height=\"" << Hh << "\" fill=\"#ffe0d0\"/>";
   o << "<polyline fill=\"none\" stroke=\"#c0392b\" stroke-width=\"2\" points=\"";
   for (std::size_t i = 0; i < e.size(); ++i)
-    o << fmt(1, W * (static_cast<double>(i) + 0.5) / nsteps) << "," << fmt(1, Hh - 10 - (Hh - 20) * e[i] / emax)
-      << " ";
+    o << fmt(1, W * (static_cast<double>(i) + 0.5) / nsteps) << ","
+      << fmt(1, Hh - 10 - (Hh - 20) * e[i] / emax) << " ";
   o << "\"/></svg></figure>\n</body></html>\n";
   return o.str();
 }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
+#include <utility>
 
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
@@ -31,57 +32,277 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// A query frame on the target skeleton: the DOFs it gives, from the search
-// library's resolver (mocap/query_pose.hpp), errors naming the query file.
-struct ResolvedQueryFrame {
-  std::array<std::optional<double>, 3> root_m;
-  std::optional<double> heading_rad;
-  std::vector<std::pair<int, Eigen::Quaterniond>> joints;
-};
-
-ResolvedQueryFrame resolve_query_frame(const Query& q, std::size_t i, const Index& index,
-                                       const SynthSkeleton& sk, QueryBvhCache& cache,
-                                       const std::string& source) {
+// Query frame i on the target skeleton: the DOFs it gives (the search
+// library's resolver, mocap/query_pose.hpp; joint rotations normalised),
+// errors naming the query file.
+PartialPoseSpec resolve_query_frame(const Query& q, std::size_t i, const Index& index,
+                                    const SynthSkeleton& sk, QueryBvhCache& cache,
+                                    const std::string& source) {
   ResolvedQueryPose pose;
   try {
     pose = resolve_query_pose(q, i, index.skeletons()[sk.index_skeleton], sk.model, cache);
   } catch (const InputError& e) {
     throw InputError(source, 0, e.detail());
   }
-  ResolvedQueryFrame out;
-  out.root_m = pose.given.root_position_m;
-  out.heading_rad = pose.given.root_heading_rad;
-  for (const auto& [j, rot] : pose.given.joint_rotations) out.joints.emplace_back(j, rot.normalized());
+  PartialPoseSpec out = std::move(pose.given);
+  for (auto& [j, rot] : out.joint_rotations) rot = rot.normalized();
   return out;
 }
 
 // Q_F: F with the given DOFs replaced. `shift` is added to the horizontal
 // root position when the query does not give it.
-SynthFrame complete_query(const SynthSkeleton& sk, const ResolvedQueryFrame& q, const SynthFrame& f,
+SynthFrame complete_query(const SynthSkeleton& sk, const PartialPoseSpec& q, const SynthFrame& f,
                           bool relative, const Eigen::Vector3d& shift) {
   SynthFrame out = f;
-  for (const auto& [j, rot] : q.joints) out.local_rotations[static_cast<std::size_t>(j)] = rot;
-  if (q.heading_rad) {
+  for (const auto& [j, rot] : q.joint_rotations)
+    out.local_rotations[static_cast<std::size_t>(j)] = rot;
+  if (q.root_heading_rad) {
     Placement p;
-    p.yaw_rad = *q.heading_rad - root_heading(sk, out);
+    p.yaw_rad = *q.root_heading_rad - root_heading(sk, out);
     const Eigen::Vector3d keep = out.root_position_m;
     out = place_frame(sk, out, p);
     out.root_position_m = keep;
   }
-  const bool xz_given = q.root_m[0] && q.root_m[2];
+  const bool xz_given = q.root_position_m[0] && q.root_position_m[2];
   if (!xz_given) out.root_position_m += Eigen::Vector3d(shift.x(), 0.0, shift.z());
   for (std::size_t k = 0; k < 3; ++k)
-    if (q.root_m[k])
+    if (q.root_position_m[k])
       out.root_position_m[static_cast<Eigen::Index>(k)] =
-          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) + *q.root_m[k];
+          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) +
+          *q.root_position_m[k];
   return out;
+}
+
+// The chosen result of each pair: rank 1 unless picked. InputError
+// ("--pick") for a pick of a pair out of range or of a rank the pair lacks.
+std::vector<SearchResult> chosen_results(const std::vector<PairResults>& ranked,
+                                         const std::vector<Pick>& picks) {
+  const std::size_t pairs = ranked.size();
+  std::vector<std::size_t> rank(pairs, 1);
+  for (const Pick& p : picks) {
+    if (p.pair > pairs)
+      throw InputError("--pick", 0,
+                       "pair " + std::to_string(p.pair) + " out of range (the query has " +
+                           std::to_string(pairs) + " pairs)");
+    rank[p.pair - 1] = p.rank;
+  }
+  std::vector<SearchResult> chosen;
+  for (std::size_t h = 0; h < pairs; ++h) {
+    const auto& rs = ranked[h].results;
+    auto it = std::find_if(rs.begin(), rs.end(),
+                           [&](const SearchResult& m) { return m.rank == rank[h]; });
+    if (it == rs.end())
+      throw InputError("--pick", 0,
+                       "pair " + std::to_string(h + 1) + " has no result of rank " +
+                           std::to_string(rank[h]) + " (" + std::to_string(rs.size()) +
+                           " results)");
+    chosen.push_back(*it);
+  }
+  return chosen;
+}
+
+// Frames of the chosen clips on the target skeleton (the first chosen
+// clip's): clips of another skeleton are mapped joint by joint (same name,
+// else the same canonical body part). The constructor throws InputError
+// (`source`) for a clip of another frame rate, or of a skeleton with no
+// counterpart for a target joint that rotates.
+class TargetPieces {
+ public:
+  TargetPieces(const Index& index, const std::vector<SearchResult>& chosen,
+               const std::string& source)
+      : index_(index),
+        c0_(index.clips()[chosen[0].clip_index]),
+        target_(index.skeletons()[c0_.skeleton].skeleton) {
+    for (const SearchResult& m : chosen) {
+      const IndexClip& c = index.clips()[m.clip_index];
+      if (std::abs(c.frame_time_s - c0_.frame_time_s) > 1e-9)
+        throw InputError(source, 0,
+                         "clip \"" + base_name(c.path) + "\" has frame time " +
+                             std::to_string(c.frame_time_s) + " s, the target (\"" +
+                             base_name(c0_.path) + "\") " + std::to_string(c0_.frame_time_s) +
+                             " s: pick clips of one frame rate");
+      if (c.skeleton == c0_.skeleton || joint_maps_.count(c.skeleton)) continue;
+      const Skeleton& other = index.skeletons()[c.skeleton].skeleton;
+      std::vector<int> map(target_.joint_count(), -1);
+      std::string missing;
+      for (std::size_t j = 0; j < target_.joint_count(); ++j) {
+        int o = other.find(target_.names[j]);
+        if (o < 0) o = find_joint_by_alias(other, target_.names[j]);
+        map[j] = o;
+        if (o < 0 && target_.channels[j].rotation_count > 0)
+          missing += (missing.empty() ? "" : ", ") + target_.names[j];
+      }
+      if (!missing.empty())
+        throw InputError(
+            source, 0,
+            "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
+                ", which cannot be mapped to the target skeleton " + std::to_string(c0_.skeleton) +
+                " (from \"" + base_name(c0_.path) + "\"): no joint for " + missing);
+      joint_maps_[c.skeleton] = std::move(map);
+    }
+  }
+
+  // Frame f of a chosen clip, on the target skeleton (joints without a
+  // counterpart: identity).
+  SynthFrame frame(std::size_t clip, std::size_t f) const {
+    SynthFrame fr = clip_frame(index_, clip, f);
+    const auto it = joint_maps_.find(index_.clips()[clip].skeleton);
+    if (index_.clips()[clip].skeleton == c0_.skeleton || it == joint_maps_.end()) return fr;
+    SynthFrame mapped;
+    mapped.root_position_m = fr.root_position_m;
+    mapped.local_rotations.assign(target_.joint_count(), Eigen::Quaterniond::Identity());
+    for (std::size_t j = 0; j < target_.joint_count(); ++j)
+      if (it->second[j] >= 0)
+        mapped.local_rotations[j] = fr.local_rotations[static_cast<std::size_t>(it->second[j])];
+    return mapped;
+  }
+
+ private:
+  const Index& index_;
+  const IndexClip& c0_;
+  const Skeleton& target_;
+  std::map<std::uint32_t, std::vector<int>> joint_maps_;
+};
+
+// The partial motions R_h, placed (synth_job.hpp "Root placement").
+std::vector<std::vector<SynthFrame>> place_pieces(
+    const SynthSkeleton& sk, const TargetPieces& source, const std::vector<SearchResult>& chosen,
+    const Query& query, const std::vector<PartialPoseSpec>& qf, double dt) {
+  const double T = query.transition_time_s;
+  std::vector<std::vector<SynthFrame>> pieces(chosen.size());
+  for (std::size_t h = 0; h < chosen.size(); ++h) {
+    const SearchResult& m = chosen[h];
+    std::vector<SynthFrame> raw;
+    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
+      raw.push_back(source.frame(m.clip_index, f));
+    Placement p;
+    const bool world_xz = !query.relative && qf[h].root_position_m[0] && qf[h].root_position_m[2];
+    if (h > 0 && !world_xz) {
+      const auto& prev = pieces[h - 1];
+      const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
+      const Eigen::Vector3d vs = horizontal_root_velocity(raw[0], raw[1], dt);
+      const double* heading = qf[h].root_heading_rad ? &*qf[h].root_heading_rad : nullptr;
+      p = continuation_placement(sk, prev.back(), ve, raw[0], vs, T, heading);
+    }
+    for (SynthFrame& f : raw) f = place_frame(sk, f, p);
+    pieces[h] = std::move(raw);
+  }
+  return pieces;
+}
+
+// The completed query frames Q_F: Q^h from R_h's first frame, Q^H from
+// R_H-1's last (synth_job.hpp).
+std::vector<SynthFrame> complete_query_frames(const SynthSkeleton& sk, const Query& query,
+                                              const std::vector<PartialPoseSpec>& qf,
+                                              const std::vector<std::vector<SynthFrame>>& pieces,
+                                              double dt) {
+  const double T = query.transition_time_s;
+  const std::size_t H = qf.size();
+  std::vector<SynthFrame> out;
+  for (std::size_t h = 0; h < H; ++h) {
+    if (h + 1 < H) {
+      const auto& pc = pieces[h];
+      const Eigen::Vector3d vs = horizontal_root_velocity(pc[0], pc[1], dt);
+      out.push_back(complete_query(sk, qf[h], pc[0], query.relative, -0.5 * T * vs));
+    } else {
+      const auto& pc = pieces[h - 1];
+      const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
+      out.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
+    }
+  }
+  return out;
+}
+
+// One gap to supplement and, once done, its transition and report.
+struct GapTask {
+  std::size_t pair;
+  const char* side;
+  GapProblem gap;
+  TransitionReport report;
+  std::vector<SynthFrame> frames;
+};
+
+// The gaps, two per pair in order: into each partial motion from its query
+// frame ("in") and out of it to the next ("out").
+std::vector<GapTask> gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom,
+                               const std::vector<SynthFrame>& query_frames,
+                               const std::vector<std::vector<SynthFrame>>& pieces, double dt) {
+  std::vector<GapTask> tasks;
+  for (std::size_t h = 0; h < pieces.size(); ++h) {
+    const SynthFrame& q = query_frames[h];
+    const SynthFrame& qn = query_frames[h + 1];
+    const auto& pc = pieces[h];
+    tasks.push_back({h + 1, "in", GapProblem{&sk, &rom, q, q, pc[0], pc[1], dt}, {}, {}});
+    tasks.push_back(
+        {h + 1, "out", GapProblem{&sk, &rom, pc[pc.size() - 2], pc.back(), qn, qn, dt}, {}, {}});
+  }
+  return tasks;
+}
+
+// Supplements one gap by options.method and measures it, with the other
+// baselines at the same length.
+void supplement_gap(GapTask& t, const SynthOptions& options) {
+  TransitionReport& tr = t.report;
+  tr.pair = t.pair;
+  tr.side = t.side;
+  tr.method = options.method;
+  const auto ts = std::chrono::steady_clock::now();
+  // Baselines get the length A* would plan with (choose_transition_frames),
+  // so --transition slerp|inertialize compare like with like.
+  const std::size_t frames = options.method == TransitionMethod::astar
+                                 ? 0
+                                 : choose_transition_frames(t.gap, options.params);
+  switch (options.method) {
+    case TransitionMethod::astar:
+      t.frames = supplement_astar(t.gap, options.params, &tr.stats);
+      break;
+    case TransitionMethod::slerp:
+      t.frames = slerp_transition(t.gap, frames);
+      break;
+    case TransitionMethod::inertialize:
+      t.frames = inertialize_transition(t.gap, frames);
+      break;
+  }
+  tr.time_ms = ms_since(ts);
+  tr.measures = measure_transition(t.gap, t.frames);
+  for (TransitionMethod other :
+       {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
+    if (other == options.method || other == TransitionMethod::astar) continue;
+    const auto bf = other == TransitionMethod::slerp
+                        ? slerp_transition(t.gap, t.frames.size())
+                        : inertialize_transition(t.gap, t.frames.size());
+    tr.baselines.emplace_back(other, measure_transition(t.gap, bf));
+  }
+}
+
+// The motion Q^1, transition, R_1, transition, Q^2, ..., Q^H into
+// res.frames and res.segments; the tasks' reports into res.transitions.
+void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& pieces,
+              std::vector<GapTask>& tasks) {
+  auto add_segment = [&](const std::string& kind, std::size_t pair,
+                         const std::vector<SynthFrame>& fs) {
+    res.segments.push_back({kind, pair, res.frames.size(), fs.size()});
+    res.frames.insert(res.frames.end(), fs.begin(), fs.end());
+  };
+  const std::size_t H = pieces.size() + 1;
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    add_segment("query", h + 1, {res.query_frames[h]});
+    for (std::size_t side = 0; side < 2; ++side) {
+      GapTask& t = tasks[2 * h + side];
+      if (side == 1) add_segment("partial", h + 1, pieces[h]);
+      add_segment("transition", h + 1, t.frames);
+      res.transitions.push_back(std::move(t.report));
+    }
+  }
+  add_segment("query", H, {res.query_frames.back()});
 }
 
 std::vector<Channel> parse_channels(const std::string& s) {
   std::vector<Channel> out;
   std::istringstream in(s);
   std::string w;
-  static const char* names[] = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+  static const char* names[] = {"Xposition", "Yposition", "Zposition",
+                                "Xrotation", "Yrotation", "Zrotation"};
   while (in >> w)
     for (int k = 0; k < 6; ++k)
       if (w == names[k]) out.push_back(static_cast<Channel>(k));
@@ -90,8 +311,8 @@ std::vector<Channel> parse_channels(const std::string& s) {
 
 }  // namespace
 
-std::vector<RankedPair> read_search_results(const std::filesystem::path& path, const std::string& query_id,
-                                            const Index& index) {
+std::vector<PairResults> read_search_results(const std::filesystem::path& path,
+                                             const std::string& query_id, const Index& index) {
   std::ifstream in(path);
   if (!in) throw InputError(path.string(), 0, "cannot read the search results");
   std::string line;
@@ -111,16 +332,18 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
     const std::string id = j["id"].get<std::string>();
     ids.push_back(id);
     if (id != query_id) continue;
-    if (j.contains("error")) throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
-    if (!j.contains("pairs") || !j["pairs"].is_array()) throw InputError(path.string(), n, "pairs: expected an array");
-    std::vector<RankedPair> pairs;
+    if (j.contains("error"))
+      throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
+    if (!j.contains("pairs") || !j["pairs"].is_array())
+      throw InputError(path.string(), n, "pairs: expected an array");
+    std::vector<PairResults> pairs;
     try {
       for (const auto& jp : j["pairs"]) {
-        RankedPair p;
+        PairResults p;
         p.from = jp.at("from").get<std::size_t>();
         p.to = jp.at("to").get<std::size_t>();
         for (const auto& jr : jp.at("results")) {
-          RankedMotion r;
+          SearchResult r;
           r.rank = jr.at("rank").get<std::size_t>();
           r.clip_index = jr.at("clip_index").get<std::size_t>();
           r.clip = jr.at("clip").get<std::string>();
@@ -134,13 +357,15 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
               (index.clips()[r.clip_index].path != r.clip &&
                base_name(index.clips()[r.clip_index].path) != base_name(r.clip)))
             throw InputError(path.string(), n,
-                             "unknown clip \"" + r.clip + "\" (clip_index " + std::to_string(r.clip_index) +
-                                 ") in index " + index.path().string());
+                             "unknown clip \"" + r.clip + "\" (clip_index " +
+                                 std::to_string(r.clip_index) + ") in index " +
+                                 index.path().string());
           const std::size_t fc = index.clips()[r.clip_index].frame_count;
           if (!(r.start_frame < r.end_frame && r.end_frame < fc))
             throw InputError(path.string(), n,
-                             "frames " + std::to_string(r.start_frame) + ".." + std::to_string(r.end_frame) +
-                                 " out of range for \"" + r.clip + "\" (" + std::to_string(fc) + " frames)");
+                             "frames " + std::to_string(r.start_frame) + ".." +
+                                 std::to_string(r.end_frame) + " out of range for \"" + r.clip +
+                                 "\" (" + std::to_string(fc) + " frames)");
           p.results.push_back(std::move(r));
         }
         pairs.push_back(std::move(p));
@@ -152,8 +377,9 @@ std::vector<RankedPair> read_search_results(const std::filesystem::path& path, c
   }
   std::string known;
   for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
-  throw InputError(path.string(), 0, "no results for query \"" + query_id + "\" (ids in the file: " +
-                                         (known.empty() ? "none" : known) + ")");
+  throw InputError(path.string(), 0,
+                   "no results for query \"" + query_id +
+                       "\" (ids in the file: " + (known.empty() ? "none" : known) + ")");
 }
 
 Pick parse_pick(const std::string& text) {
@@ -169,182 +395,43 @@ Pick parse_pick(const std::string& text) {
   return p;
 }
 
-SynthResult synthesize(const Index& index, const Query& query, const std::vector<RankedPair>& ranked,
-                       const SynthOptions& options, std::optional<SynthSkeleton>& skeleton_out) {
+SynthResult synthesize(const Index& index, const Query& query,
+                       const std::vector<PairResults>& ranked, const SynthOptions& options,
+                       std::optional<SynthSkeleton>& skeleton_out) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::string src = "<query " + query.id + ">";
   const std::size_t H = query.frames.size();
   if (H < 2) throw InputError(src, 0, "frames: a query needs at least 2 frames");
   if (ranked.size() != H - 1)
-    throw InputError(src, 0, "the search results have " + std::to_string(ranked.size()) + " pairs, the query " +
-                                 std::to_string(H - 1));
-  // Choices: rank 1 unless picked.
-  std::vector<std::size_t> rank(H - 1, 1);
-  for (const Pick& p : options.picks) {
-    if (p.pair > H - 1)
-      throw InputError("--pick", 0, "pair " + std::to_string(p.pair) + " out of range (the query has " +
-                                        std::to_string(H - 1) + " pairs)");
-    rank[p.pair - 1] = p.rank;
-  }
+    throw InputError(src, 0,
+                     "the search results have " + std::to_string(ranked.size()) +
+                         " pairs, the query " + std::to_string(H - 1));
   SynthResult res;
-  for (std::size_t h = 0; h + 1 < H; ++h) {
-    const auto& rs = ranked[h].results;
-    auto it = std::find_if(rs.begin(), rs.end(), [&](const RankedMotion& m) { return m.rank == rank[h]; });
-    if (it == rs.end())
-      throw InputError("--pick", 0, "pair " + std::to_string(h + 1) + " has no result of rank " +
-                                        std::to_string(rank[h]) + " (" + std::to_string(rs.size()) + " results)");
-    res.chosen.push_back(*it);
-  }
+  res.chosen = chosen_results(ranked, options.picks);
   // Target skeleton: the first chosen clip's.
-  const IndexClip& c0 = index.clips()[res.chosen[0].clip_index];
-  // Clips of another skeleton are mapped joint by joint (same name, else the
-  // same canonical body part); refused when a target joint cannot be mapped.
-  const Skeleton& target = index.skeletons()[c0.skeleton].skeleton;
-  std::map<std::uint32_t, std::vector<int>> joint_maps;
-  for (const RankedMotion& m : res.chosen) {
-    const IndexClip& c = index.clips()[m.clip_index];
-    if (std::abs(c.frame_time_s - c0.frame_time_s) > 1e-9)
-      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" has frame time " + std::to_string(c.frame_time_s) +
-                                   " s, the target (\"" + base_name(c0.path) + "\") " +
-                                   std::to_string(c0.frame_time_s) + " s: pick clips of one frame rate");
-    if (c.skeleton == c0.skeleton || joint_maps.count(c.skeleton)) continue;
-    const Skeleton& other = index.skeletons()[c.skeleton].skeleton;
-    std::vector<int> map(target.joint_count(), -1);
-    std::string missing;
-    for (std::size_t j = 0; j < target.joint_count(); ++j) {
-      int o = other.find(target.names[j]);
-      if (o < 0) o = find_joint_by_alias(other, target.names[j]);
-      map[j] = o;
-      if (o < 0 && target.channels[j].rotation_count > 0) missing += (missing.empty() ? "" : ", ") + target.names[j];
-    }
-    if (!missing.empty())
-      throw InputError(src, 0, "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
-                                   ", which cannot be mapped to the target skeleton " + std::to_string(c0.skeleton) +
-                                   " (from \"" + base_name(c0.path) + "\"): no joint for " + missing);
-    joint_maps[c.skeleton] = std::move(map);
-  }
-  auto piece_frame = [&](std::size_t clip, std::size_t f) {
-    SynthFrame fr = clip_frame(index, clip, f);
-    const auto it = joint_maps.find(index.clips()[clip].skeleton);
-    if (index.clips()[clip].skeleton == c0.skeleton || it == joint_maps.end()) return fr;
-    SynthFrame mapped;
-    mapped.root_position_m = fr.root_position_m;
-    mapped.local_rotations.assign(target.joint_count(), Eigen::Quaterniond::Identity());
-    for (std::size_t j = 0; j < target.joint_count(); ++j)
-      if (it->second[j] >= 0) mapped.local_rotations[j] = fr.local_rotations[static_cast<std::size_t>(it->second[j])];
-    return mapped;
-  };
-  skeleton_out.emplace(make_synth_skeleton(index, c0.skeleton, res.chosen[0].clip_index));
+  const std::size_t first_clip = res.chosen[0].clip_index;
+  const std::uint32_t target = index.clips()[first_clip].skeleton;
+  const TargetPieces source(index, res.chosen, src);
+  skeleton_out.emplace(make_synth_skeleton(index, target, first_clip));
   const SynthSkeleton& sk = *skeleton_out;
   res.skeleton = &sk;
-  const double dt = c0.frame_time_s;
+  const double dt = index.clips()[first_clip].frame_time_s;
   res.frame_time_s = dt;
   // Range of motion: union over every clip of the target skeleton in the index.
-  const std::vector<std::size_t>& clips = index.skeletons()[c0.skeleton].clips;
-  const RangeOfMotion rom = range_of_motion(index, sk, clips);
-  std::vector<ResolvedQueryFrame> qf;
+  const RangeOfMotion rom = range_of_motion(index, sk, index.skeletons()[target].clips);
+  std::vector<PartialPoseSpec> qf;
   QueryBvhCache bvh_cache;
-  for (std::size_t i = 0; i < H; ++i) qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
-  const double T = query.transition_time_s;
-
-  // Place the partial motions.
-  std::vector<std::vector<SynthFrame>> pieces(H - 1);
-  for (std::size_t h = 0; h + 1 < H; ++h) {
-    const RankedMotion& m = res.chosen[h];
-    std::vector<SynthFrame> raw;
-    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f) raw.push_back(piece_frame(m.clip_index, f));
-    Placement p;
-    const bool world_xz = !query.relative && qf[h].root_m[0] && qf[h].root_m[2];
-    if (h > 0 && !world_xz) {
-      const auto& prev = pieces[h - 1];
-      const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
-      const Eigen::Vector3d vs = horizontal_root_velocity(raw[0], raw[1], dt);
-      const double* heading = qf[h].heading_rad ? &*qf[h].heading_rad : nullptr;
-      p = continuation_placement(sk, prev.back(), ve, raw[0], vs, T, heading);
-    }
-    for (SynthFrame& f : raw) f = place_frame(sk, f, p);
-    pieces[h] = std::move(raw);
-  }
-  // Complete the query frames (Q_F).
-  for (std::size_t h = 0; h < H; ++h) {
-    if (h + 1 < H) {
-      const auto& pc = pieces[h];
-      const Eigen::Vector3d vs = horizontal_root_velocity(pc[0], pc[1], dt);
-      res.query_frames.push_back(complete_query(sk, qf[h], pc[0], query.relative, -0.5 * T * vs));
-    } else {
-      const auto& pc = pieces[h - 1];
-      const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
-      res.query_frames.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
-    }
-  }
-  // The gaps: into each partial motion from its query frame and out of it
-  // to the next. Each is supplemented as its own task (independent: the
-  // result does not depend on the thread count).
-  struct GapTask {
-    std::size_t pair;
-    const char* side;
-    GapProblem gap;
-    TransitionReport report;
-    std::vector<SynthFrame> frames;
-  };
-  std::vector<GapTask> tasks;
-  for (std::size_t h = 0; h + 1 < H; ++h) {
-    const SynthFrame& q = res.query_frames[h];
-    const SynthFrame& qn = res.query_frames[h + 1];
-    const auto& pc = pieces[h];
-    tasks.push_back({h + 1, "in", GapProblem{&sk, &rom, q, q, pc[0], pc[1], dt}, {}, {}});
-    tasks.push_back(
-        {h + 1, "out", GapProblem{&sk, &rom, pc[pc.size() - 2], pc.back(), qn, qn, dt}, {}, {}});
-  }
-  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t i) {
-    GapTask& t = tasks[i];
-    TransitionReport& tr = t.report;
-    tr.pair = t.pair;
-    tr.side = t.side;
-    tr.method = options.method;
-    const auto ts = std::chrono::steady_clock::now();
-    // Baselines get the length A* would plan with (choose_transition_frames),
-    // so --transition slerp|inertialize compare like with like.
-    const std::size_t frames = options.method == TransitionMethod::astar
-                                   ? 0
-                                   : choose_transition_frames(t.gap, options.params);
-    switch (options.method) {
-      case TransitionMethod::astar:
-        t.frames = supplement_astar(t.gap, options.params, &tr.stats);
-        break;
-      case TransitionMethod::slerp:
-        t.frames = slerp_transition(t.gap, frames);
-        break;
-      case TransitionMethod::inertialize:
-        t.frames = inertialize_transition(t.gap, frames);
-        break;
-    }
-    tr.time_ms = ms_since(ts);
-    tr.measures = measure_transition(t.gap, t.frames);
-    for (TransitionMethod other : {TransitionMethod::astar, TransitionMethod::slerp, TransitionMethod::inertialize}) {
-      if (other == options.method || other == TransitionMethod::astar) continue;
-      const auto bf = other == TransitionMethod::slerp
-                          ? slerp_transition(t.gap, t.frames.size())
-                          : inertialize_transition(t.gap, t.frames.size());
-      tr.baselines.emplace_back(other, measure_transition(t.gap, bf));
-    }
-  });
-  // Assemble: Q^1, transition, R_1, transition, Q^2, ...
-  auto add_segment = [&](const std::string& kind, std::size_t pair,
-                         const std::vector<SynthFrame>& fs) {
-    res.segments.push_back({kind, pair, res.frames.size(), fs.size()});
-    res.frames.insert(res.frames.end(), fs.begin(), fs.end());
-  };
-  for (std::size_t h = 0; h + 1 < H; ++h) {
-    add_segment("query", h + 1, {res.query_frames[h]});
-    for (std::size_t side = 0; side < 2; ++side) {
-      GapTask& t = tasks[2 * h + side];
-      if (side == 1) add_segment("partial", h + 1, pieces[h]);
-      add_segment("transition", h + 1, t.frames);
-      res.transitions.push_back(std::move(t.report));
-    }
-  }
-  add_segment("query", H, {res.query_frames.back()});
+  for (std::size_t i = 0; i < H; ++i)
+    qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
+  const std::vector<std::vector<SynthFrame>> pieces =
+      place_pieces(sk, source, res.chosen, query, qf, dt);
+  res.query_frames = complete_query_frames(sk, query, qf, pieces, dt);
+  std::vector<GapTask> tasks = gap_tasks(sk, rom, res.query_frames, pieces, dt);
+  // Each gap is supplemented as its own task (independent: the result does
+  // not depend on the thread count).
+  tbb::parallel_for(std::size_t{0}, tasks.size(),
+                    [&](std::size_t i) { supplement_gap(tasks[i], options); });
+  assemble(res, pieces, tasks);
   res.step_energies_J = motion_step_energies(sk, res.frames, dt);
   res.synth_ms = ms_since(t0);
   return res;
@@ -384,8 +471,9 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       if (static_cast<int>(j) == sk.root_joint) {
         const int p = s.parents[j];
         t = p < 0 ? fr.root_position_m
-                  : Eigen::Vector3d(w.rotations[static_cast<std::size_t>(p)].conjugate() *
-                                    (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
+                  : Eigen::Vector3d(
+                        w.rotations[static_cast<std::size_t>(p)].conjugate() *
+                        (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
       }
       t /= unit;
       const auto& cm = s.channels[j];
@@ -393,8 +481,10 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       if (cm.rotation_count == 3) e = quaternion_to_euler(fr.local_rotations[j], cm.rotation_axis);
       std::size_t col = raw.joints[j].first_column, rot_k = 0;
       for (Channel c : chans[j]) {
-        if (channel_is_rotation(c)) row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
-        else row[col++] = t[channel_axis(c)];
+        if (channel_is_rotation(c))
+          row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
+        else
+          row[col++] = t[channel_axis(c)];
       }
     }
   }

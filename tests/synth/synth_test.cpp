@@ -12,6 +12,7 @@
 #include <string>
 
 #include "mocap/error.hpp"
+#include "mocap/refine.hpp"
 #include "mocap/synth.hpp"
 #include "mocap/synth_job.hpp"
 #include "test_support.hpp"
@@ -27,10 +28,12 @@ const mocap::Index* shared_index() {
     tried = true;
     const auto dir = mocap::test::temp_dir("synth-index");
     const auto out = dir / "set1.h5";
-    const std::string cmd = std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build --out " + out.string() +
-                            " " + (mocap::test::data_dir() / "bandai-namco-1").string() + " " +
+    const std::string cmd = std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build --out " +
+                            out.string() + " " +
+                            (mocap::test::data_dir() / "bandai-namco-1").string() + " " +
                             (mocap::test::data_dir() / "cmu").string() + " >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) index = std::make_unique<mocap::Index>(mocap::Index::open(out));
+    if (std::system(cmd.c_str()) == 0)
+      index = std::make_unique<mocap::Index>(mocap::Index::open(out));
   }
   return index.get();
 }
@@ -48,8 +51,8 @@ struct RealGap {
   mocap::RangeOfMotion rom;
   mocap::GapProblem gap;
 };
-std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std::size_t a, std::size_t y,
-                                  std::size_t b) {
+std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std::size_t a,
+                                  std::size_t y, std::size_t b) {
   auto g = std::make_unique<RealGap>();
   g->sk = mocap::make_synth_skeleton(index, index.clips()[x].skeleton, x);
   g->rom = mocap::range_of_motion(index, g->sk, index.skeletons()[index.clips()[x].skeleton].clips);
@@ -61,8 +64,9 @@ std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std:
   gap.start = mocap::clip_frame(index, x, a);
   const SynthFrame g0 = mocap::clip_frame(index, y, b), g1 = mocap::clip_frame(index, y, b + 1);
   const double dt = gap.frame_time_s;
-  const auto p = mocap::continuation_placement(g->sk, gap.start, mocap::horizontal_root_velocity(gap.before, gap.start, dt),
-                                               g0, mocap::horizontal_root_velocity(g0, g1, dt), 0.4);
+  const auto p = mocap::continuation_placement(
+      g->sk, gap.start, mocap::horizontal_root_velocity(gap.before, gap.start, dt), g0,
+      mocap::horizontal_root_velocity(g0, g1, dt), 0.4);
   gap.goal = mocap::place_frame(g->sk, g0, p);
   gap.after = mocap::place_frame(g->sk, g1, p);
   return g;
@@ -147,10 +151,10 @@ Refined refine_checked(const SlerpStart& st, const mocap::RefineOptions& options
   return a;
 }
 
-#define REQUIRE_INDEX()                                          \
-  MOCAP_REQUIRE_DATA();                                          \
-  const mocap::Index* index_ptr = shared_index();                \
-  ASSERT_NE(index_ptr, nullptr) << "could not build the index";  \
+#define REQUIRE_INDEX()                                         \
+  MOCAP_REQUIRE_DATA();                                         \
+  const mocap::Index* index_ptr = shared_index();               \
+  ASSERT_NE(index_ptr, nullptr) << "could not build the index"; \
   const mocap::Index& index = *index_ptr
 
 }  // namespace
@@ -189,17 +193,23 @@ TEST(SynthValidity, BadGapsAndResults) {
     std::ofstream(dir / name) << text;
     return dir / name;
   };
-  EXPECT_THROW(mocap::read_search_results(write("bad.jsonl", "{not json\n"), "q", index), mocap::InputError);
-  EXPECT_THROW(mocap::read_search_results(write("noid.jsonl", "{\"pairs\": []}\n"), "q", index), mocap::InputError);
-  EXPECT_THROW(mocap::read_search_results(write("other.jsonl", "{\"id\": \"p\", \"pairs\": []}\n"), "q", index),
+  EXPECT_THROW(mocap::read_search_results(write("bad.jsonl", "{not json\n"), "q", index),
                mocap::InputError);
-  EXPECT_THROW(mocap::read_search_results(write("err.jsonl", "{\"id\": \"q\", \"error\": \"boom\"}\n"), "q", index),
+  EXPECT_THROW(mocap::read_search_results(write("noid.jsonl", "{\"pairs\": []}\n"), "q", index),
+               mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("other.jsonl", "{\"id\": \"p\", \"pairs\": []}\n"),
+                                          "q", index),
+               mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(
+                   write("err.jsonl", "{\"id\": \"q\", \"error\": \"boom\"}\n"), "q", index),
                mocap::InputError);
   const std::string clip = index.clips()[x].path;
   auto line = [&](const std::string& name, std::size_t ci, std::size_t s, std::size_t e) {
-    return "{\"id\": \"q\", \"pairs\": [{\"from\": 0, \"to\": 1, \"results\": [{\"rank\": 1, \"clip\": \"" + name +
-           "\", \"clip_index\": " + std::to_string(ci) + ", \"start_frame\": " + std::to_string(s) +
-           ", \"end_frame\": " + std::to_string(e) + ", \"score_J\": 1}]}]}\n";
+    return "{\"id\": \"q\", \"pairs\": [{\"from\": 0, \"to\": 1, \"results\": [{\"rank\": 1, "
+           "\"clip\": \"" +
+           name + "\", \"clip_index\": " + std::to_string(ci) +
+           ", \"start_frame\": " + std::to_string(s) + ", \"end_frame\": " + std::to_string(e) +
+           ", \"score_J\": 1}]}]}\n";
   };
   try {
     mocap::read_search_results(write("unknown.jsonl", line("/x/nope.bvh", x, 1, 5)), "q", index);
@@ -207,9 +217,11 @@ TEST(SynthValidity, BadGapsAndResults) {
   } catch (const mocap::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown clip"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(mocap::read_search_results(write("range.jsonl", line(clip, x, 5, 100000)), "q", index),
+  EXPECT_THROW(
+      mocap::read_search_results(write("range.jsonl", line(clip, x, 5, 100000)), "q", index),
+      mocap::InputError);
+  EXPECT_THROW(mocap::read_search_results(write("order.jsonl", line(clip, x, 5, 5)), "q", index),
                mocap::InputError);
-  EXPECT_THROW(mocap::read_search_results(write("order.jsonl", line(clip, x, 5, 5)), "q", index), mocap::InputError);
   EXPECT_THROW(mocap::read_search_results(write("idx.jsonl", line(clip, 100000, 1, 5)), "q", index),
                mocap::InputError);
   const auto ok = mocap::read_search_results(write("ok.jsonl", line(clip, x, 1, 5)), "q", index);
@@ -222,13 +234,28 @@ TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
   const std::size_t w1 = clip_named(index, "dataset-1_walk_normal_001.bvh");
   const std::size_t cmu = clip_named(index, "131_01.bvh");
   mocap::Query q = mocap::parse_query_text(
-      R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}]})", "q.json", 0, ".", "q");
-  mocap::RankedPair pair;
-  pair.results.push_back({1, w1, index.clips()[w1].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+      R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}]})", "q.json", 0,
+      ".", "q");
+  mocap::PairResults pair;
+  // A result of rank 1 for frames 5 .. 30 of `clip`.
+  const auto result = [&](std::size_t clip) {
+    mocap::SearchResult r;
+    r.rank = 1;
+    r.clip_index = clip;
+    r.clip = index.clips()[clip].path;
+    r.start_frame = 5;
+    r.end_frame = 30;
+    r.score_J = 1.0;
+    r.h_in_J = 0.5;
+    r.h_out_J = 0.5;
+    return r;
+  };
+  pair.results.push_back(result(w1));
   std::optional<mocap::SynthSkeleton> sk;
   mocap::SynthOptions opt;
   opt.picks = {{2, 1}};
-  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);  // pair out of range
+  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk),
+               mocap::InputError);  // pair out of range
   opt.picks = {{1, 4}};
   EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);  // rank absent
   opt.picks.clear();
@@ -236,8 +263,8 @@ TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
   mocap::Query q3 = mocap::parse_query_text(
       R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}, {"root_heading_deg": 0}]})",
       "q.json", 0, ".", "q");
-  mocap::RankedPair other;
-  other.results.push_back({1, cmu, index.clips()[cmu].path, 5, 30, 1.0, 0.5, 0.5, 0.0});
+  mocap::PairResults other;
+  other.results.push_back(result(cmu));
   try {
     mocap::synthesize(index, q3, {pair, other}, opt, sk);
     FAIL() << "clips of different frame rates accepted";
@@ -258,7 +285,8 @@ TEST(SynthKinematics, WorldPoseMatchesIndex) {
     const auto pos = index.clip_frames(c, "joint_positions_m");
     const std::size_t n = sk.joint_count();
     mocap::WorldPose w;
-    for (std::size_t f : {std::size_t{0}, index.clips()[c].frame_count / 2, index.clips()[c].frame_count - 1}) {
+    for (std::size_t f :
+         {std::size_t{0}, index.clips()[c].frame_count / 2, index.clips()[c].frame_count - 1}) {
       mocap::synth_world_pose(sk, mocap::clip_frame(index, c, f), w);
       for (std::size_t j = 0; j < n; ++j)
         for (int k = 0; k < 3; ++k)
@@ -280,7 +308,9 @@ TEST(SynthRange, ClampKeepsInsideAndRecordedFramesAreInside) {
     ++limited;
     EXPECT_TRUE(mocap::within_range(sk, rom, static_cast<int>(j), f.local_rotations[j]));
     // A large twist leaves the range of the elbow / knee; the clamp brings it back.
-    const Eigen::Quaterniond far = f.local_rotations[j] * Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(0.3, 0.9, 0.3).normalized()));
+    const Eigen::Quaterniond far =
+        f.local_rotations[j] *
+        Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(0.3, 0.9, 0.3).normalized()));
     const Eigen::Quaterniond cl = mocap::clamp_to_range(sk, rom, static_cast<int>(j), far);
     EXPECT_TRUE(mocap::within_range(sk, rom, static_cast<int>(j), cl)) << sk.skeleton.names[j];
   }
@@ -301,13 +331,17 @@ TEST(SynthPlacement, ContinuationTurnsAndMoves) {
   const Eigen::Vector3d ve(1.0, 0.0, 0.0), vf(0.0, 0.0, 0.0);
   const auto p = mocap::continuation_placement(sk, end, ve, first, vf, 0.5);
   const SynthFrame placed = mocap::place_frame(sk, first, p);
-  EXPECT_NEAR(std::remainder(mocap::root_heading(sk, placed) - mocap::root_heading(sk, end), 2 * M_PI), 0.0, 1e-9);
+  EXPECT_NEAR(
+      std::remainder(mocap::root_heading(sk, placed) - mocap::root_heading(sk, end), 2 * M_PI), 0.0,
+      1e-9);
   EXPECT_NEAR(placed.root_position_m.x(), end.root_position_m.x() + 0.25, 1e-9);
   EXPECT_NEAR(placed.root_position_m.z(), end.root_position_m.z(), 1e-9);
   EXPECT_NEAR(placed.root_position_m.y(), first.root_position_m.y(), 1e-9);
   const double heading = 1.0;
   const auto p2 = mocap::continuation_placement(sk, end, ve, first, vf, 0.5, &heading);
-  EXPECT_NEAR(std::remainder(mocap::root_heading(sk, mocap::place_frame(sk, first, p2)) - 1.0, 2 * M_PI), 0.0, 1e-9);
+  EXPECT_NEAR(
+      std::remainder(mocap::root_heading(sk, mocap::place_frame(sk, first, p2)) - 1.0, 2 * M_PI),
+      0.0, 1e-9);
 }
 
 TEST(SynthSupplement, BaselinesHitTheirDefinitions) {
@@ -335,10 +369,12 @@ TEST(SynthSupplement, BaselinesHitTheirDefinitions) {
     EXPECT_GT(m.peak_angular_speed_radps, 0.0);
     // The split of g by term adds up to g; its h part is h.
     const auto& t = m.energy_split;
-    for (double part : {t.h_J, t.adjacent_J, t.contact_J, t.joint_J, t.residual_work_J, t.residual_impulse_J})
+    for (double part :
+         {t.h_J, t.adjacent_J, t.contact_J, t.joint_J, t.residual_work_J, t.residual_impulse_J})
       EXPECT_GE(part, 0.0);
-    EXPECT_NEAR(t.h_J + t.adjacent_J + t.contact_J + t.joint_J + t.residual_work_J + t.residual_impulse_J,
-                m.energy_J, 1e-9 * m.energy_J);
+    EXPECT_NEAR(
+        t.h_J + t.adjacent_J + t.contact_J + t.joint_J + t.residual_work_J + t.residual_impulse_J,
+        m.energy_J, 1e-9 * m.energy_J);
     EXPECT_NEAR(t.h_J, m.approximate_energy_J, 1e-9 * m.energy_J);
   }
 }
@@ -408,7 +444,8 @@ TEST(SynthSupplement, IdenticalEndsCostLittle) {
   g->gap.before = g->gap.start;
   g->gap.goal = g->gap.start;
   g->gap.after = g->gap.start;
-  for (const auto& fs : {mocap::slerp_transition(g->gap, 5), mocap::inertialize_transition(g->gap, 5)}) {
+  for (const auto& fs :
+       {mocap::slerp_transition(g->gap, 5), mocap::inertialize_transition(g->gap, 5)}) {
     const auto m = mocap::measure_transition(g->gap, fs);
     EXPECT_LT(m.foot_sliding_m, 1e-9);
     EXPECT_LT(m.peak_angular_speed_radps, 1e-6);
@@ -613,7 +650,7 @@ TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   const auto plain = mocap::supplement_astar(g->gap, p, &plain_stats);
   EXPECT_EQ(plain_stats.refine_steps, 0u);
   EXPECT_EQ(plain_stats.refine_gain_J, 0.0);
-  p.refine_iterations = 10;
+  p.refine.iterations = 10;
   const auto refined = mocap::supplement_astar(g->gap, p, &refined_stats);
   ASSERT_EQ(refined.size(), plain.size());
   const auto mp = mocap::measure_transition(g->gap, plain);
@@ -626,4 +663,58 @@ TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   EXPECT_LE(mr.energy_J, ms.energy_J);
   EXPECT_LE(mr.foot_sliding_m, ms.foot_sliding_m + 1e-9);
   EXPECT_LE(mr.range_violations, ms.range_violations);
+}
+
+TEST(SynthRefine, LbfgsStageAloneNeverRaisesG) {
+  REQUIRE_INDEX();
+  // The job's L-BFGS stage run alone on the exact g (as after construction):
+  // every accepted step lowers g and keeps the limits, and energy_J() is the
+  // whole-path measure of the frames it leaves.
+  for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[1]}) {
+    const SlerpStart st = slerp_start(index, xn, yn);
+    std::vector<SynthFrame> frames = st.slerp;
+    const mocap::RefineOptions options{10};
+    mocap::TransitionRefinement job(st.g->gap, frames, options);
+    EXPECT_NEAR(job.energy_J(), st.ms.energy_J, 1e-9 * st.ms.energy_J) << xn;
+    job.lbfgs_stage(10);
+    const auto m = mocap::measure_transition(st.g->gap, frames);
+    EXPECT_GT(job.result().steps, 0u) << xn;
+    EXPECT_LE(job.result().steps, 10u) << xn;
+    EXPECT_LT(job.energy_J(), st.ms.energy_J) << xn;
+    EXPECT_NEAR(job.energy_J(), m.energy_J, 1e-9 * m.energy_J) << xn;
+    expect_within_refine_limits(st.g->gap, m, st.ms, xn);
+    // A second stage goes on from there, never up.
+    const double after_first = job.energy_J();
+    job.lbfgs_stage(5);
+    EXPECT_LE(job.energy_J(), after_first) << xn;
+  }
+}
+
+TEST(SynthRefine, PolishPassAloneNeverRaisesGAndKeepsTheLimits) {
+  REQUIRE_INDEX();
+  // The job's polishing pass run alone: on the exact g every kept move
+  // lowers g and keeps the limits; on a smoothed g it leaves the cache exact
+  // (energy_J() the frames' exact g) and still keeps the limits.
+  for (const auto& [xn, yn] : {kRefinePairs[0], kRefinePairs[2]}) {
+    const SlerpStart st = slerp_start(index, xn, yn);
+    mocap::RefineOptions options{0, 0.0, true, 0.0, 3};
+    options.polish_max_window = 4;
+    options.polish_segment_moves = true;
+    std::vector<SynthFrame> exact = st.slerp;
+    mocap::TransitionRefinement job(st.g->gap, exact, options);
+    job.polish_pass(0.0);
+    const auto me = mocap::measure_transition(st.g->gap, exact);
+    EXPECT_GT(job.result().steps, 0u) << xn;
+    EXPECT_LT(job.energy_J(), st.ms.energy_J) << xn;
+    EXPECT_NEAR(job.energy_J(), me.energy_J, 1e-9 * me.energy_J) << xn;
+    expect_within_refine_limits(st.g->gap, me, st.ms, xn);
+
+    std::vector<SynthFrame> smoothed = st.slerp;
+    mocap::TransitionRefinement smoothed_job(st.g->gap, smoothed, options);
+    smoothed_job.polish_pass(0.3);
+    const auto ms = mocap::measure_transition(st.g->gap, smoothed);
+    EXPECT_NEAR(smoothed_job.energy_J(), ms.energy_J, 1e-9 * ms.energy_J) << xn;
+    EXPECT_LE(ms.foot_sliding_m, st.ms.foot_sliding_m + 1e-10) << xn;
+    EXPECT_LE(ms.range_violations, st.ms.range_violations) << xn;
+  }
 }

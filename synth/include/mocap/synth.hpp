@@ -25,8 +25,8 @@
 //    exact_lookahead is off) is kept, provided it slides
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
-//    Optionally followed by refine_transition (SupplementParams::
-//    refine_iterations): L-BFGS on every inserted frame at once, exact g.
+//    Optionally followed by refine_transition (refine.hpp; SupplementParams::
+//    refine): L-BFGS on every inserted frame at once, exact g.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
 //    velocity) plus the start offset decayed by Bollo's quintic.
@@ -120,6 +120,32 @@ SynthFrame place_frame(const SynthSkeleton& sk, const SynthFrame& frame, const P
 /// Heading of the root joint's world rotation (dynamics.hpp heading_rad), radians.
 double root_heading(const SynthSkeleton& sk, const SynthFrame& frame);
 
+/// The refinement's settings (refine_transition, mocap/refine.hpp).
+struct RefineOptions {
+  std::size_t iterations = 0;
+  /// Metres; the input's own sliding is always allowed.
+  double foot_sliding_limit_m = 0.0;
+  /// false: no sliding, speed or range condition (measures how low g can go).
+  bool keep_limits = true;
+  /// Joules, >= 0 (finite); 0: no smoothed stages.
+  double smoothing_J = 0.0;
+  /// After the iterations: at most this many sweeps of coordinate polishing
+  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
+  std::size_t polish_sweeps = 0;
+  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
+  /// and end_steps_peak_angular_speed(gap) are always allowed.
+  double angular_speed_limit_radps = 0.0;
+  /// Polishing also moves one variable of w consecutive frames together,
+  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
+  std::size_t polish_max_window = 1;
+  /// Polishing also turns each segment alone (its joint one way, the
+  /// joint's children back).
+  bool polish_segment_moves = false;
+  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
+  /// level first, then the exact pass.
+  double polish_smoothing_J = 0.0;
+};
+
 enum class TransitionMethod { astar, slerp, inertialize };
 const char* transition_method_name(TransitionMethod m);
 
@@ -149,29 +175,15 @@ struct SupplementParams {
   bool choose_length = true;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
-  /// After the search: at most this many refinement iterations
-  /// (refine_transition) on the whole path, its feet sliding at most as much
-  /// as the slerp transition of the same length and no joint turning faster
-  /// than in that slerp or in the captured steps at either end; 0: none (the
-  /// default, which the median-time goal is measured with).
-  std::size_t refine_iterations = 0;
-  /// false: the refinement may slide the feet and leave the range of motion
-  /// (RefineOptions::keep_limits; for measurement only).
-  bool refine_keep_limits = true;
-  /// Joules; > 0: the refinement starts on a smoothed g
-  /// (RefineOptions::smoothing_J); 0: on the exact g throughout.
-  double refine_smoothing_J = 0.0;
-  /// After the refinement's iterations: at most this many sweeps of
-  /// coordinate polishing (RefineOptions::polish_sweeps); 0: none.
-  std::size_t refine_polish_sweeps = 0;
-  /// Polishing also moves runs of up to this many consecutive frames
-  /// together (RefineOptions::polish_max_window); 1: single frames only.
-  std::size_t refine_polish_window = 1;
-  /// Polishing also turns single segments (RefineOptions::polish_segment_moves).
-  bool refine_polish_segments = false;
-  /// Joules; > 0: polishing first on g smoothed at this level
-  /// (RefineOptions::polish_smoothing_J).
-  double refine_polish_smoothing_J = 0.0;
+  /// After the search: the refinement of the whole path (refine_transition,
+  /// mocap/refine.hpp); none when refine.iterations and refine.polish_sweeps
+  /// are 0 (the default, which the median-time goal is measured with).
+  /// supplement_astar sets refine.foot_sliding_limit_m and
+  /// refine.angular_speed_limit_radps to those of the slerp transition of
+  /// the same length (the values given are not used): the feet slide at most
+  /// as much as in that slerp and no joint turns faster than in it, in the
+  /// search's path or in the captured steps at either end.
+  RefineOptions refine;
 };
 
 struct GapProblem {
@@ -192,7 +204,7 @@ struct SupplementStats {
   /// Why the search stopped: "threshold" (g(S -> S_G) < T_c), "horizon"
   /// (the Hermite path's planned length was used up), "max_states" (T_n).
   std::string stop_reason;
-  /// Refinement (SupplementParams::refine_iterations): steps accepted, and
+  /// Refinement (SupplementParams::refine): steps accepted, and
   /// how much g they took off the search's path, joules.
   std::size_t refine_steps = 0;
   double refine_gain_J = 0.0;
@@ -210,76 +222,10 @@ std::size_t choose_transition_frames(const GapProblem& gap, const SupplementPara
 /// A*-based supplementation (header). Throws std::invalid_argument on a bad gap.
 std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const SupplementParams& params,
                                          SupplementStats* stats = nullptr);
-/// Refinement of a transition (docs/synthesis.md "Refinement"): at most
-/// `iterations` quasi-Newton iterations (L-BFGS, the last 10 pairs) on all
-/// inserted frames at once (each frame's root position, m, and a rotation
-/// vector, rad, on every joint's local rotation but the dummies above the
-/// root), minimising the transition's g (measure_transition's energy_J).
-/// Gradients by forward differences (1e-6), each recomputing only the steps
-/// the varied frame touches; a step is accepted only when the whole path's g
-/// is lower (Armijo condition, at most 30 halvings) and, with `keep_limits`,
-/// its foot sliding is at most max(that of `frames` as given,
-/// `foot_sliding_limit_m`), its peak joint angular speed at most max(that of
-/// `frames` as given, end_steps_peak_angular_speed(gap),
-/// `angular_speed_limit_radps`), and it has no more range
-/// violations than `frames` as given: the result is never worse than the
-/// input in g (nor, with the limits, in sliding, speed or violations). Stops
-/// early when no step along the gradient is accepted. With `smoothing_J` = s > 0, a continuation: a
-/// quarter of the iterations each on g smoothed at s, s / 10 and s / 100 joules
-/// (NewtonEulerWorkspace::smoothing_J: L-BFGS stalls at the kinks of the
-/// exact g, its terms being absolute values), each stage's frames kept only
-/// if their exact g is lower and within the limits, then the rest on the
-/// exact g. Then at most `polish_sweeps` sweeps of coordinate polishing on
-/// the exact g (each variable alone, +-d with d per variable doubling on a
-/// kept move and halving otherwise, from 1e-2 to 1e-5; moves evaluated and
-/// applied locally, under the same limits; serial), with
-/// `polish_max_window` > 1 also of runs of 2, 4, ... consecutive frames
-/// moved together, with `polish_segment_moves` also of single segments
-/// turned alone, and with `polish_smoothing_J` > 0 after a first pass on g
-/// smoothed at that level (kept only if the exact g is lower). The sliding
-/// limit has 1e-10 m of slack (the same sum as measure_transition's); the local
-/// updates are checked against a rebuild after each pass (std::logic_error
-/// if they disagree: a bug, not an input error). `steps` counts accepted
-/// iterations and kept moves. Deterministic; an iteration costs about frames x (3 + 3 x
-/// joints) local re-evaluations, the frames' in parallel (TBB; the result
-/// does not depend on the thread count). `frames` is replaced by the result. Throws
-/// std::invalid_argument on a bad gap or frame.
 /// Largest local joint angular speed (TransitionMeasures::peak_angular_speed_radps's
 /// definition), rad/s, of the captured steps at the gap's ends, S_-1 -> S_0
 /// and S_G -> S_G+1: how fast the clips themselves turn a joint there.
 double end_steps_peak_angular_speed(const GapProblem& gap);
-
-struct RefineOptions {
-  std::size_t iterations = 0;
-  /// Metres; the input's own sliding is always allowed.
-  double foot_sliding_limit_m = 0.0;
-  /// false: no sliding, speed or range condition (measures how low g can go).
-  bool keep_limits = true;
-  /// Joules, >= 0 (finite); 0: no smoothed stages.
-  double smoothing_J = 0.0;
-  /// After the iterations: at most this many sweeps of coordinate polishing
-  /// on the exact g (every variable of every frame tried alone, +-d); 0: none.
-  std::size_t polish_sweeps = 0;
-  /// rad/s; the input's own peak (TransitionMeasures::peak_angular_speed_radps)
-  /// and end_steps_peak_angular_speed(gap) are always allowed.
-  double angular_speed_limit_radps = 0.0;
-  /// Polishing also moves one variable of w consecutive frames together,
-  /// w = 2, 4, ... up to this (>= 1); 1: single frames only.
-  std::size_t polish_max_window = 1;
-  /// Polishing also turns each segment alone (its joint one way, the
-  /// joint's children back).
-  bool polish_segment_moves = false;
-  /// Joules, >= 0 (finite); > 0: a polishing pass on g smoothed at this
-  /// level first, then the exact pass.
-  double polish_smoothing_J = 0.0;
-};
-struct RefineResult {
-  std::size_t steps = 0;  // accepted iterations + kept polishing moves
-  double energy_before_J = 0.0;
-  double energy_after_J = 0.0;
-};
-RefineResult refine_transition(const GapProblem& gap, std::vector<SynthFrame>& frames,
-                               const RefineOptions& options);
 
 /// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
@@ -315,6 +261,16 @@ struct TransitionMeasures {
     double joint_J = 0.0;
     double residual_work_J = 0.0;
     double residual_impulse_J = 0.0;
+    /// Adds `o` term by term (sums over transitions).
+    EnergySplit& operator+=(const EnergySplit& o) {
+      h_J += o.h_J;
+      adjacent_J += o.adjacent_J;
+      contact_J += o.contact_J;
+      joint_J += o.joint_J;
+      residual_work_J += o.residual_work_J;
+      residual_impulse_J += o.residual_impulse_J;
+      return *this;
+    }
   } energy_split;
 };
 TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames);

@@ -21,33 +21,18 @@
 
 #include "mocap/index.hpp"
 #include "mocap/query.hpp"
+#include "mocap/search.hpp"
 #include "mocap/synth.hpp"
 
 namespace mocap {
 
-/// One ranked partial motion as the search reports it (the results contract).
-struct RankedMotion {
-  std::size_t rank = 0;  // 1-based
-  std::size_t clip_index = 0;
-  std::string clip;
-  std::size_t start_frame = 0;
-  std::size_t end_frame = 0;
-  double score_J = 0.0;
-  double h_in_J = 0.0;
-  double h_out_J = 0.0;
-  double path_cost_J = 0.0;
-};
-struct RankedPair {
-  std::size_t from = 0, to = 0;
-  std::vector<RankedMotion> results;
-};
-
 /// Reads the search output (JSONL) and returns the pairs of the line whose
-/// "id" is `query_id`. InputError (file:line) for unreadable files, bad JSON,
-/// a missing id, an error line, or results that do not fit `index` (unknown
-/// clip, frames out of range).
-std::vector<RankedPair> read_search_results(const std::filesystem::path& path,
-                                            const std::string& query_id, const Index& index);
+/// "id" is `query_id` (the results as SearchEngine::run gives them; their
+/// labels are not read: synthesis does not use them). InputError (file:line)
+/// for unreadable files, bad JSON, a missing id, an error line, or results
+/// that do not fit `index` (unknown clip, frames out of range).
+std::vector<PairResults> read_search_results(const std::filesystem::path& path,
+                                             const std::string& query_id, const Index& index);
 
 /// A user's choice: pair h (1-based, joins Q^h and Q^h+1) takes rank r.
 struct Pick {
@@ -65,7 +50,7 @@ struct SynthOptions {
 
 /// One piece of the output motion.
 struct MotionSegment {
-  std::string kind;  // "query", "partial", "transition"
+  std::string kind;      // "query", "partial", "transition"
   std::size_t pair = 0;  // 1-based pair (query: the query frame number)
   std::size_t first_frame = 0;
   std::size_t frame_count = 0;
@@ -87,7 +72,7 @@ struct SynthResult {
   std::vector<SynthFrame> frames;
   double frame_time_s = 0.0;
   std::vector<MotionSegment> segments;
-  std::vector<RankedMotion> chosen;  // per pair
+  std::vector<SearchResult> chosen;  // per pair
   std::vector<TransitionReport> transitions;
   std::vector<double> step_energies_J;
   std::vector<SynthFrame> query_frames;  // completed Q^h, as placed
@@ -98,8 +83,9 @@ struct SynthResult {
 /// Throws InputError for picks out of range, pairs without results, clips of
 /// a skeleton or frame rate other than the target's (the first chosen clip's),
 /// query joints the skeleton lacks. `skeleton_out` receives the target skeleton.
-SynthResult synthesize(const Index& index, const Query& query, const std::vector<RankedPair>& ranked,
-                       const SynthOptions& options, std::optional<SynthSkeleton>& skeleton_out);
+SynthResult synthesize(const Index& index, const Query& query,
+                       const std::vector<PairResults>& ranked, const SynthOptions& options,
+                       std::optional<SynthSkeleton>& skeleton_out);
 
 /// The motion as BVH in the target skeleton (file units of the first clip,
 /// export layout that Blender and three.js load identically).
@@ -107,7 +93,7 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
 
 /// REPORT.json text.
 std::string synth_report_json(const Index& index, const Query& query, const std::string& query_path,
-                              const std::vector<RankedPair>& ranked, const SynthResult& result,
+                              const std::vector<PairResults>& ranked, const SynthResult& result,
                               const SynthOptions& options, double search_ms, double total_ms,
                               const std::string& bvh_path);
 
@@ -116,7 +102,7 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
 /// and the synthesised motion, the ranking table and the energy curve. Each
 /// figure carries data-figure="..." (tests look for them).
 std::string synth_report_html(const Index& index, const Query& query,
-                              const std::vector<RankedPair>& ranked, const SynthResult& result,
+                              const std::vector<PairResults>& ranked, const SynthResult& result,
                               const SynthOptions& options);
 
 }  // namespace mocap

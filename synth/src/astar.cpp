@@ -1,0 +1,337 @@
+// The A* search of the paper's figure 4 (astar.hpp): one state accepted per
+// iteration, chosen among the geodesic step, its foot-planted variants and
+// per-joint variants by f = g of the steps it changes + the cost of its
+// geodesic completion to the goal. docs/synthesis.md gives every choice.
+#include "astar.hpp"
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+#include "foot_planting.hpp"
+#include "measures.hpp"
+#include "mocap/energy.hpp"
+#include "mocap/newton_euler.hpp"
+#include "transition_math.hpp"
+
+namespace mocap::synth_detail {
+namespace {
+
+// Energies of steps between world poses with rates from their neighbours.
+struct StepEvaluator {
+  const SynthSkeleton& sk;
+  double dt;
+  BodyState sa, sb;
+  NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  std::size_t evaluations = 0;
+
+  StepEvaluator(const SynthSkeleton& s, double frame_time) : sk(s), dt(frame_time) {}
+
+  // g(A -> B): A's rates from (a_prev, A, B), B's from (A, B, b_next).
+  double g(const WorldPose* a_prev, const WorldPose& a, const WorldPose& b, const WorldPose* b_next,
+           bool want_terms) {
+    const PoseView pa = pose_view(a), pb = pose_view(b);
+    PoseView pap{}, pbn{};
+    if (a_prev) pap = pose_view(*a_prev);
+    if (b_next) pbn = pose_view(*b_next);
+    sequence_state(sk.model, a_prev ? &pap : nullptr, pa, &pb, dt, sa);
+    sequence_state(sk.model, &pa, pb, b_next ? &pbn : nullptr, dt, sb);
+    ++evaluations;
+    return full_energy(sk.model, sa.view(), sb.view(), dt, ws, want_terms ? &terms : nullptr);
+  }
+};
+
+// The search's state: the path so far (CLOSED), the current state and its
+// two predecessors, this iteration's best candidate (OPEN is scanned as it
+// is generated), and scratch reused by every candidate.
+class AStarSearch {
+ public:
+  AStarSearch(const GapProblem& gap, const SupplementParams& params, std::size_t planned)
+      : gap_(gap),
+        params_(params),
+        sk_(*gap.skeleton),
+        dt_(gap.frame_time_s),
+        n_(sk_.joint_count()),
+        planned_(planned),
+        ev_(sk_, dt_) {
+    synth_world_pose(sk_, gap.goal, w_goal_);
+    synth_world_pose(sk_, gap.after, w_after_);
+    // Neighbours of each joint (parent and children that carry rotations).
+    adjacent_.resize(n_);
+    for (std::size_t j = 0; j < n_; ++j) {
+      const int p = sk_.skeleton.parents[j];
+      if (p >= 0 && (!sk_.is_root_chain[static_cast<std::size_t>(p)] || p == sk_.root_joint))
+        adjacent_[j].push_back(p);
+      for (int c : sk_.skeleton.children(static_cast<int>(j))) adjacent_[j].push_back(c);
+    }
+    if (params.plant_feet) legs_ = leg_chains(sk_);
+    prev_ = gap.before;
+    cur_ = gap.start;
+  }
+
+  std::vector<SynthFrame> run(SupplementStats* stats) {
+    std::string reason = "max_states";
+    std::size_t iterations = 0;
+    for (;;) {
+      if (have_pprev_) synth_world_pose(sk_, pprev_, w_pprev_);
+      synth_world_pose(sk_, prev_, w_prev_);
+      synth_world_pose(sk_, cur_, w_cur_);
+      // Stop: the step cost to the goal is below T_c.
+      const double to_goal = ev_.g(&w_prev_, w_cur_, w_goal_, &w_after_, false);
+      if (to_goal < params_.cost_threshold_J) {
+        reason = "threshold";
+        break;
+      }
+      if (closed_.size() >= params_.max_states) break;
+      if (closed_.size() >= planned_) {
+        reason = "horizon";
+        break;
+      }
+      ++iterations;
+      iterate();
+      closed_.push_back(best_);
+      pprev_ = std::move(prev_);
+      have_pprev_ = true;
+      prev_ = std::move(cur_);
+      cur_ = best_;
+    }
+    if (stats) {
+      stats->iterations += iterations;
+      stats->energy_evaluations += ev_.evaluations;
+      stats->estimated_frames = planned_;
+      stats->stop_reason = reason;
+    }
+    return std::move(closed_);
+  }
+
+ private:
+  // One iteration: the best successor of cur_ into best_.
+  void iterate() {
+    const std::size_t remaining =
+        std::max<std::size_t>(2, planned_ + 1 - std::min(planned_, closed_.size()));
+    rollout_ = remaining - 2;
+    // Base proposal: the geodesic step toward the goal over the remaining
+    // steps; the velocity-continuous Hermite step is offered per joint as a
+    // variant.
+    smooth_ = hermite_step(gap_, prev_, cur_, remaining);
+    best_ = geodesic_step(gap_, cur_, remaining);
+    if (params_.smooth_root) best_.root_position_m = smooth_.root_position_m;
+    best_f_ = score(best_);
+    // A candidate may not slide the feet more than the geodesic completion
+    // from cur (the previous iteration's path): the path never slides more
+    // than the slerp transition of the same length.
+    slide_limit_ = window_slide_ + 1e-9;
+    if (!legs_.empty()) try_planted_feet();
+    try_joint_variants();
+  }
+
+  // f(C) = g over the steps C changes (prev -> cur -> C -> D_1, rates by
+  // central differences) + the estimate of the rest: the geodesic
+  // completion D_1 .. D_{r-2} -> S_G from C (the slerp of the remaining
+  // steps), each of its steps costed by h (the paper's h(S1' -> Sf) taken
+  // step by step along the straight completion), or by g when
+  // params.exact_lookahead. Also sets window_slide_: the foot sliding over
+  // the steps from cur on.
+  double score(const SynthFrame& c) {
+    // Pose list: prev, cur, C, D_1..D_k, goal, after.
+    const std::size_t L = 3 + rollout_ + 2;
+    if (seq_world_.size() < L) seq_world_.resize(L);
+    if (seq_states_.size() < L) seq_states_.resize(L);
+    if (seq_ids_.size() < L) seq_ids_.resize(L);
+    if (poses_.size() < L) poses_.resize(L);
+    poses_[0] = &w_prev_;
+    poses_[1] = &w_cur_;
+    synth_world_pose(sk_, c, seq_world_[2]);
+    poses_[2] = &seq_world_[2];
+    for (std::size_t k = 1; k <= rollout_; ++k) {
+      const double s = static_cast<double>(k) / static_cast<double>(rollout_ + 1);
+      geodesic_frame(c, gap_.goal, s, roll_frame_);
+      synth_world_pose(sk_, roll_frame_, seq_world_[2 + k]);
+      poses_[2 + k] = &seq_world_[2 + k];
+    }
+    poses_[L - 2] = &w_goal_;
+    poses_[L - 1] = &w_after_;
+    // States 0 .. L-2 (prev's predecessor: pprev, when there is one).
+    for (std::size_t k = 0; k + 1 < L; ++k) {
+      const PoseView pc = pose_view(*poses_[k]), px = pose_view(*poses_[k + 1]);
+      PoseView pp{};
+      const bool has_prev = k > 0 || have_pprev_;
+      if (k > 0)
+        pp = pose_view(*poses_[k - 1]);
+      else if (have_pprev_)
+        pp = pose_view(w_pprev_);
+      sequence_state(sk_.model, has_prev ? &pp : nullptr, pc, &px, dt_, seq_states_[k]);
+    }
+    window_slide_ = 0.0;
+    for (std::size_t k = 1; k + 2 < L; ++k)
+      window_slide_ += step_foot_sliding(sk_, *poses_[k], *poses_[k + 1], dt_);
+    double f = 0.0;
+    bool have_id = false;  // seq_ids_[k] holds state k's inverse dynamics
+    // The step S_-1 -> S_0 is not part of the transition: skipped.
+    for (std::size_t k = closed_.empty() ? 1 : 0; k + 2 < L; ++k) {
+      // g on the steps C changes and on the last two (into S_G, where the
+      // velocity jump is), h (or g: exact_lookahead) in between.
+      if (k <= 2 || k + 4 >= L || params_.exact_lookahead) {
+        if (!have_id) inverse_dynamics(sk_.model, seq_states_[k].view(), seq_ids_[k]);
+        inverse_dynamics(sk_.model, seq_states_[k + 1].view(), seq_ids_[k + 1]);
+        have_id = true;
+        ++ev_.evaluations;
+        f += full_energy(sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(), dt_,
+                         seq_ids_[k], seq_ids_[k + 1], ev_.ws);
+      } else {
+        have_id = false;
+        f += approximate_energy(sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(), dt_);
+      }
+    }
+    return f;
+  }
+
+  // Keeps `cand` as best_ when its f is lower and it slides no more than
+  // the geodesic completion.
+  void try_candidate(SynthFrame&& cand) {
+    const double f = score(cand);
+    if (f < best_f_ && window_slide_ <= slide_limit_) {
+      best_f_ = f;
+      best_ = std::move(cand);
+    }
+  }
+
+  // Contact-aware proposals: a foot on the ground in S stays where it is
+  // (fully or half way from the proposal's), its leg turned by inverse
+  // kinematics, each leg alone and both together.
+  void try_planted_feet() {
+    synth_world_pose(sk_, best_, w_cand_);
+    const EnergyParams& ep = sk_.model.params;
+    std::vector<std::size_t> down;
+    for (std::size_t l = 0; l < legs_.size(); ++l)
+      for (int fj : legs_[l].feet)
+        if (contact_point(sk_, w_cur_, fj).y() - ep.ground_height_m <= ep.contact_height_m) {
+          down.push_back(l);
+          break;
+        }
+    const SynthFrame base = best_;
+    auto planted = [&](const SynthFrame& from, std::size_t l, double alpha, SynthFrame& out) {
+      const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
+      const Eigen::Vector3d t =
+          (1.0 - alpha) * w_cand_.positions_m[ankle] + alpha * w_cur_.positions_m[ankle];
+      const Eigen::Quaterniond r = w_cand_.rotations[ankle].slerp(alpha, w_cur_.rotations[ankle]);
+      out = from;
+      return plant_leg(sk_, gap_.range, legs_[l], t, r, out, w_ik_);
+    };
+    SynthFrame cand, both;
+    for (double alpha : {1.0, 0.5}) {
+      for (std::size_t l : down)
+        if (planted(base, l, alpha, cand)) try_candidate(SynthFrame(cand));
+      bool all = down.size() > 1;
+      both = base;
+      for (std::size_t l = 0; all && l < down.size(); ++l) {
+        all = planted(both, down[l], alpha, cand);
+        both = cand;
+      }
+      if (all) try_candidate(std::move(both));
+    }
+  }
+
+  // The costliest joints of the proposal step, in decreasing order, each
+  // mapped to its adjacent joint that stands highest; that joint's rotation
+  // varied.
+  void try_joint_variants() {
+    synth_world_pose(sk_, best_, w_cand_);
+    ev_.g(&w_prev_, w_cur_, w_cand_, nullptr, true);
+    costs_.clear();
+    for (std::size_t j = 0; j < n_; ++j) {
+      const double c = ev_.terms.g.joint_J[j] + ev_.terms.g.segment_J[j];
+      if (c > 0.0) costs_.emplace_back(c, static_cast<int>(j));
+    }
+    std::sort(costs_.begin(), costs_.end(), [](const auto& x, const auto& y) {
+      return x.first != y.first ? x.first > y.first : x.second < y.second;
+    });
+    varied_.clear();
+    for (const auto& [c, j] : costs_) {
+      if (varied_.size() >= params_.joints_per_iteration) break;
+      // Its adjacent joint that stands highest (itself when it has none).
+      int a = j;
+      double top = -1e300;
+      for (int k : adjacent_[static_cast<std::size_t>(j)]) {
+        const double y = w_cur_.positions_m[static_cast<std::size_t>(k)].y();
+        if (y > top) {
+          top = y;
+          a = k;
+        }
+      }
+      if (sk_.is_root_chain[static_cast<std::size_t>(a)] && a != sk_.root_joint) continue;
+      if (std::find(varied_.begin(), varied_.end(), a) != varied_.end()) continue;
+      varied_.push_back(a);
+      try_rotation_variants(a);
+    }
+  }
+
+  // Variants of joint a: the smooth (Hermite) rotation, half-way to it, and
+  // the step scaled by 1 +- 0.25, 0.5 (within the range of motion); for the
+  // root joint also with the Hermite root position and half-way to it.
+  void try_rotation_variants(int a) {
+    const auto au = static_cast<std::size_t>(a);
+    const Eigen::Quaterniond base = best_.local_rotations[au];
+    const Eigen::Quaterniond here = cur_.local_rotations[au];
+    std::vector<Eigen::Quaterniond> variants;
+    variants.push_back(smooth_.local_rotations[au]);
+    variants.push_back(base.slerp(0.5, smooth_.local_rotations[au]));
+    const Eigen::Vector3d step = local_log(here, base);
+    if (step.norm() > 1e-6)
+      for (double t : {0.5, 0.75, 1.25, 1.5}) variants.push_back(here * quat_exp(t * step));
+    for (Eigen::Quaterniond q : variants) {
+      q.normalize();
+      if (gap_.range) q = clamp_to_range(sk_, *gap_.range, a, q);
+      SynthFrame cand = best_;
+      cand.local_rotations[au] = q;
+      if (a == sk_.root_joint) {
+        SynthFrame cand2 = cand;
+        cand2.root_position_m = smooth_.root_position_m;
+        try_candidate(std::move(cand2));
+        cand2 = cand;
+        cand2.root_position_m = 0.5 * (best_.root_position_m + smooth_.root_position_m);
+        try_candidate(std::move(cand2));
+      }
+      try_candidate(std::move(cand));
+    }
+  }
+
+  const GapProblem& gap_;
+  const SupplementParams& params_;
+  const SynthSkeleton& sk_;
+  const double dt_;
+  const std::size_t n_;
+  const std::size_t planned_;
+  StepEvaluator ev_;
+  WorldPose w_goal_, w_after_, w_prev_, w_cur_, w_cand_, w_ik_, w_pprev_;
+  std::vector<std::vector<int>> adjacent_;
+  std::vector<LegChain> legs_;
+  // CLOSED: accepted states (the path).
+  std::vector<SynthFrame> closed_;
+  SynthFrame pprev_, prev_, cur_;
+  bool have_pprev_ = false;
+  // This iteration: geodesic completion length, Hermite step, best
+  // candidate and its f, the sliding bound.
+  std::size_t rollout_ = 0;
+  SynthFrame smooth_, best_;
+  double best_f_ = 0.0, slide_limit_ = 0.0;
+  // Scratch of score() (reused by every candidate) and of the joint choice.
+  std::vector<WorldPose> seq_world_;
+  std::vector<BodyState> seq_states_;
+  std::vector<NewtonEulerData> seq_ids_;
+  std::vector<const WorldPose*> poses_;
+  SynthFrame roll_frame_;
+  double window_slide_ = 0.0;
+  std::vector<std::pair<double, int>> costs_;
+  std::vector<int> varied_;
+};
+
+}  // namespace
+
+std::vector<SynthFrame> astar_search(const GapProblem& gap, const SupplementParams& params,
+                                     std::size_t planned_frames, SupplementStats* stats) {
+  return AStarSearch(gap, params, planned_frames).run(stats);
+}
+
+}  // namespace mocap::synth_detail

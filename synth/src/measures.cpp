@@ -1,0 +1,162 @@
+// The measures of a transition (measure_transition, motion_step_energies,
+// end_steps_peak_angular_speed) and their per-step pieces (measures.hpp).
+#include "measures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "mocap/energy.hpp"
+#include "mocap/newton_euler.hpp"
+#include "mocap/path_cache.hpp"
+#include "transition_math.hpp"
+
+namespace mocap {
+namespace synth_detail {
+
+Eigen::Vector3d contact_point(const SynthSkeleton& sk, const WorldPose& w, int j) {
+  const auto ju = static_cast<std::size_t>(j);
+  Eigen::Vector3d p = w.positions_m[ju];
+  if (sk.model.tip_contacts[ju]) {
+    const Eigen::Vector3d tip = p + w.rotations[ju] * sk.model.tips_local_m[ju];
+    if (tip.y() < p.y()) p = tip;
+  }
+  return p;
+}
+
+double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
+                         double dt) {
+  const EnergyParams& ep = sk.model.params;
+  double sum = 0.0;
+  for (int j : sk.foot_joints) {
+    const Eigen::Vector3d pa = contact_point(sk, a, j), pb = contact_point(sk, b, j);
+    const bool low = pa.y() - ep.ground_height_m <= ep.contact_height_m &&
+                     pb.y() - ep.ground_height_m <= ep.contact_height_m;
+    const Eigen::Vector3d d = pb - pa;
+    if (low && d.norm() / dt <= ep.contact_speed_mps) sum += std::hypot(d.x(), d.z());
+  }
+  return sum;
+}
+
+std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f) {
+  std::size_t v = 0;
+  if (gap.range)
+    for (std::size_t j = 0; j < f.local_rotations.size(); ++j)
+      if (!within_range(*gap.skeleton, *gap.range, static_cast<int>(j), f.local_rotations[j])) ++v;
+  return v;
+}
+
+std::size_t count_range_violations(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  std::size_t v = 0;
+  for (const SynthFrame& f : frames) v += frame_range_violations(gap, f);
+  return v;
+}
+
+double step_peak_angular_speed(const GapProblem& gap, const SynthFrame& a, const SynthFrame& b) {
+  const SynthSkeleton& sk = *gap.skeleton;
+  double peak = 0.0;
+  for (std::size_t j = 0; j < a.local_rotations.size(); ++j) {
+    if (sk.is_root_chain[j] && static_cast<int>(j) != sk.root_joint) continue;
+    peak = std::max(
+        peak, rotation_step(a.local_rotations[j], b.local_rotations[j]).norm() / gap.frame_time_s);
+  }
+  return peak;
+}
+
+double peak_angular_speed(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  double peak = 0.0;
+  const SynthFrame* prev = &gap.start;
+  for (const SynthFrame& f : frames) {
+    peak = std::max(peak, step_peak_angular_speed(gap, *prev, f));
+    prev = &f;
+  }
+  return std::max(peak, step_peak_angular_speed(gap, *prev, gap.goal));
+}
+
+}  // namespace synth_detail
+
+using namespace synth_detail;
+
+double end_steps_peak_angular_speed(const GapProblem& gap) {
+  check_gap(gap);
+  return std::max(step_peak_angular_speed(gap, gap.before, gap.start),
+                  step_peak_angular_speed(gap, gap.goal, gap.after));
+}
+
+TransitionMeasures measure_transition(const GapProblem& gap,
+                                      const std::vector<SynthFrame>& frames) {
+  check_gap(gap);
+  const SynthSkeleton& sk = *gap.skeleton;
+  const double dt = gap.frame_time_s;
+  const std::size_t n = sk.joint_count();
+  std::vector<const SynthFrame*> seq;
+  seq.push_back(&gap.before);
+  seq.push_back(&gap.start);
+  for (const SynthFrame& f : frames) {
+    if (f.local_rotations.size() != n)
+      throw std::invalid_argument("transition frame does not fit the skeleton");
+    seq.push_back(&f);
+  }
+  seq.push_back(&gap.goal);
+  seq.push_back(&gap.after);
+  PathCache path;
+  path.build_states(gap, frames);
+  const std::size_t L = path.L;
+  const std::vector<WorldPose>& world = path.world;
+  const std::vector<BodyState>& states = path.states;
+  const std::vector<NewtonEulerData>& ids = path.ids;
+  TransitionMeasures m;
+  m.frames = frames.size();
+  NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  TransitionMeasures::EnergySplit& split = m.energy_split;
+  for (std::size_t k = 1; k + 2 < L; ++k) {
+    const double g = full_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
+                                 ids[k + 1], ws, &terms);
+    m.step_energies_J.push_back(g);
+    m.energy_J += g;
+    split.h_J += terms.h.total();
+    split.adjacent_J +=
+        std::accumulate(terms.adjacent_work_J.begin(), terms.adjacent_work_J.end(), 0.0);
+    split.contact_J +=
+        std::accumulate(terms.contact_work_J.begin(), terms.contact_work_J.end(), 0.0);
+    split.joint_J += std::accumulate(terms.joint_work_J.begin(), terms.joint_work_J.end(), 0.0);
+    split.residual_work_J += terms.residual_work_J;
+    split.residual_impulse_J += terms.residual_impulse_J;
+    m.approximate_energy_J +=
+        approximate_energy(sk.model, states[k].view(), states[k + 1].view(), dt);
+    m.foot_sliding_m += step_foot_sliding(sk, world[k], world[k + 1], dt);
+    m.peak_angular_speed_radps =
+        std::max(m.peak_angular_speed_radps, step_peak_angular_speed(gap, *seq[k], *seq[k + 1]));
+  }
+  m.range_violations = count_range_violations(gap, frames);
+  return m;
+}
+
+std::vector<double> motion_step_energies(const SynthSkeleton& sk,
+                                         const std::vector<SynthFrame>& frames,
+                                         double frame_time_s) {
+  const std::size_t L = frames.size();
+  std::vector<double> out;
+  if (L < 2) return out;
+  std::vector<WorldPose> world(L);
+  for (std::size_t k = 0; k < L; ++k) synth_world_pose(sk, frames[k], world[k]);
+  std::vector<BodyState> states(L);
+  std::vector<NewtonEulerData> ids(L);
+  for (std::size_t k = 0; k < L; ++k) {
+    PoseView p{}, x{};
+    if (k > 0) p = pose_view(world[k - 1]);
+    if (k + 1 < L) x = pose_view(world[k + 1]);
+    sequence_state(sk.model, k > 0 ? &p : nullptr, pose_view(world[k]), k + 1 < L ? &x : nullptr,
+                   frame_time_s, states[k]);
+    inverse_dynamics(sk.model, states[k].view(), ids[k]);
+  }
+  NewtonEulerWorkspace ws;
+  for (std::size_t k = 0; k + 1 < L; ++k)
+    out.push_back(full_energy(sk.model, states[k].view(), states[k + 1].view(), frame_time_s,
+                              ids[k], ids[k + 1], ws));
+  return out;
+}
+
+}  // namespace mocap

@@ -1,0 +1,34 @@
+// JSON forms of the measures and parameters (synth_json.hpp).
+#include "mocap/synth_json.hpp"
+
+namespace mocap {
+
+nlohmann::json measures_json(const TransitionMeasures& m) {
+  return {{"frames", m.frames},
+          {"g_J", m.energy_J},
+          {"h_J", m.approximate_energy_J},
+          {"foot_sliding_m", m.foot_sliding_m},
+          {"range_violations", m.range_violations},
+          {"peak_angular_speed_radps", m.peak_angular_speed_radps},
+          {"step_energies_J", m.step_energies_J},
+          {"g_split_J",
+           {{"h", m.energy_split.h_J},
+            {"adjacent", m.energy_split.adjacent_J},
+            {"contact", m.energy_split.contact_J},
+            {"joint", m.energy_split.joint_J},
+            {"residual_work", m.energy_split.residual_work_J},
+            {"residual_impulse", m.energy_split.residual_impulse_J}}}};
+}
+
+nlohmann::json supplement_params_json(const SupplementParams& params) {
+  return {{"max_states", params.max_states},
+          {"cost_threshold_J", params.cost_threshold_J},
+          {"refine_iterations", params.refine.iterations},
+          {"refine_smoothing_J", params.refine.smoothing_J},
+          {"refine_polish_sweeps", params.refine.polish_sweeps},
+          {"refine_polish_window", params.refine.polish_max_window},
+          {"refine_polish_segments", params.refine.polish_segment_moves},
+          {"refine_polish_smoothing_J", params.refine.polish_smoothing_J}};
+}
+
+}  // namespace mocap
