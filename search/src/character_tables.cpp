@@ -35,11 +35,9 @@ std::string character_key(const Character& c) {
   return out;
 }
 
+// The same body (the name never changes it).
 bool same_character(const Character& x, const Character& y) {
-  return x.total_mass_kg == y.total_mass_kg && x.sex == y.sex &&
-         x.class_mass_kg == y.class_mass_kg && x.class_mass_scale == y.class_mass_scale &&
-         x.joint_mass_kg == y.joint_mass_kg && x.class_length_scale == y.class_length_scale &&
-         x.joint_length_scale == y.joint_length_scale;
+  return static_cast<const BodySettings&>(x) == static_cast<const BodySettings&>(y);
 }
 
 // The index's character from its `character` attribute: the indexer's
