@@ -13,8 +13,8 @@ query's fastest time (the least disturbed estimate) and of its median time
 evaluated, the peak resident memory, and whether every binary returned the
 same rankings as the first. Exit status 1 when the rankings differ. A batch
 with relative and world queries (bench/search_queries.py's) is answered as
-two batches, one per mode (the baseline engine's exact mode corrupts its heap
-on a mixed batch; its BVH paths must then be absolute); times and frames are
+two batches, one per mode (builds older than 2026-11-26 corrupted their heap
+on a mixed batch in exact mode; BVH paths must then be absolute); times and frames are
 summed, the peak memory is the larger.
 
 With --vs-brute, each round also runs the first binary in brute mode, and

@@ -7,7 +7,7 @@
 // joints' rotations (Euler degrees in a stated order, or a quaternion), or
 // "frame k of this BVH file" (all DOFs, or only some with "only"). Joint
 // names are resolved later against the index's skeleton through the aliases
-// of body.hpp (find_joint_by_alias).
+// of joint_classes.hpp (find_joint_by_alias).
 //
 // Errors: InputError(source, line, "<field path>: what was expected"), where
 // `source` is the query file and `line` its line in a batch (0 for a single

@@ -79,7 +79,7 @@ struct SynthSkeleton {
   std::vector<std::uint8_t> is_root_chain;
   /// Foot and toe joints (segments whose contact counts as foot contact).
   std::vector<int> foot_joints;
-  /// Segment class / side per joint (body.hpp classify_joints).
+  /// Segment class / side per joint (joint_classes.hpp classify_joints).
   std::vector<std::pair<SegmentClass, Side>> classes;
 
   std::size_t joint_count() const { return skeleton.joint_count(); }
