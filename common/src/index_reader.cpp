@@ -12,8 +12,10 @@
 #include <type_traits>
 
 #include "mocap/error.hpp"
+#include "mocap/file.hpp"
 #include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
+#include "mocap/xxh64.hpp"
 
 namespace mocap {
 
@@ -68,22 +70,6 @@ const char* label_source_name(LabelSource s) {
 namespace {
 constexpr const char* kUserBlockMagic = "MOCAP-INDEX-USERBLOCK 1\n";
 
-std::uint64_t hash_file_from(std::FILE* f, std::uint64_t offset, std::uint64_t bytes, const std::string& path) {
-  if (std::fseek(f, static_cast<long>(offset), SEEK_SET) != 0)
-    throw InputError(path, 0, "cannot seek in the file");
-  Xxh64 h;
-  std::vector<unsigned char> buf(1u << 20);
-  std::uint64_t left = bytes;
-  while (left > 0) {
-    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(left, buf.size()));
-    const std::size_t got = std::fread(buf.data(), 1, want, f);
-    if (got != want) throw InputError(path, 0, "read error while checking the file");
-    h.update(buf.data(), got);
-    left -= got;
-  }
-  return h.digest();
-}
-
 struct FileCloser {
   void operator()(std::FILE* f) const {
     if (f) std::fclose(f);
@@ -98,7 +84,7 @@ void seal_index_file(const fs::path& path) {
   std::error_code ec;
   const std::uint64_t size = fs::file_size(path, ec);
   if (ec || size < kIndexUserBlockBytes) throw InputError(path.string(), 0, "too small to be an index");
-  const std::uint64_t h = hash_file_from(f.get(), kIndexUserBlockBytes, size - kIndexUserBlockBytes, path.string());
+  const std::uint64_t h = hash_file(path, kIndexUserBlockBytes);
   std::string block = std::string(kUserBlockMagic) + "bytes " + std::to_string(size) + "\nxxh64 " + hex64(h) + "\n";
   block.resize(kIndexUserBlockBytes, '\0');
   if (std::fseek(f.get(), 0, SEEK_SET) != 0 || std::fwrite(block.data(), 1, block.size(), f.get()) != block.size() ||
@@ -134,7 +120,7 @@ void check_index_file(const fs::path& path, bool hash) {
   if (size > expected)
     throw InputError(p, 0, "damaged: " + std::to_string(size - expected) + " unexpected bytes after the index");
   if (!hash) return;
-  const std::uint64_t h = hash_file_from(f.get(), kIndexUserBlockBytes, size - kIndexUserBlockBytes, p);
+  const std::uint64_t h = hash_file(path, kIndexUserBlockBytes);
   if (hex64(h) != hex)
     throw InputError(p, 0, "checksum mismatch: the file is damaged (xxh64 " + hex64(h) + ", expected " + hex + ")");
 }

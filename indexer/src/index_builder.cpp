@@ -1,14 +1,10 @@
 // build_index: the TBB pipeline, the HDF5 writer, labels and atomic replace.
 #include "mocap/index_builder.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/stat.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -27,11 +23,13 @@
 #include <thread>
 #include <unordered_map>
 
+#include "mocap/atomic_file.hpp"
 #include "mocap/bvh.hpp"
 #include "mocap/collection.hpp"
 #include "mocap/error.hpp"
 #include "mocap/file.hpp"
 #include "mocap/hdf5.hpp"
+#include "mocap/xxh64.hpp"
 
 namespace mocap {
 
@@ -601,69 +599,6 @@ class IndexWriter {
 // ---------------------------------------------------------------------------
 // Files
 
-/// Whole file into memory; false with `error` set on failure.
-bool read_file(const fs::path& p, std::string& out, std::string& error) {
-  struct Closer {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Closer> f(std::fopen(p.c_str(), "rb"));
-  if (!f) {
-    error = std::string("cannot read: ") + std::strerror(errno);
-    return false;
-  }
-  out.clear();
-  char buf[1 << 16];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, f.get())) > 0) out.append(buf, n);
-  if (std::ferror(f.get())) {
-    error = std::string("read error: ") + std::strerror(errno);
-    return false;
-  }
-  return true;
-}
-
-std::uint64_t hash_file(const fs::path& p, std::string& error, bool& ok) {
-  std::string text;
-  ok = read_file(p, text, error);
-  return ok ? xxh64(text.data(), text.size()) : 0;
-}
-
-void fsync_path(const fs::path& p, bool directory) {
-  const int fd = ::open(p.c_str(), directory ? O_RDONLY | O_DIRECTORY : O_RDONLY);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
-}
-
-/// Removes temporary files of earlier builds of `out` that were killed.
-void remove_stale_temporaries(const fs::path& out) {
-  const fs::path dir = out.parent_path().empty() ? fs::path(".") : out.parent_path();
-  const std::string prefix = "." + out.filename().string() + ".tmp-";
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind(prefix, 0) != 0) continue;
-    const std::string pid_s = name.substr(prefix.size());
-    if (pid_s.empty() ||
-        !std::all_of(pid_s.begin(), pid_s.end(), [](unsigned char c) { return std::isdigit(c); }))
-      continue;
-    const pid_t pid = static_cast<pid_t>(std::stol(pid_s));
-    if (pid == ::getpid() || (::kill(pid, 0) != 0 && errno == ESRCH)) fs::remove(e.path(), ec);
-  }
-}
-
-/// Deletes the temporary file unless released.
-struct TempFileGuard {
-  fs::path path;
-  bool keep = false;
-  ~TempFileGuard() {
-    if (!keep && !path.empty()) {
-      std::error_code ec;
-      fs::remove(path, ec);
-    }
-  }
-};
-
 // ---------------------------------------------------------------------------
 // Work items
 
@@ -813,19 +748,24 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t i = r.begin(); i != r.end(); ++i) {
                           FileEntry& f = files[i];
-                          auto st = stat_file(f.path, f.stat_error);
-                          f.stat_ok = st.has_value();
-                          if (st) f.stat = *st;
+                          try {
+                            f.stat = stat_file(f.path);
+                            f.stat_ok = true;
+                          } catch (const InputError& e) {
+                            f.stat_error = e.detail();
+                          }
                           f.labels = resolve_clip_labels(f.path);
                           if (!f.stat_ok) continue;
                           if (auto it = old_clips.find(f.path); it != old_clips.end()) {
                             f.old_clip = it->second;
                             if (f.old_clip->size_bytes == f.stat.size &&
                                 f.old_clip->mtime_ns == f.stat.mtime_ns) {
-                              std::string err;
-                              bool ok = false;
-                              f.hash = hash_file(f.path, err, ok);
-                              if (ok && f.hash == f.old_clip->content_hash) f.plan = Plan::reuse;
+                              // An unreadable file is parsed: that stage says why it fails.
+                              try {
+                                f.hash = hash_file(f.path);
+                                if (f.hash == f.old_clip->content_hash) f.plan = Plan::reuse;
+                              } catch (const InputError&) {
+                              }
                             }
                           } else if (auto sk = old_skips.find(f.path); sk != old_skips.end()) {
                             f.old_skip = sk->second;
@@ -892,14 +832,11 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   }
 
   // The build proper.
-  const fs::path dir = out.parent_path();
-  fs::create_directories(dir, ec);
-  remove_stale_temporaries(out);
-  TempFileGuard tmp{dir / ("." + out.filename().string() + ".tmp-" + std::to_string(::getpid()))};
+  AtomicFile tmp(out);
   std::unique_ptr<IndexWriter> writer;
   {
     std::lock_guard lib(h5::library_mutex());
-    writer = std::make_unique<IndexWriter>(tmp.path, opt.deflate_level);
+    writer = std::make_unique<IndexWriter>(tmp.temporary_path(), opt.deflate_level);
   }
 
   std::vector<IndexClip> clips;
@@ -954,20 +891,17 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
                     w->reason = "empty file";
                     return w;
                   }
-                  std::string text, err;
                   auto t = Clock::now();
-                  const bool read_ok = read_file(f.path, text, err);
-                  read_ns += ns_since(t);
-                  if (!read_ok) {
-                    w->reason = err;
-                    return w;
-                  }
                   try {
                     IndexClip& c = w->clip;
-                    t = Clock::now();
-                    c.content_hash = xxh64(text.data(), text.size());
-                    const RawClip raw = parse_bvh(text, f.path);
-                    text = std::string();
+                    RawClip raw;
+                    {
+                      const FileBytes text = read_file_bytes(f.path, f.stat.size);
+                      read_ns += ns_since(t);
+                      t = Clock::now();
+                      c.content_hash = xxh64(text.view().data(), text.size());
+                      raw = parse_bvh(text.view(), f.path);
+                    }
                     if (raw.frame_count == 0) throw InputError(f.path, 0, "the clip has no frames");
                     const LengthUnit unit = opt.unit ? *opt.unit : detect_unit(raw);
                     parse_ns += ns_since(t);
@@ -1079,17 +1013,14 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   }
   prev.reset();  // closes the previous index before it is replaced (takes the library lock itself)
   phase("written");
-  seal_index_file(tmp.path);
+  seal_index_file(tmp.temporary_path());
   phase("sealed");
   // Checked before it replaces anything: user block, tag, version, tables.
   // (The whole-file hash was just computed from the file by seal_index_file.)
-  Index::open(tmp.path);
+  Index::open(tmp.temporary_path());
   phase("checked");
-  fsync_path(tmp.path, false);
+  tmp.commit();
   phase("synced");
-  fs::rename(tmp.path, out);
-  tmp.keep = true;
-  fsync_path(dir, true);
 
   std::set<std::string> now;
   for (const auto& c : clips) now.insert(c.path);

@@ -14,6 +14,7 @@
 #include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
 #include "mocap/kinematics.hpp"
+#include "mocap/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -57,27 +58,6 @@ void flip_byte(const fs::path& p, std::uint64_t offset) {
 }
 
 }  // namespace
-
-TEST(Xxh64, KnownValues) {
-  // Reference values of XXH64 with seed 0 (xxhsum -H1).
-  EXPECT_EQ(hex64(xxh64("", 0)), "ef46db3751d8e999");
-  EXPECT_EQ(hex64(xxh64("abc", 3)), "44bc2cf5ad770999");
-  EXPECT_EQ(hex64(xxh64("a", 1)), "d24ec4f1a98c6e5b");
-  const std::string fox = "The quick brown fox jumps over the lazy dog";  // > 32 bytes: the 4-lane path
-  EXPECT_EQ(hex64(xxh64(fox.data(), fox.size())), "0b242d361fda71bc");
-}
-
-TEST(Xxh64, StreamingEqualsOneShot) {
-  std::string s;
-  for (int i = 0; i < 1000; ++i) s += static_cast<char>('a' + (i * 7) % 26);
-  const std::uint64_t whole = xxh64(s.data(), s.size());
-  for (std::size_t split : {0ul, 1ul, 31ul, 32ul, 33ul, 500ul, 999ul}) {
-    Xxh64 h;
-    h.update(s.data(), split);
-    h.update(s.data() + split, s.size() - split);
-    EXPECT_EQ(h.digest(), whole) << "split at " << split;
-  }
-}
 
 TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   ASSERT_TRUE(fs::exists(golden())) << golden();

@@ -9,10 +9,10 @@
 
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
 #include "mocap/index_builder.hpp"
 #include "mocap/units.hpp"
+#include "mocap/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

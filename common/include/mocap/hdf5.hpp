@@ -1,5 +1,5 @@
 #pragma once
-// Small RAII layer over the HDF5 C API, and the checksums the index uses.
+// Small RAII layer over the HDF5 C API.
 //
 // Why the C API: full control over chunking, filters, the user block, file
 // format bounds and error handling, with nothing hidden. Every hid_t lives in
@@ -30,30 +30,6 @@
 #include <type_traits>
 #include <utility>
 #include <vector>
-
-namespace mocap {
-
-/// Streaming XXH64 (Yann Collet's 64-bit xxHash, seed 0): the same value as
-/// `xxhsum -H1`. Fast (several GB/s), used for source-file content hashes,
-/// per-dataset checksums and the whole-file checksum of an index.
-class Xxh64 {
- public:
-  explicit Xxh64(std::uint64_t seed = 0);
-  void update(const void* data, std::size_t bytes);
-  std::uint64_t digest() const;
-
- private:
-  std::uint64_t v_[4];
-  std::uint64_t seed_;
-  std::uint64_t total_ = 0;
-  unsigned char buf_[32];
-  std::size_t buf_len_ = 0;
-};
-std::uint64_t xxh64(const void* data, std::size_t bytes, std::uint64_t seed = 0);
-/// 16 lowercase hex digits.
-std::string hex64(std::uint64_t v);
-
-}  // namespace mocap
 
 namespace mocap::h5 {
 
