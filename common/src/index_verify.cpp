@@ -80,8 +80,7 @@ std::uint64_t dataset_checksum(const h5::Dataset& d, ValueFindings* findings = n
     else
       run(double{});
   } else if (cls == H5T_INTEGER) {
-    h5::Id t(H5Dget_type(d.id()), H5Tclose);
-    const bool is_signed = H5Tget_sign(t.get()) == H5T_SGN_2;
+    const bool is_signed = d.is_signed();
     switch (bytes) {
       case 1:
         is_signed ? run(std::int8_t{}) : run(std::uint8_t{});

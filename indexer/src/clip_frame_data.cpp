@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "mocap/energy.hpp"
 #include "mocap/error.hpp"
@@ -86,7 +87,8 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   const std::size_t S = model.segments.size();
   if (K == 0) throw InputError(clip.source, 0, "the clip has no frames");
   if (clip.channel_count != sk.channel_count)
-    throw InputError(clip.source, 0, "internal: clip and skeleton channel counts differ");
+    throw std::invalid_argument(clip.source +
+                                ": the skeleton is not the clip's (channel counts differ)");
   if (kd_feature_dimension(model) != 3 * S)
     throw std::logic_error("kd feature dimension is not 3 x segments");
 

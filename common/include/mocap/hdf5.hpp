@@ -89,7 +89,9 @@ class Object {
 
   bool has_attribute(const std::string& name) const;
   void set_attribute(const std::string& name, std::string_view value);
-  void set_attribute(const std::string& name, const char* value) { set_attribute(name, std::string_view(value)); }
+  void set_attribute(const std::string& name, const char* value) {
+    set_attribute(name, std::string_view(value));
+  }
   void set_attribute(const std::string& name, double value);
   void set_attribute(const std::string& name, std::int64_t value);
   void set_attribute(const std::string& name, std::uint64_t value);
@@ -104,6 +106,9 @@ class Object {
 
   /// Throws InputError(file, 0, path + ": " + what [+ ": " + HDF5 reason]).
   [[noreturn]] void fail(const std::string& what) const;
+  /// Throws std::invalid_argument(file: path: what): the calling code broke
+  /// the API's contract (e.g. a value count that does not match the shape).
+  [[noreturn]] void misuse(const std::string& what) const;
 
  protected:
   Object() = default;
@@ -117,7 +122,8 @@ class Object {
 class Dataset : public Object {
  public:
   Dataset() = default;
-  Dataset(Id id, std::string file, std::string path) : Object(std::move(id), std::move(file), std::move(path)) {}
+  Dataset(Id id, std::string file, std::string path)
+      : Object(std::move(id), std::move(file), std::move(path)) {}
 
   std::vector<hsize_t> shape() const;
   /// Number of rows (first dimension; 1 for a scalar).
@@ -126,6 +132,8 @@ class Dataset : public Object {
   hsize_t row_elements() const;
   /// H5T_FLOAT, H5T_INTEGER, H5T_STRING, H5T_ENUM, ...
   H5T_class_t type_class() const;
+  /// True for a signed integer dataset (false for unsigned ones and other types).
+  bool is_signed() const;
   /// Size in bytes of one stored element.
   std::size_t element_bytes() const;
   bool is_chunked() const;
@@ -160,14 +168,16 @@ class Dataset : public Object {
   std::vector<std::pair<std::string, int>> enum_members() const;
 
  private:
-  void write_raw(hid_t mem_type, hid_t file_space, hsize_t first, hsize_t count, const void* values);
+  void write_raw(hid_t mem_type, hid_t file_space, hsize_t first, hsize_t count,
+                 const void* values);
   void read_raw(hid_t mem_type, hsize_t first, hsize_t count, void* out) const;
 };
 
 class Group : public Object {
  public:
   Group() = default;
-  Group(Id id, std::string file, std::string path) : Object(std::move(id), std::move(file), std::move(path)) {}
+  Group(Id id, std::string file, std::string path)
+      : Object(std::move(id), std::move(file), std::move(path)) {}
 
   bool exists(const std::string& name) const;
   /// Names of members (groups and datasets), in name order.
@@ -191,7 +201,8 @@ class Group : public Object {
 
   /// Convenience: whole small datasets in one call.
   template <Number T>
-  Dataset write_dataset(const std::string& name, const std::vector<hsize_t>& shape, std::span<const T> values) {
+  Dataset write_dataset(const std::string& name, const std::vector<hsize_t>& shape,
+                        std::span<const T> values) {
     Dataset d = create_dataset<T>(name, shape);
     d.write_all<T>(values);
     return d;
