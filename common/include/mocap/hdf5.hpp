@@ -7,7 +7,9 @@
 // hand. HDF5's automatic error printing is switched off; a failing call throws
 // InputError(file, 0, "<object path>: <what was attempted>: <HDF5's reason>"),
 // so a damaged or foreign file gives one clear message, never a crash or a
-// dump of the HDF5 error stack.
+// dump of the HDF5 error stack. Every call's status is checked. Calling code
+// that breaks an API contract (a value count that does not match the shape)
+// gets std::invalid_argument instead.
 //
 // Types: numbers are stored little-endian (float32/64, int/uint 8..64), read
 // into the native type of the caller's element. Strings are variable-length

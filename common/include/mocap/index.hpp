@@ -5,7 +5,8 @@
 // through `Index` (immutable; metadata loaded at open, per-frame arrays
 // loaded once per dataset on first use). The full schema, with every group,
 // dataset, dtype, shape, unit, chunking and the version policy, is
-// docs/index-format.md; this header is its code form.
+// docs/index-format.md; this header is its code form, with the record tables
+// and root attributes in mocap/index_tables.hpp.
 //
 // Layout in short (C clips sorted by path, S skeletons, per skeleton k:
 // N_k frames, J_k joints, C_k clips, B16_k / B64_k blocks):
@@ -19,7 +20,7 @@
 //   /skeletons/<k>/blocks16/*     [B16_k, ...] bounds per 16-frame block
 //   /skeletons/<k>/blocks64/*     [B64_k, ...] bounds per 64-frame block
 //   /skeletons/<k>/clip_bounds/*  [C_k, ...] bounds per clip
-//   /skipped/{path,reason}  files that were not indexed and why
+//   /skipped/*             files that were not indexed: path, reason, size, mtime
 // A clip's frames are rows [frame_start, frame_start + frame_count) of its
 // skeleton's frame arrays; its blocks start at block16_start / block64_start
 // (block b covers frames [16 b, 16 b + 16) of the clip, the last one fewer);
