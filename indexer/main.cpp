@@ -21,11 +21,11 @@
 
 #include "mocap/collection.hpp"
 #include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
 #include "mocap/index_builder.hpp"
 #include "mocap/inspect.hpp"
 #include "mocap/units.hpp"
+#include "mocap/xxh64.hpp"
 
 namespace {
 

@@ -1,176 +1,36 @@
+// The RAII layer over the HDF5 C API (mocap/hdf5.hpp): every call's status is
+// checked; a failure throws InputError naming the file and the object path.
+// (Closing a handle in a destructor is the one exception: it cannot report,
+// so File::close() flushes first and reports that.)
 #include "mocap/hdf5.hpp"
 
 #include <algorithm>
 #include <cstring>
 #include <numeric>
+#include <stdexcept>
 
+#include "hdf5_internal.hpp"
 #include "mocap/error.hpp"
-
-namespace mocap {
-
-// ---------------------------------------------------------------------------
-// XXH64, after the reference description (xxhash.com, "XXH64 algorithm").
-namespace {
-constexpr std::uint64_t kP1 = 0x9E3779B185EBCA87ULL;
-constexpr std::uint64_t kP2 = 0xC2B2AE3D27D4EB4FULL;
-constexpr std::uint64_t kP3 = 0x165667B19E3779F9ULL;
-constexpr std::uint64_t kP4 = 0x85EBCA77C2B2AE63ULL;
-constexpr std::uint64_t kP5 = 0x27D4EB2F165667C5ULL;
-
-inline std::uint64_t rotl(std::uint64_t x, int r) { return (x << r) | (x >> (64 - r)); }
-inline std::uint64_t read64(const unsigned char* p) {
-  std::uint64_t v;
-  std::memcpy(&v, p, 8);
-  return v;  // little-endian hosts only (x86-64, aarch64)
-}
-inline std::uint32_t read32(const unsigned char* p) {
-  std::uint32_t v;
-  std::memcpy(&v, p, 4);
-  return v;
-}
-inline std::uint64_t round64(std::uint64_t acc, std::uint64_t input) {
-  acc += input * kP2;
-  acc = rotl(acc, 31);
-  return acc * kP1;
-}
-inline std::uint64_t merge_round(std::uint64_t acc, std::uint64_t val) {
-  acc ^= round64(0, val);
-  return acc * kP1 + kP4;
-}
-}  // namespace
-
-Xxh64::Xxh64(std::uint64_t seed) : seed_(seed) {
-  v_[0] = seed + kP1 + kP2;
-  v_[1] = seed + kP2;
-  v_[2] = seed;
-  v_[3] = seed - kP1;
-}
-
-void Xxh64::update(const void* data, std::size_t bytes) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  total_ += bytes;
-  if (buf_len_ + bytes < 32) {
-    if (bytes) std::memcpy(buf_ + buf_len_, p, bytes);
-    buf_len_ += bytes;
-    return;
-  }
-  if (buf_len_) {
-    const std::size_t fill = 32 - buf_len_;
-    std::memcpy(buf_ + buf_len_, p, fill);
-    for (int i = 0; i < 4; ++i) v_[i] = round64(v_[i], read64(buf_ + 8 * i));
-    p += fill;
-    bytes -= fill;
-    buf_len_ = 0;
-  }
-  std::uint64_t v0 = v_[0], v1 = v_[1], v2 = v_[2], v3 = v_[3];
-  while (bytes >= 32) {
-    v0 = round64(v0, read64(p));
-    v1 = round64(v1, read64(p + 8));
-    v2 = round64(v2, read64(p + 16));
-    v3 = round64(v3, read64(p + 24));
-    p += 32;
-    bytes -= 32;
-  }
-  v_[0] = v0;
-  v_[1] = v1;
-  v_[2] = v2;
-  v_[3] = v3;
-  if (bytes) std::memcpy(buf_, p, bytes);
-  buf_len_ = bytes;
-}
-
-std::uint64_t Xxh64::digest() const {
-  std::uint64_t h;
-  if (total_ >= 32) {
-    h = rotl(v_[0], 1) + rotl(v_[1], 7) + rotl(v_[2], 12) + rotl(v_[3], 18);
-    for (int i = 0; i < 4; ++i) h = merge_round(h, v_[i]);
-  } else {
-    h = seed_ + kP5;
-  }
-  h += total_;
-  const unsigned char* p = buf_;
-  std::size_t n = buf_len_;
-  while (n >= 8) {
-    h ^= round64(0, read64(p));
-    h = rotl(h, 27) * kP1 + kP4;
-    p += 8;
-    n -= 8;
-  }
-  if (n >= 4) {
-    h ^= static_cast<std::uint64_t>(read32(p)) * kP1;
-    h = rotl(h, 23) * kP2 + kP3;
-    p += 4;
-    n -= 4;
-  }
-  while (n > 0) {
-    h ^= (*p) * kP5;
-    h = rotl(h, 11) * kP1;
-    ++p;
-    --n;
-  }
-  h ^= h >> 33;
-  h *= kP2;
-  h ^= h >> 29;
-  h *= kP3;
-  h ^= h >> 32;
-  return h;
-}
-
-std::uint64_t xxh64(const void* data, std::size_t bytes, std::uint64_t seed) {
-  Xxh64 h(seed);
-  h.update(data, bytes);
-  return h.digest();
-}
-
-std::string hex64(std::uint64_t v) {
-  static const char* digits = "0123456789abcdef";
-  std::string s(16, '0');
-  for (int i = 15; i >= 0; --i) {
-    s[static_cast<std::size_t>(i)] = digits[v & 0xF];
-    v >>= 4;
-  }
-  return s;
-}
-
-}  // namespace mocap
 
 namespace mocap::h5 {
 
-namespace {
+namespace detail {
 
 /// HDF5 keeps the error-printing setting per thread in thread-safe builds:
 /// switch it off once in every thread that calls in.
+/// The error API failing is a broken library, not bad input: logic_error.
 void silence() {
   thread_local bool done = false;
   if (!done) {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    if (H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) < 0)
+      throw std::logic_error("HDF5: cannot switch off automatic error printing");
     done = true;
   }
 }
 
-herr_t collect_error(unsigned, const H5E_error2_t* err, void* data) {
-  auto* out = static_cast<std::vector<std::string>*>(data);
-  if (err && err->desc && *err->desc) out->emplace_back(err->desc);
-  return 0;
-}
-
-/// The innermost two entries of the current thread's error stack (the most
-/// specific reasons), then the stack is cleared.
-std::string take_reason() {
-  std::vector<std::string> msgs;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &msgs);
-  H5Eclear2(H5E_DEFAULT);
-  if (msgs.empty()) return {};
-  std::string r = msgs.back();
-  if (msgs.size() >= 2 && msgs[msgs.size() - 2] != r) r = msgs[msgs.size() - 2] + ": " + r;
-  return r;
-}
-
-Id string_type() {
-  Id t(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(t.get(), H5T_VARIABLE);
-  H5Tset_cset(t.get(), H5T_CSET_UTF8);
-  return t;
+/// Clears the current thread's error stack (after an expected failure).
+void clear_error_stack() {
+  if (H5Eclear2(H5E_DEFAULT) < 0) throw std::logic_error("HDF5: cannot clear the error stack");
 }
 
 Id check(hid_t id, herr_t (*closer)(hid_t), const std::string& file, const std::string& what) {
@@ -182,10 +42,87 @@ void check_status(herr_t status, const std::string& file, const std::string& wha
   if (status < 0) throw_error(file, what);
 }
 
-hsize_t product(const std::vector<hsize_t>& v, std::size_t from = 0) {
+/// Variable-length UTF-8 strings (`where`: file and path for errors).
+Id string_type(const std::string& file, const std::string& where) {
+  Id t = check(H5Tcopy(H5T_C_S1), H5Tclose, file, where + ": cannot make a string type");
+  check_status(H5Tset_size(t.get(), H5T_VARIABLE), file, where + ": cannot make a string type");
+  check_status(H5Tset_cset(t.get(), H5T_CSET_UTF8), file, where + ": cannot make a string type");
+  return t;
+}
+
+/// A type's class and size, checked.
+H5T_class_t type_class_of(hid_t type, const std::string& file, const std::string& where) {
+  const H5T_class_t c = H5Tget_class(type);
+  if (c == H5T_NO_CLASS) throw_error(file, where + ": cannot get its type class");
+  return c;
+}
+std::size_t type_size_of(hid_t type, const std::string& file, const std::string& where) {
+  const std::size_t n = H5Tget_size(type);
+  if (n == 0) throw_error(file, where + ": cannot get its type size");
+  return n;
+}
+
+/// The one dataset-access property list of the process: a generous chunk
+/// cache (521 slots, 1 MiB), as frame arrays are read in row ranges. It only
+/// affects open handles, nothing written. `file` and `path` name the dataset
+/// being opened in the error message of a failure to make it.
+hid_t dataset_access(const std::string& file, const std::string& path) {
+  static const Id dapl = [&] {
+    Id p = check(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose, file,
+                 path + ": cannot make the dataset access properties");
+    check_status(H5Pset_chunk_cache(p.get(), 521, 1u << 20, 1.0), file,
+                 path + ": cannot set the chunk cache");
+    return p;
+  }();
+  return dapl.get();
+}
+
+/// A dataspace of `dims` (scalar when empty); `max_dims` as H5Screate_simple's.
+Id make_space(const std::vector<hsize_t>& dims, const hsize_t* max_dims, const std::string& file,
+              const std::string& where) {
+  return check(dims.empty()
+                   ? H5Screate(H5S_SCALAR)
+                   : H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max_dims),
+               H5Sclose, file, where + ": cannot make a dataspace");
+}
+
+hsize_t product(const std::vector<hsize_t>& v, std::size_t from) {
   hsize_t p = 1;
   for (std::size_t i = from; i < v.size(); ++i) p *= v[i];
   return p;
+}
+
+/// A dataspace of `shape`, its first dimension unlimited when `unlimited_rows`.
+Id simple_space(const std::vector<hsize_t>& shape, bool unlimited_rows, const std::string& file,
+                const std::string& path) {
+  std::vector<hsize_t> maxdims = shape;
+  if (unlimited_rows && !maxdims.empty()) maxdims[0] = H5S_UNLIMITED;
+  return make_space(shape, maxdims.data(), file, path);
+}
+
+}  // namespace detail
+
+using namespace detail;
+
+namespace {
+
+herr_t collect_error(unsigned, const H5E_error2_t* err, void* data) {
+  auto* out = static_cast<std::vector<std::string>*>(data);
+  if (err && err->desc && *err->desc) out->emplace_back(err->desc);
+  return 0;
+}
+
+/// The innermost two entries of the current thread's error stack (the most
+/// specific reasons), then the stack is cleared.
+std::string take_reason() {
+  std::vector<std::string> msgs;
+  if (H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &msgs) < 0)
+    throw std::logic_error("HDF5: cannot read the error stack");
+  clear_error_stack();
+  if (msgs.empty()) return {};
+  std::string r = msgs.back();
+  if (msgs.size() >= 2 && msgs[msgs.size() - 2] != r) r = msgs[msgs.size() - 2] + ": " + r;
+  return r;
 }
 
 }  // namespace
@@ -217,43 +154,16 @@ void Id::reset() {
   id_ = H5I_INVALID_HID;
 }
 
-template <>
-hid_t native_type<float>() { return H5T_NATIVE_FLOAT; }
-template <>
-hid_t native_type<double>() { return H5T_NATIVE_DOUBLE; }
-template <>
-hid_t native_type<std::int8_t>() { return H5T_NATIVE_INT8; }
-template <>
-hid_t native_type<std::uint8_t>() { return H5T_NATIVE_UINT8; }
-template <>
-hid_t native_type<std::int32_t>() { return H5T_NATIVE_INT32; }
-template <>
-hid_t native_type<std::uint32_t>() { return H5T_NATIVE_UINT32; }
-template <>
-hid_t native_type<std::int64_t>() { return H5T_NATIVE_INT64; }
-template <>
-hid_t native_type<std::uint64_t>() { return H5T_NATIVE_UINT64; }
-template <>
-hid_t file_type<float>() { return H5T_IEEE_F32LE; }
-template <>
-hid_t file_type<double>() { return H5T_IEEE_F64LE; }
-template <>
-hid_t file_type<std::int8_t>() { return H5T_STD_I8LE; }
-template <>
-hid_t file_type<std::uint8_t>() { return H5T_STD_U8LE; }
-template <>
-hid_t file_type<std::int32_t>() { return H5T_STD_I32LE; }
-template <>
-hid_t file_type<std::uint32_t>() { return H5T_STD_U32LE; }
-template <>
-hid_t file_type<std::int64_t>() { return H5T_STD_I64LE; }
-template <>
-hid_t file_type<std::uint64_t>() { return H5T_STD_U64LE; }
-
 // ---------------------------------------------------------------------------
 // Object: attributes
 
-void Object::fail(const std::string& what) const { throw_error(file_, path_ + ": " + what); }
+void Object::misuse(const std::string& what) const {
+  throw std::invalid_argument(file_ + ": " + path_ + ": " + what);
+}
+
+void Object::fail(const std::string& what) const {
+  throw_error(file_, path_ + ": " + what);
+}
 
 bool Object::has_attribute(const std::string& name) const {
   silence();
@@ -266,39 +176,42 @@ namespace {
 void write_attribute(const Object& o, const std::string& name, hid_t file_type_id, hid_t mem_type,
                      const std::vector<hsize_t>& dims, const void* value) {
   silence();
-  if (H5Aexists(o.id(), name.c_str()) > 0) H5Adelete(o.id(), name.c_str());
-  Id space(dims.empty() ? H5Screate(H5S_SCALAR)
-                        : H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
-           H5Sclose);
-  Id attr = check(H5Acreate2(o.id(), name.c_str(), file_type_id, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, o.file(), o.path() + ": cannot create attribute '" + name + "'");
+  if (o.has_attribute(name))
+    check_status(H5Adelete(o.id(), name.c_str()), o.file(),
+                 o.path() + ": cannot replace attribute '" + name + "'");
+  Id space = make_space(dims, nullptr, o.file(), o.path() + ": attribute '" + name + "'");
+  Id attr =
+      check(H5Acreate2(o.id(), name.c_str(), file_type_id, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+            H5Aclose, o.file(), o.path() + ": cannot create attribute '" + name + "'");
   check_status(H5Awrite(attr.get(), mem_type, value), o.file(),
                o.path() + ": cannot write attribute '" + name + "'");
 }
 
 Id open_attribute(const Object& o, const std::string& name) {
   silence();
-  if (H5Aexists(o.id(), name.c_str()) <= 0) {
-    H5Eclear2(H5E_DEFAULT);
+  if (!o.has_attribute(name))
     throw InputError(o.file(), 0, o.path() + ": attribute '" + name + "' is missing");
-  }
   return check(H5Aopen(o.id(), name.c_str(), H5P_DEFAULT), H5Aclose, o.file(),
                o.path() + ": cannot open attribute '" + name + "'");
 }
 
 H5T_class_t attribute_class(const Object& o, const Id& attr, const std::string& name) {
-  Id t = check(H5Aget_type(attr.get()), H5Tclose, o.file(), o.path() + ": attribute '" + name + "'");
-  return H5Tget_class(t.get());
+  Id t =
+      check(H5Aget_type(attr.get()), H5Tclose, o.file(), o.path() + ": attribute '" + name + "'");
+  return type_class_of(t.get(), o.file(), o.path() + ": attribute '" + name + "'");
 }
 
 hssize_t attribute_points(const Object& o, const Id& attr, const std::string& name) {
-  Id s = check(H5Aget_space(attr.get()), H5Sclose, o.file(), o.path() + ": attribute '" + name + "'");
-  return H5Sget_simple_extent_npoints(s.get());
+  Id s =
+      check(H5Aget_space(attr.get()), H5Sclose, o.file(), o.path() + ": attribute '" + name + "'");
+  const hssize_t n = H5Sget_simple_extent_npoints(s.get());
+  if (n < 0) throw_error(o.file(), o.path() + ": attribute '" + name + "': cannot get its size");
+  return n;
 }
 }  // namespace
 
 void Object::set_attribute(const std::string& name, std::string_view value) {
-  Id t = string_type();
+  Id t = string_type(file_, path_);
   const std::string s(value);
   const char* p = s.c_str();
   write_attribute(*this, name, t.get(), t.get(), {}, &p);
@@ -321,18 +234,22 @@ std::string Object::string_attribute(const std::string& name) const {
   if (attribute_class(*this, attr, name) != H5T_STRING || attribute_points(*this, attr, name) != 1)
     throw InputError(file_, 0, path_ + ": attribute '" + name + "' is not a string");
   Id ftype = check(H5Aget_type(attr.get()), H5Tclose, file_, path_ + ": attribute '" + name + "'");
-  if (H5Tis_variable_str(ftype.get()) > 0) {
-    Id t = string_type();
+  const std::string where = path_ + ": attribute '" + name + "'";
+  const htri_t variable = H5Tis_variable_str(ftype.get());
+  if (variable < 0) throw_error(file_, where + ": cannot get its string kind");
+  if (variable > 0) {
+    Id t = string_type(file_, where);
     char* p = nullptr;
-    check_status(H5Aread(attr.get(), t.get(), &p), file_, path_ + ": cannot read attribute '" + name + "'");
+    check_status(H5Aread(attr.get(), t.get(), &p), file_,
+                 path_ + ": cannot read attribute '" + name + "'");
     std::string out = p ? p : "";
-    H5free_memory(p);
+    check_status(H5free_memory(p), file_, where + ": cannot free the string");
     return out;
   }
-  const std::size_t n = H5Tget_size(ftype.get());
+  const std::size_t n = type_size_of(ftype.get(), file_, where);
   std::string out(n, '\0');
-  Id t(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(t.get(), n);
+  Id t = check(H5Tcopy(H5T_C_S1), H5Tclose, file_, where + ": cannot make a string type");
+  check_status(H5Tset_size(t.get(), n), file_, where + ": cannot make a string type");
   check_status(H5Aread(attr.get(), t.get(), out.data()), file_,
                path_ + ": cannot read attribute '" + name + "'");
   out.resize(std::strlen(out.c_str()));
@@ -395,250 +312,6 @@ std::vector<std::string> Object::attribute_names() const {
 }
 
 // ---------------------------------------------------------------------------
-// Dataset
-
-std::vector<hsize_t> Dataset::shape() const {
-  silence();
-  Id space = check(H5Dget_space(id()), H5Sclose, file_, path_ + ": cannot get its shape");
-  const int rank = H5Sget_simple_extent_ndims(space.get());
-  if (rank < 0) fail("cannot get its rank");
-  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
-  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0) fail("cannot get its shape");
-  return dims;
-}
-
-hsize_t Dataset::rows() const {
-  const auto s = shape();
-  return s.empty() ? 1 : s[0];
-}
-
-hsize_t Dataset::row_elements() const { return product(shape(), 1); }
-
-H5T_class_t Dataset::type_class() const {
-  silence();
-  Id t = check(H5Dget_type(id()), H5Tclose, file_, path_ + ": cannot get its type");
-  return H5Tget_class(t.get());
-}
-
-std::size_t Dataset::element_bytes() const {
-  silence();
-  Id t = check(H5Dget_type(id()), H5Tclose, file_, path_ + ": cannot get its type");
-  return H5Tget_size(t.get());
-}
-
-bool Dataset::is_chunked() const {
-  silence();
-  Id p = check(H5Dget_create_plist(id()), H5Pclose, file_, path_ + ": cannot get its layout");
-  return H5Pget_layout(p.get()) == H5D_CHUNKED;
-}
-
-std::vector<std::string> Dataset::filters() const {
-  silence();
-  Id p = check(H5Dget_create_plist(id()), H5Pclose, file_, path_ + ": cannot get its filters");
-  std::vector<std::string> out;
-  const int n = H5Pget_nfilters(p.get());
-  for (int i = 0; i < n; ++i) {
-    unsigned flags = 0, config = 0;
-    std::size_t nelem = 0;
-    char name[64] = {0};
-    const H5Z_filter_t f =
-        H5Pget_filter2(p.get(), static_cast<unsigned>(i), &flags, &nelem, nullptr, sizeof name, name, &config);
-    if (f == H5Z_FILTER_SHUFFLE)
-      out.emplace_back("shuffle");
-    else if (f == H5Z_FILTER_DEFLATE)
-      out.emplace_back("deflate");
-    else if (f == H5Z_FILTER_FLETCHER32)
-      out.emplace_back("fletcher32");
-    else
-      out.emplace_back(name[0] ? name : "filter " + std::to_string(f));
-  }
-  return out;
-}
-
-hsize_t Dataset::storage_bytes() const {
-  silence();
-  return H5Dget_storage_size(id());
-}
-
-void Dataset::write_raw(hid_t mem_type, hid_t file_space, hsize_t first, hsize_t count, const void* values) {
-  const auto dims = shape();
-  std::vector<hsize_t> start(dims.size(), 0), extent = dims;
-  if (!dims.empty()) {
-    start[0] = first;
-    extent[0] = count;
-  }
-  Id mem = check(dims.empty() ? H5Screate(H5S_SCALAR)
-                              : H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr),
-                 H5Sclose, file_, path_ + ": cannot make a memory space");
-  if (!dims.empty())
-    check_status(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, extent.data(), nullptr),
-                 file_, path_ + ": cannot select rows");
-  check_status(H5Dwrite(id(), mem_type, mem.get(), file_space, H5P_DEFAULT, values), file_,
-               path_ + ": cannot write rows " + std::to_string(first) + ".." + std::to_string(first + count));
-}
-
-void Dataset::read_raw(hid_t mem_type, hsize_t first, hsize_t count, void* out) const {
-  silence();
-  const auto dims = shape();
-  if (!dims.empty() && (first > dims[0] || count > dims[0] - first))
-    throw InputError(file_, 0,
-                     path_ + ": rows " + std::to_string(first) + ".." + std::to_string(first + count) +
-                         " are out of range (it has " + std::to_string(dims[0]) + ")");
-  if (!dims.empty() && count == 0) return;
-  Id space = check(H5Dget_space(id()), H5Sclose, file_, path_ + ": cannot get its shape");
-  std::vector<hsize_t> start(dims.size(), 0), extent = dims;
-  if (!dims.empty()) {
-    start[0] = first;
-    extent[0] = count;
-    check_status(H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, extent.data(), nullptr),
-                 file_, path_ + ": cannot select rows");
-  }
-  Id mem = check(dims.empty() ? H5Screate(H5S_SCALAR)
-                              : H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr),
-                 H5Sclose, file_, path_ + ": cannot make a memory space");
-  check_status(H5Dread(id(), mem_type, mem.get(), space.get(), H5P_DEFAULT, out), file_,
-               path_ + ": cannot read rows " + std::to_string(first) + ".." + std::to_string(first + count));
-}
-
-template <Number T>
-void Dataset::append_rows(const T* values, hsize_t count) {
-  silence();
-  if (count == 0) return;
-  auto dims = shape();
-  if (dims.empty()) fail("cannot append to a scalar dataset");
-  const hsize_t first = dims[0];
-  dims[0] += count;
-  check_status(H5Dset_extent(id(), dims.data()), file_, path_ + ": cannot grow to " + std::to_string(dims[0]) + " rows");
-  Id space = check(H5Dget_space(id()), H5Sclose, file_, path_ + ": cannot get its shape");
-  write_raw(native_type<T>(), space.get(), first, count, values);
-}
-
-template <Number T>
-void Dataset::write_all(std::span<const T> values) {
-  silence();
-  const auto dims = shape();
-  if (values.size() != product(dims))
-    fail("internal: " + std::to_string(values.size()) + " values for " + std::to_string(product(dims)) + " elements");
-  if (values.empty()) return;
-  Id space = check(H5Dget_space(id()), H5Sclose, file_, path_ + ": cannot get its shape");
-  write_raw(native_type<T>(), space.get(), 0, dims.empty() ? 1 : dims[0], values.data());
-}
-
-template <Number T>
-std::vector<T> Dataset::read_rows(hsize_t first, hsize_t count) const {
-  std::vector<T> out(static_cast<std::size_t>(count * row_elements()));
-  read_raw(native_type<T>(), first, count, out.data());
-  return out;
-}
-
-template <Number T>
-void Dataset::read_rows_into(hsize_t first, hsize_t count, T* out) const {
-  read_raw(native_type<T>(), first, count, out);
-}
-
-#define MOCAP_H5_INSTANTIATE(T)                                                            \
-  template void Dataset::append_rows<T>(const T*, hsize_t);                                \
-  template void Dataset::write_all<T>(std::span<const T>);                                 \
-  template std::vector<T> Dataset::read_rows<T>(hsize_t, hsize_t) const;                   \
-  template void Dataset::read_rows_into<T>(hsize_t, hsize_t, T*) const;                    \
-  template Dataset Group::create_dataset<T>(const std::string&, const std::vector<hsize_t>&, \
-                                            const DatasetOptions&);
-MOCAP_H5_INSTANTIATE(float)
-MOCAP_H5_INSTANTIATE(double)
-MOCAP_H5_INSTANTIATE(std::int8_t)
-MOCAP_H5_INSTANTIATE(std::uint8_t)
-MOCAP_H5_INSTANTIATE(std::int32_t)
-MOCAP_H5_INSTANTIATE(std::uint32_t)
-MOCAP_H5_INSTANTIATE(std::int64_t)
-MOCAP_H5_INSTANTIATE(std::uint64_t)
-#undef MOCAP_H5_INSTANTIATE
-
-void Dataset::write_strings(const std::vector<std::string>& values) {
-  silence();
-  const auto dims = shape();
-  if (values.size() != product(dims)) fail("internal: string count does not match the shape");
-  if (values.empty()) return;
-  std::vector<const char*> ptrs(values.size());
-  for (std::size_t i = 0; i < values.size(); ++i) ptrs[i] = values[i].c_str();
-  Id t = string_type();
-  check_status(H5Dwrite(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()), file_,
-               path_ + ": cannot write strings");
-}
-
-std::vector<std::string> Dataset::read_strings() const {
-  silence();
-  if (type_class() != H5T_STRING) fail("is not a string dataset");
-  const auto dims = shape();
-  const hsize_t n = product(dims);
-  std::vector<std::string> out;
-  if (n == 0) return out;
-  Id ftype = check(H5Dget_type(id()), H5Tclose, file_, path_ + ": cannot get its type");
-  if (H5Tis_variable_str(ftype.get()) <= 0) fail("expected variable-length strings");
-  Id t = string_type();
-  std::vector<char*> ptrs(static_cast<std::size_t>(n), nullptr);
-  check_status(H5Dread(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()), file_,
-               path_ + ": cannot read strings");
-  out.reserve(ptrs.size());
-  for (char* p : ptrs) out.emplace_back(p ? p : "");
-  Id space = check(H5Dget_space(id()), H5Sclose, file_, path_ + ": cannot get its shape");
-#if H5_VERSION_GE(1, 12, 0)
-  H5Treclaim(t.get(), space.get(), H5P_DEFAULT, ptrs.data());
-#else
-  H5Dvlen_reclaim(t.get(), space.get(), H5P_DEFAULT, ptrs.data());
-#endif
-  return out;
-}
-
-namespace {
-Id enum_type(const std::vector<std::pair<std::string, int>>& members) {
-  Id t(H5Tenum_create(H5T_NATIVE_UINT8), H5Tclose);
-  for (const auto& [name, value] : members) {
-    const auto v = static_cast<std::uint8_t>(value);
-    H5Tenum_insert(t.get(), name.c_str(), &v);
-  }
-  return t;
-}
-}  // namespace
-
-std::vector<std::pair<std::string, int>> Dataset::enum_members() const {
-  silence();
-  Id t = check(H5Dget_type(id()), H5Tclose, file_, path_ + ": cannot get its type");
-  std::vector<std::pair<std::string, int>> out;
-  if (H5Tget_class(t.get()) != H5T_ENUM) return out;
-  const int n = H5Tget_nmembers(t.get());
-  for (int i = 0; i < n; ++i) {
-    char* name = H5Tget_member_name(t.get(), static_cast<unsigned>(i));
-    std::uint8_t v = 0;
-    Id base(H5Tget_super(t.get()), H5Tclose);
-    if (H5Tget_size(base.get()) == 1) H5Tget_member_value(t.get(), static_cast<unsigned>(i), &v);
-    out.emplace_back(name ? name : "", v);
-    H5free_memory(name);
-  }
-  return out;
-}
-
-void Dataset::write_enum(std::span<const std::uint8_t> values) {
-  silence();
-  if (values.size() != product(shape())) fail("internal: enum count does not match the shape");
-  if (values.empty()) return;
-  Id t = enum_type(enum_members());
-  check_status(H5Dwrite(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), file_,
-               path_ + ": cannot write values");
-}
-
-std::vector<std::uint8_t> Dataset::read_enum() const {
-  silence();
-  if (type_class() != H5T_ENUM) fail("is not an enumeration");
-  const auto members = enum_members();
-  std::vector<std::uint8_t> out(static_cast<std::size_t>(product(shape())));
-  if (out.empty()) return out;
-  Id t = enum_type(members);
-  check_status(H5Dread(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), file_,
-               path_ + ": cannot read values");
-  return out;
-}
-
-// ---------------------------------------------------------------------------
 // Group
 
 std::string Group::child_path(const std::string& name) const {
@@ -656,90 +329,51 @@ std::vector<std::string> Group::members() const {
   silence();
   std::vector<std::string> names;
   hsize_t idx = 0;
-  if (H5Literate(id(), H5_INDEX_NAME, H5_ITER_INC, &idx, collect_link, &names) < 0) fail("cannot list members");
+  if (H5Literate(id(), H5_INDEX_NAME, H5_ITER_INC, &idx, collect_link, &names) < 0)
+    fail("cannot list members");
   return names;
 }
 
 bool Group::is_group(const std::string& name) const {
   silence();
-  Id obj = check(H5Oopen(id(), name.c_str(), H5P_DEFAULT), H5Oclose, file_, child_path(name) + ": cannot open");
-  return H5Iget_type(obj.get()) == H5I_GROUP;
+  Id obj = check(H5Oopen(id(), name.c_str(), H5P_DEFAULT), H5Oclose, file_,
+                 child_path(name) + ": cannot open");
+  const H5I_type_t type = H5Iget_type(obj.get());
+  if (type == H5I_BADID) throw_error(file_, child_path(name) + ": cannot get its kind");
+  return type == H5I_GROUP;
 }
 
 Group Group::create_group(const std::string& name) {
   silence();
-  Id g = check(H5Gcreate2(id(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, file_,
-               child_path(name) + ": cannot create group");
+  Id g = check(H5Gcreate2(id(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+               file_, child_path(name) + ": cannot create group");
   return Group(std::move(g), file_, child_path(name));
 }
 
 Group Group::open_group(const std::string& name) const {
   silence();
   if (!exists(name)) throw InputError(file_, 0, child_path(name) + ": group is missing");
-  Id g = check(H5Gopen2(id(), name.c_str(), H5P_DEFAULT), H5Gclose, file_, child_path(name) + ": cannot open group");
+  Id g = check(H5Gopen2(id(), name.c_str(), H5P_DEFAULT), H5Gclose, file_,
+               child_path(name) + ": cannot open group");
   return Group(std::move(g), file_, child_path(name));
 }
 
 Dataset Group::open_dataset(const std::string& name) const {
   silence();
   if (!exists(name)) throw InputError(file_, 0, child_path(name) + ": dataset is missing");
-  // A generous chunk cache: frame arrays are read in row ranges.
-  Id dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
-  H5Pset_chunk_cache(dapl.get(), 521, 1u << 20, 1.0);
-  Id d = check(H5Dopen2(id(), name.c_str(), dapl.get()), H5Dclose, file_, child_path(name) + ": cannot open dataset");
+  Id d = check(H5Dopen2(id(), name.c_str(), dataset_access(file_, child_path(name))), H5Dclose,
+               file_, child_path(name) + ": cannot open dataset");
   return Dataset(std::move(d), file_, child_path(name));
-}
-
-namespace {
-Id creation_plist(const std::string& file, const std::string& path, const std::vector<hsize_t>& shape,
-                  const DatasetOptions& o) {
-  Id dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  if (o.chunk_rows > 0) {
-    std::vector<hsize_t> chunk = shape;
-    if (chunk.empty()) throw InputError(file, 0, path + ": internal: a chunked dataset needs a rank");
-    chunk[0] = o.chunk_rows;
-    for (auto& c : chunk) c = std::max<hsize_t>(c, 1);
-    check_status(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), file,
-                 path + ": cannot set chunking");
-    if (o.deflate_level > 0) {
-      H5Pset_shuffle(dcpl.get());
-      H5Pset_deflate(dcpl.get(), static_cast<unsigned>(std::min(o.deflate_level, 9)));
-    }
-  }
-  // Unwritten parts of chunks (the tail of the last one) are zeros, so that
-  // files are reproducible and compress well.
-  H5Pset_fill_time(dcpl.get(), o.chunk_rows > 0 ? H5D_FILL_TIME_ALLOC : H5D_FILL_TIME_NEVER);
-  return dcpl;
-}
-
-Id simple_space(const std::vector<hsize_t>& shape, bool unlimited_rows) {
-  if (shape.empty()) return Id(H5Screate(H5S_SCALAR), H5Sclose);
-  std::vector<hsize_t> maxdims = shape;
-  if (unlimited_rows) maxdims[0] = H5S_UNLIMITED;
-  return Id(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), maxdims.data()), H5Sclose);
-}
-}  // namespace
-
-template <Number T>
-Dataset Group::create_dataset(const std::string& name, const std::vector<hsize_t>& shape, const DatasetOptions& o) {
-  silence();
-  const std::string path = child_path(name);
-  Id dcpl = creation_plist(file_, path, shape, o);
-  Id space = simple_space(shape, o.chunk_rows > 0);
-  Id dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
-  H5Pset_chunk_cache(dapl.get(), 521, 1u << 20, 1.0);
-  Id d = check(H5Dcreate2(id(), name.c_str(), file_type<T>(), space.get(), H5P_DEFAULT, dcpl.get(), dapl.get()),
-               H5Dclose, file_, path + ": cannot create dataset");
-  return Dataset(std::move(d), file_, path);
 }
 
 Dataset Group::create_string_dataset(const std::string& name, const std::vector<hsize_t>& shape) {
   silence();
   const std::string path = child_path(name);
-  Id t = string_type();
-  Id space = simple_space(shape, false);
-  Id d = check(H5Dcreate2(id(), name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-               H5Dclose, file_, path + ": cannot create dataset");
+  Id t = string_type(file_, path);
+  Id space = simple_space(shape, false, file_, path);
+  Id d = check(
+      H5Dcreate2(id(), name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose, file_, path + ": cannot create dataset");
   return Dataset(std::move(d), file_, path);
 }
 
@@ -747,10 +381,11 @@ Dataset Group::create_enum_dataset(const std::string& name, hsize_t rows,
                                    const std::vector<std::pair<std::string, int>>& members) {
   silence();
   const std::string path = child_path(name);
-  Id t = enum_type(members);
-  Id space = simple_space({rows}, false);
-  Id d = check(H5Dcreate2(id(), name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-               H5Dclose, file_, path + ": cannot create dataset");
+  Id t = enum_type(members, file_, path);
+  Id space = make_space({rows}, nullptr, file_, path);
+  Id d = check(
+      H5Dcreate2(id(), name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose, file_, path + ": cannot create dataset");
   return Dataset(std::move(d), file_, path);
 }
 
@@ -761,15 +396,21 @@ File File::create(const std::filesystem::path& path, hsize_t userblock_bytes) {
   silence();
   File f;
   f.path_ = path.string();
-  Id fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+  Id fcpl = check(H5Pcreate(H5P_FILE_CREATE), H5Pclose, f.path_,
+                  "cannot make the file creation properties");
   if (userblock_bytes > 0)
-    check_status(H5Pset_userblock(fcpl.get(), userblock_bytes), f.path_, "cannot reserve the user block");
-  Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+    check_status(H5Pset_userblock(fcpl.get(), userblock_bytes), f.path_,
+                 "cannot reserve the user block");
+  Id fapl = check(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, f.path_,
+                  "cannot make the file access properties");
   // HDF5 1.10 file format: checksummed metadata, readable by HDF5 >= 1.10 (h5py too).
-  H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_V110);
-  f.file_ = check(H5Fcreate(f.path_.c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), H5Fclose, f.path_,
-                  "cannot create the file");
-  f.root_ = Group(check(H5Gopen2(f.file_.get(), "/", H5P_DEFAULT), H5Gclose, f.path_, "cannot open /"), f.path_, "/");
+  check_status(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_V110), f.path_,
+               "cannot select the HDF5 1.10 file format");
+  f.file_ = check(H5Fcreate(f.path_.c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), H5Fclose,
+                  f.path_, "cannot create the file");
+  f.root_ =
+      Group(check(H5Gopen2(f.file_.get(), "/", H5P_DEFAULT), H5Gclose, f.path_, "cannot open /"),
+            f.path_, "/");
   return f;
 }
 
@@ -781,12 +422,14 @@ File File::open(const std::filesystem::path& path, bool writable) {
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError(f.path_, 0, "no such file");
   const htri_t is_h5 = H5Fis_hdf5(f.path_.c_str());
   if (is_h5 <= 0) {
-    H5Eclear2(H5E_DEFAULT);
+    clear_error_stack();
     throw InputError(f.path_, 0, "not an HDF5 file");
   }
-  f.file_ = check(H5Fopen(f.path_.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-                  f.path_, "cannot open the file");
-  f.root_ = Group(check(H5Gopen2(f.file_.get(), "/", H5P_DEFAULT), H5Gclose, f.path_, "cannot open /"), f.path_, "/");
+  f.file_ = check(H5Fopen(f.path_.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT),
+                  H5Fclose, f.path_, "cannot open the file");
+  f.root_ =
+      Group(check(H5Gopen2(f.file_.get(), "/", H5P_DEFAULT), H5Gclose, f.path_, "cannot open /"),
+            f.path_, "/");
   return f;
 }
 

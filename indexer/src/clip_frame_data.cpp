@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "mocap/energy.hpp"
 #include "mocap/error.hpp"
@@ -39,8 +40,8 @@ inline void put_vec3(const Eigen::Vector3d& v, float* out) {
 }
 
 /// Per-element min and max of rows [first, first + count) of a row-major array.
-void min_max_rows(const std::vector<float>& values, std::size_t row_elements, std::size_t first, std::size_t count,
-                  float* lo, float* hi) {
+void min_max_rows(const std::vector<float>& values, std::size_t row_elements, std::size_t first,
+                  std::size_t count, float* lo, float* hi) {
   std::fill(lo, lo + row_elements, std::numeric_limits<float>::infinity());
   std::fill(hi, hi + row_elements, -std::numeric_limits<float>::infinity());
   for (std::size_t r = first; r < first + count; ++r) {
@@ -61,7 +62,8 @@ IndexedSkeleton index_skeleton(const RawClip& clip, double scale_m, const Charac
   s.body = build_body(s.skeleton, character);
   s.model = build_dynamics_model(s.skeleton, s.body, params);
   if (s.model.segments.empty())
-    throw InputError(clip.source, 0, "no joint of the skeleton carries mass (no body segment recognised)");
+    throw InputError(clip.source, 0,
+                     "no joint of the skeleton carries mass (no body segment recognised)");
   s.channels.reserve(clip.joints.size());
   for (const RawJoint& j : clip.joints) {
     std::string c;
@@ -76,7 +78,8 @@ IndexedSkeleton index_skeleton(const RawClip& clip, double scale_m, const Charac
   return s;
 }
 
-ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton& skel, double transition_time_s) {
+ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton& skel,
+                                      double transition_time_s) {
   const Skeleton& sk = skel.skeleton;
   const DynamicsModel& model = skel.model;
   const std::size_t K = clip.frame_count;
@@ -84,7 +87,8 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   const std::size_t S = model.segments.size();
   if (K == 0) throw InputError(clip.source, 0, "the clip has no frames");
   if (clip.channel_count != sk.channel_count)
-    throw InputError(clip.source, 0, "internal: clip and skeleton channel counts differ");
+    throw std::invalid_argument(clip.source +
+                                ": the skeleton is not the clip's (channel counts differ)");
   if (kd_feature_dimension(model) != 3 * S)
     throw std::logic_error("kd feature dimension is not 3 x segments");
 
@@ -92,17 +96,21 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   // the result does not depend on the split).
   std::vector<Eigen::Vector3d> positions(K * J);
   std::vector<Eigen::Quaterniond> world(K * J), local(K * J);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, K, 256), [&](const tbb::blocked_range<std::size_t>& r) {
-    LocalPose lp;
-    WorldPose wp;
-    for (std::size_t f = r.begin(); f != r.end(); ++f) {
-      local_pose_from_row(sk, clip.frame(f), lp);
-      forward_kinematics(sk, lp, wp);
-      std::copy(wp.positions_m.begin(), wp.positions_m.end(), positions.begin() + static_cast<std::ptrdiff_t>(f * J));
-      std::copy(wp.rotations.begin(), wp.rotations.end(), world.begin() + static_cast<std::ptrdiff_t>(f * J));
-      std::copy(lp.rotations.begin(), lp.rotations.end(), local.begin() + static_cast<std::ptrdiff_t>(f * J));
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, K, 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      LocalPose lp;
+                      WorldPose wp;
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        local_pose_from_row(sk, clip.frame(f), lp);
+                        forward_kinematics(sk, lp, wp);
+                        std::copy(wp.positions_m.begin(), wp.positions_m.end(),
+                                  positions.begin() + static_cast<std::ptrdiff_t>(f * J));
+                        std::copy(wp.rotations.begin(), wp.rotations.end(),
+                                  world.begin() + static_cast<std::ptrdiff_t>(f * J));
+                        std::copy(lp.rotations.begin(), lp.rotations.end(),
+                                  local.begin() + static_cast<std::ptrdiff_t>(f * J));
+                      }
+                    });
 
   ClipDynamics dyn;
   compute_clip_dynamics(model, K, clip.frame_time_s, positions.data(), world.data(), dyn);
@@ -117,7 +125,9 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
     else
       d.frames_f64[i].resize(K * row_elements(kFrameFields[i].shape, J, S));
   }
-  auto frame = [&](const char* name) -> std::vector<float>& { return d.frames[field_index(kFrameFields, name)]; };
+  auto frame = [&](const char* name) -> std::vector<float>& {
+    return d.frames[field_index(kFrameFields, name)];
+  };
   std::vector<float>& root = frame("root_position_m");
   std::vector<float>& lrot = frame("local_rotations");
   std::vector<float>& wrot = frame("world_rotations");
@@ -157,7 +167,8 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
 
   // The clip's own energy: g per step, as prefix sums from 0.
   std::vector<double> prefix = energy_prefix_sums(clip_step_energies(model, dyn));
-  if (prefix.size() != K) throw std::logic_error("energy_prefix_sums: expected one value per frame");
+  if (prefix.size() != K)
+    throw std::logic_error("energy_prefix_sums: expected one value per frame");
   d.frames_f64[field_index(kFrameFields, "energy_prefix_J")] = std::move(prefix);
 
   compute_clip_bounds(clip, skel, d);
@@ -172,7 +183,9 @@ void compute_clip_bounds(const RawClip& clip, const IndexedSkeleton& skel, ClipF
 
   for (std::size_t i = 0; i < kClipBoundFieldCount; ++i)
     d.clip_bounds[i].assign(row_elements(kClipBoundFields[i].shape, J, S), 0.0f);
-  auto bound = [&](const char* name) { return d.clip_bounds[field_index(kClipBoundFields, name)].data(); };
+  auto bound = [&](const char* name) {
+    return d.clip_bounds[field_index(kClipBoundFields, name)].data();
+  };
   min_max_rows(root, 3, 0, K, bound("root_min_m"), bound("root_max_m"));
   min_max_rows(kd, 3 * S, 0, K, bound("kd_min"), bound("kd_max"));
   min_max_rows(lrot, 4 * J, 0, K, bound("local_rotation_min"), bound("local_rotation_max"));

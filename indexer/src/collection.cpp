@@ -19,8 +19,9 @@ bool has_bvh_extension(const fs::path& p) {
 
 void add_folder(const fs::path& dir, Collection& out) {
   std::error_code ec;
-  fs::recursive_directory_iterator it(dir, fs::directory_options::follow_directory_symlink |
-                                               fs::directory_options::skip_permission_denied,
+  fs::recursive_directory_iterator it(dir,
+                                      fs::directory_options::follow_directory_symlink |
+                                          fs::directory_options::skip_permission_denied,
                                       ec);
   if (ec) {
     out.problems.push_back({dir.string(), ec.message()});
@@ -60,7 +61,8 @@ void add_list_file(const fs::path& list, Collection& out) {
     else if (fs::is_regular_file(p, ec))
       out.files.push_back({p});
     else
-      out.problems.push_back({p.string(), "no such file or directory (listed in " + list.string() + ")"});
+      out.problems.push_back(
+          {p.string(), "no such file or directory (listed in " + list.string() + ")"});
   }
 }
 }  // namespace

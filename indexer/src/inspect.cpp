@@ -13,7 +13,9 @@
 namespace mocap {
 
 namespace {
-nlohmann::json vec3(const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
+nlohmann::json vec3(const Eigen::Vector3d& v) {
+  return nlohmann::json::array({v.x(), v.y(), v.z()});
+}
 }  // namespace
 
 nlohmann::json inspect_frame(const InspectOptions& opt) {
@@ -49,16 +51,11 @@ nlohmann::json inspect_frame(const InspectOptions& opt) {
                         {"mass_kg", seg.mass_kg},
                         {"com_m", vec3(com)}});
   }
-  return {{"file", opt.file.string()},
-          {"frame", opt.frame},
-          {"frames", clip.frame_count},
-          {"frame_time_s", clip.frame_time_s},
-          {"unit", unit_name(unit)},
-          {"unit_scale_m", unit_scale_m(unit)},
-          {"character", character.name},
-          {"total_mass_kg", body.total_mass_kg},
-          {"joints", std::move(joints)},
-          {"segments", std::move(segments)}};
+  return {{"file", opt.file.string()},   {"frame", opt.frame},
+          {"frames", clip.frame_count},  {"frame_time_s", clip.frame_time_s},
+          {"unit", unit_name(unit)},     {"unit_scale_m", unit_scale_m(unit)},
+          {"character", character.name}, {"total_mass_kg", body.total_mass_kg},
+          {"joints", std::move(joints)}, {"segments", std::move(segments)}};
 }
 
 std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path>& files,

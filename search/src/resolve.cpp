@@ -8,8 +8,8 @@
 #include "mocap/body.hpp"
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
 #include "mocap/units.hpp"
+#include "mocap/xxh64.hpp"
 
 namespace mocap {
 
@@ -97,10 +97,11 @@ std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& 
 }
 
 FileStat stat_or_throw(const std::filesystem::path& path) {
-  std::string error;
-  const std::optional<FileStat> st = stat_file(path, error);
-  if (!st) throw InputError(path.string(), 0, "cannot read the BVH file: " + error);
-  return *st;
+  try {
+    return stat_file(path);
+  } catch (const InputError& e) {
+    throw InputError(path.string(), 0, "cannot read the BVH file: " + e.detail());
+  }
 }
 
 }  // namespace

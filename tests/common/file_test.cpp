@@ -1,11 +1,14 @@
+// stat_file, read_file_bytes and hash_file (common/src/file.cpp) on real files.
 #include "mocap/file.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 #include <string>
 
 #include "mocap/error.hpp"
+#include "mocap/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace mocap {
@@ -20,33 +23,38 @@ void write(const fs::path& path, const std::string& bytes) {
 
 TEST(File, MissingFileIsAnError) {
   const fs::path missing = test::temp_dir("file-missing") / "nothing-here.bvh";
-  std::string error;
-  EXPECT_FALSE(stat_file(missing, error).has_value());
-  EXPECT_FALSE(error.empty());
   try {
-    (void)read_file_bytes(missing, 10);
+    (void)stat_file(missing);
     FAIL() << "no error";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("nothing-here.bvh"), std::string::npos) << e.what();
+    EXPECT_EQ(e.source(), missing.string());
+    EXPECT_EQ(e.detail(), "No such file or directory");  // the system's reason alone
+  }
+  for (const auto& read : {std::function<void()>([&] { (void)read_file_bytes(missing, 10); }),
+                           std::function<void()>([&] { (void)hash_file(missing); })}) {
+    try {
+      read();
+      FAIL() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("nothing-here.bvh"), std::string::npos) << e.what();
+    }
   }
   // A directory opens but cannot be read.
   EXPECT_THROW((void)read_file_bytes(test::temp_dir("file-dir"), 10), InputError);
+  EXPECT_THROW((void)hash_file(test::temp_dir("file-dir")), InputError);
 }
 
 TEST(File, StatGivesSizeAndModificationTime) {
   const fs::path path = test::temp_dir("file-stat") / "a.txt";
   write(path, "hello");
-  std::string error;
-  const auto st = stat_file(path, error);
-  ASSERT_TRUE(st.has_value()) << error;
-  EXPECT_EQ(st->size, 5u);
+  const FileStat st = stat_file(path);
+  EXPECT_EQ(st.size, 5u);
   // file_clock and the Unix epoch differ by a constant: compare a change.
   fs::last_write_time(path, fs::last_write_time(path) + std::chrono::seconds(3));
-  const auto later = stat_file(path, error);
-  ASSERT_TRUE(later.has_value());
-  EXPECT_EQ(later->mtime_ns - st->mtime_ns, 3'000'000'000LL);
-  EXPECT_EQ(later->size, st->size);
-  EXPECT_FALSE(*later == *st);
+  const FileStat later = stat_file(path);
+  EXPECT_EQ(later.mtime_ns - st.mtime_ns, 3'000'000'000LL);
+  EXPECT_EQ(later.size, st.size);
+  EXPECT_FALSE(later == st);
 }
 
 TEST(File, ReadsTheWholeFileOrItsStart) {
@@ -63,6 +71,21 @@ TEST(File, ReadsTheWholeFileOrItsStart) {
   write(dir / "empty.bin", "");
   EXPECT_EQ(read_file_bytes(dir / "empty.bin", 0).size(), 0u);
   EXPECT_EQ(read_file_bytes(dir / "empty.bin", 64).size(), 0u);
+}
+
+TEST(File, HashIsTheXxh64OfTheBytesFromTheOffset) {
+  const fs::path dir = test::temp_dir("file-hash");
+  // Over 1 MiB: more than one read block.
+  std::string bytes;
+  for (int i = 0; i < 1'500'000; ++i) bytes.push_back(static_cast<char>(i * 13 % 253));
+  write(dir / "big.bin", bytes);
+  EXPECT_EQ(hash_file(dir / "big.bin"), xxh64(bytes.data(), bytes.size()));
+  EXPECT_EQ(hash_file(dir / "big.bin", 512), xxh64(bytes.data() + 512, bytes.size() - 512));
+  // At or past the end: the hash of no bytes.
+  EXPECT_EQ(hash_file(dir / "big.bin", bytes.size()), xxh64(nullptr, 0));
+  EXPECT_EQ(hash_file(dir / "big.bin", bytes.size() + 7), xxh64(nullptr, 0));
+  write(dir / "empty.bin", "");
+  EXPECT_EQ(hash_file(dir / "empty.bin"), xxh64(nullptr, 0));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 // damaged copies.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -13,7 +14,9 @@
 #include "mocap/error.hpp"
 #include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
+#include "mocap/index_tables.hpp"
 #include "mocap/kinematics.hpp"
+#include "mocap/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -21,14 +24,19 @@ using namespace mocap;
 
 namespace {
 
-fs::path golden_dir() { return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index"; }
-fs::path golden() { return golden_dir() / "index-v1.h5"; }
+fs::path golden_dir() {
+  return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index";
+}
+fs::path golden() {
+  return golden_dir() / "index-v1.h5";
+}
 
 /// Temporary copies of the golden file, removed when the test ends.
 struct GoldenCopy {
   fs::path dir;
   fs::path file;
-  explicit GoldenCopy(const std::string& tag) : dir(test::temp_dir("index-reader-" + tag)), file(dir / "copy.h5") {
+  explicit GoldenCopy(const std::string& tag)
+      : dir(test::temp_dir("index-reader-" + tag)), file(dir / "copy.h5") {
     fs::copy_file(golden(), file);
   }
   ~GoldenCopy() {
@@ -58,27 +66,6 @@ void flip_byte(const fs::path& p, std::uint64_t offset) {
 
 }  // namespace
 
-TEST(Xxh64, KnownValues) {
-  // Reference values of XXH64 with seed 0 (xxhsum -H1).
-  EXPECT_EQ(hex64(xxh64("", 0)), "ef46db3751d8e999");
-  EXPECT_EQ(hex64(xxh64("abc", 3)), "44bc2cf5ad770999");
-  EXPECT_EQ(hex64(xxh64("a", 1)), "d24ec4f1a98c6e5b");
-  const std::string fox = "The quick brown fox jumps over the lazy dog";  // > 32 bytes: the 4-lane path
-  EXPECT_EQ(hex64(xxh64(fox.data(), fox.size())), "0b242d361fda71bc");
-}
-
-TEST(Xxh64, StreamingEqualsOneShot) {
-  std::string s;
-  for (int i = 0; i < 1000; ++i) s += static_cast<char>('a' + (i * 7) % 26);
-  const std::uint64_t whole = xxh64(s.data(), s.size());
-  for (std::size_t split : {0ul, 1ul, 31ul, 32ul, 33ul, 500ul, 999ul}) {
-    Xxh64 h;
-    h.update(s.data(), split);
-    h.update(s.data() + split, s.size() - split);
-    EXPECT_EQ(h.digest(), whole) << "split at " << split;
-  }
-}
-
 TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   ASSERT_TRUE(fs::exists(golden())) << golden();
   const Index index = Index::open(golden(), {.verify_file_checksum = true});
@@ -92,7 +79,8 @@ TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   EXPECT_EQ(index.frame_count(), 7u);
   EXPECT_TRUE(index.skipped().empty());
 
-  // Sorted by path: jump (3 frames at 20 fps, sidecar labels) then walk (4 frames, file-name labels).
+  // Sorted by path: jump (3 frames at 20 fps, sidecar labels) then walk (4 frames, file-name
+  // labels).
   const IndexClip& jump = index.clips()[0];
   const IndexClip& walk = index.clips()[1];
   EXPECT_EQ(fs::path(jump.path).filename(), "golden_jump_happy_002.bvh");
@@ -142,7 +130,8 @@ TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   for (std::size_t f = 0; f < 4; ++f)
     for (std::size_t j = 0; j < 10; ++j)
       for (int a = 0; a < 3; ++a)
-        EXPECT_NEAR(jpos[(f * 10 + j) * 3 + static_cast<std::size_t>(a)], m.position(f, j)[a], 1e-6);
+        EXPECT_NEAR(jpos[(f * 10 + j) * 3 + static_cast<std::size_t>(a)], m.position(f, j)[a],
+                    1e-6);
 
   // Bounds contain the frames; prefix sums start at 0 and never decrease.
   const IndexArray& bmin = index.array(0, "clip_bounds", "root_min_m");
@@ -157,7 +146,7 @@ TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   const auto prefix = index.clip_energy_prefix(0);
   ASSERT_EQ(prefix.size(), 3u);
   EXPECT_EQ(prefix[0], 0.0);
-  EXPECT_GT(prefix[2], prefix[0]);  // the jump costs energy
+  EXPECT_GT(prefix[2], prefix[0]);                           // the jump costs energy
   EXPECT_EQ(index.array(0, "blocks16", "kd_min").rows, 2u);  // one block per clip
 
   const IndexVerifyReport r = verify_index(golden());
@@ -198,7 +187,9 @@ TEST(IndexReader, RefusesAnotherFormatTag) {
 }
 
 TEST(IndexReader, RefusesFilesThatAreNoIndex) {
-  EXPECT_NE(error_of([&] { Index::open(golden_dir() / "golden_walk_normal_001.bvh"); }).find("not a mocap index"),
+  EXPECT_NE(error_of([&] {
+              Index::open(golden_dir() / "golden_walk_normal_001.bvh");
+            }).find("not a mocap index"),
             std::string::npos);
   EXPECT_NE(error_of([&] { Index::open(golden_dir() / "no-such.h5"); }).find("no such index file"),
             std::string::npos);
@@ -210,7 +201,8 @@ TEST(IndexReader, TruncatedCopiesAreRefusedCleanly) {
   const GoldenCopy copy("truncated");
   const fs::path& p = copy.file;
   const auto size = fs::file_size(p);
-  for (std::uint64_t keep : {size - 1, size / 2, std::uint64_t{600}, std::uint64_t{100}, std::uint64_t{0}}) {
+  for (std::uint64_t keep :
+       {size - 1, size / 2, std::uint64_t{600}, std::uint64_t{100}, std::uint64_t{0}}) {
     fs::resize_file(p, keep);
     const std::string msg = error_of([&] { Index::open(p); });
     EXPECT_FALSE(msg.empty()) << keep;
@@ -255,15 +247,19 @@ TEST(IndexReader, DatasetChecksumsCatchDamageBehindAValidUserBlock) {
   const IndexVerifyReport r = verify_index(p);
   EXPECT_FALSE(r.ok);
   bool found = false;
-  for (const auto& s : r.problems) found = found || s.find("/clips/frame_time_s: checksum mismatch") != std::string::npos;
+  for (const auto& s : r.problems)
+    found = found || s.find("/clips/frame_time_s: checksum mismatch") != std::string::npos;
   EXPECT_TRUE(found) << (r.problems.empty() ? "" : r.problems.front());
 }
 
 TEST(IndexReader, ArrayErrorsNameTheProblem) {
   const Index index = Index::open(golden());
-  EXPECT_NE(error_of([&] { index.array(0, "frames", "no_such_field"); }).find("unknown field"), std::string::npos);
-  EXPECT_NE(error_of([&] { index.array(0, "nonsense", "kd_min"); }).find("unknown array group"), std::string::npos);
-  EXPECT_NE(error_of([&] { index.array(7, "frames", "kd_features"); }).find("out of range"), std::string::npos);
+  EXPECT_NE(error_of([&] { index.array(0, "frames", "no_such_field"); }).find("unknown field"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { index.array(0, "nonsense", "kd_min"); }).find("unknown array group"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { index.array(7, "frames", "kd_features"); }).find("out of range"),
+            std::string::npos);
 }
 
 // Streaming the rows of an array (Index::stream_rows: the search engine
@@ -332,4 +328,41 @@ TEST(IndexReader, StreamedRowsCatchDamage) {
   EXPECT_NE(e.find("/skeletons/0/frames/h_scan: checksum mismatch"), std::string::npos) << e;
   EXPECT_NE(error_of([&] { index.array(0, "frames", "h_scan"); }).find("checksum mismatch"),
             std::string::npos);
+}
+
+TEST(IndexTables, DescribeTheGoldenFileExactly) {
+  // The tables that writer and reader walk name exactly what the golden file
+  // holds: /clips, /skipped and the root attributes, nothing more or less.
+  std::lock_guard lock(h5::library_mutex());
+  const h5::File f = h5::File::open(golden());
+  std::vector<std::string> clips{"label_keys", "labels"};
+  for (const auto& c : kClipColumns) clips.emplace_back(c.name);
+  std::sort(clips.begin(), clips.end());
+  EXPECT_EQ(f.root().open_group("clips").members(), clips);
+  std::vector<std::string> skipped;
+  for (const auto& c : kSkippedColumns) skipped.emplace_back(c.name);
+  std::sort(skipped.begin(), skipped.end());
+  EXPECT_EQ(f.root().open_group("skipped").members(), skipped);
+  std::vector<std::string> attributes;
+  for (const auto& a : kIndexAttributes) attributes.emplace_back(a.name);
+  std::sort(attributes.begin(), attributes.end());
+  EXPECT_EQ(f.root().attribute_names(), attributes);
+  // Units and descriptions as the tables say.
+  const h5::Dataset size = f.root().open_group("clips").open_dataset("size_bytes");
+  EXPECT_EQ(size.string_attribute("unit"), "B");
+  EXPECT_EQ(size.string_attribute("description"), kClipColumns[1].description);
+  EXPECT_EQ(index_enum_members(ClipStatus{}),
+            (std::vector<std::pair<std::string, int>>{{"new", 0}, {"changed", 1}, {"reused", 2}}));
+  EXPECT_EQ(f.root().open_group("clips").open_dataset("label_source").enum_members(),
+            index_enum_members(LabelSource{}));
+}
+
+TEST(IndexTables, RootAttributesReadBackIntoIndexInfo) {
+  const Index index = Index::open(golden());
+  const IndexInfo& info = index.info();
+  EXPECT_EQ(info.block_sizes, (std::vector<double>{16, 64}));
+  EXPECT_EQ(info.skeleton_count, index.skeletons().size());
+  EXPECT_EQ(info.skipped_count, index.skipped().size());
+  EXPECT_EQ(info.clip_count, index.clips().size());
+  EXPECT_EQ(info.energy_params, EnergyParams{});
 }

@@ -9,10 +9,10 @@
 
 #include "mocap/bvh.hpp"
 #include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
 #include "mocap/index.hpp"
 #include "mocap/index_builder.hpp"
 #include "mocap/units.hpp"
+#include "mocap/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -20,7 +20,9 @@ using namespace mocap;
 
 namespace {
 
-fs::path golden_dir() { return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index"; }
+fs::path golden_dir() {
+  return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index";
+}
 const char* kWalk = "golden_walk_normal_001.bvh";
 
 /// A fresh temporary folder, removed when the test ends (indexes are large).
@@ -36,8 +38,8 @@ struct TempDir {
 };
 const char* kJump = "golden_jump_happy_002.bvh";
 
-IndexBuildSummary build(const std::vector<fs::path>& inputs, const fs::path& out, std::size_t jobs = 2,
-                        bool strict = false, int deflate = 0) {
+IndexBuildSummary build(const std::vector<fs::path>& inputs, const fs::path& out,
+                        std::size_t jobs = 2, bool strict = false, int deflate = 0) {
   IndexBuildOptions o;
   for (const auto& p : inputs) o.inputs.push_back(p.string());
   o.out = out;
@@ -117,18 +119,23 @@ TEST(IndexBuilder, RowsAreWhatComputeClipFrameDataGives) {
         EXPECT_TRUE(std::equal(rows.begin(), rows.end(), d.frames[i].begin(), d.frames[i].end()))
             << kFrameFields[i].name;
       } else {
-        const std::vector<double> rows(a.f64.begin() + static_cast<std::ptrdiff_t>(clip.frame_start),
-                                       a.f64.begin() + static_cast<std::ptrdiff_t>(clip.frame_start + clip.frame_count));
+        const std::vector<double> rows(
+            a.f64.begin() + static_cast<std::ptrdiff_t>(clip.frame_start),
+            a.f64.begin() + static_cast<std::ptrdiff_t>(clip.frame_start + clip.frame_count));
         EXPECT_EQ(rows, d.frames_f64[i]) << kFrameFields[i].name;
       }
     }
     for (std::size_t i = 0; i < kClipBoundFieldCount; ++i) {
-      const auto row = index.array(clip.skeleton, "clip_bounds", kClipBoundFields[i].name).rows_f32(clip.row, 1);
-      EXPECT_TRUE(std::equal(row.begin(), row.end(), d.clip_bounds[i].begin(), d.clip_bounds[i].end()))
+      const auto row =
+          index.array(clip.skeleton, "clip_bounds", kClipBoundFields[i].name).rows_f32(clip.row, 1);
+      EXPECT_TRUE(
+          std::equal(row.begin(), row.end(), d.clip_bounds[i].begin(), d.clip_bounds[i].end()))
           << kClipBoundFields[i].name;
     }
-    const auto kdmin = index.array(clip.skeleton, "blocks64", "kd_min").rows_f32(clip.block64_start, 1);
-    EXPECT_TRUE(std::equal(kdmin.begin(), kdmin.end(), d.blocks[1][2].begin(), d.blocks[1][2].end()));
+    const auto kdmin =
+        index.array(clip.skeleton, "blocks64", "kd_min").rows_f32(clip.block64_start, 1);
+    EXPECT_TRUE(
+        std::equal(kdmin.begin(), kdmin.end(), d.blocks[1][2].begin(), d.blocks[1][2].end()));
   }
 }
 
@@ -141,7 +148,8 @@ TEST(IndexBuilder, MatchesTheGoldenFileOfTheCurrentVersion) {
   const Index golden = Index::open(golden_dir() / "index-v1.h5");
   ASSERT_EQ(fresh.clips().size(), golden.clips().size());
   for (std::size_t c = 0; c < fresh.clips().size(); ++c) {
-    EXPECT_EQ(fs::path(fresh.clips()[c].path).filename(), fs::path(golden.clips()[c].path).filename());
+    EXPECT_EQ(fs::path(fresh.clips()[c].path).filename(),
+              fs::path(golden.clips()[c].path).filename());
     EXPECT_EQ(fresh.clips()[c].content_hash, golden.clips()[c].content_hash);
     EXPECT_EQ(fresh.clips()[c].labels, golden.clips()[c].labels);
   }
@@ -152,8 +160,9 @@ TEST(IndexBuilder, MatchesTheGoldenFileOfTheCurrentVersion) {
     ASSERT_EQ(x.f64.size(), y.f64.size()) << kFrameFields[i].name;
     // Kinematics must agree to float precision; dynamics to 1e-4 relative
     // (the body and energy models may be refined without a schema change).
-    const bool kinematic = std::string_view(kFrameFields[i].name).find("rotation") != std::string_view::npos ||
-                           std::string_view(kFrameFields[i].name).find("position") != std::string_view::npos;
+    const bool kinematic =
+        std::string_view(kFrameFields[i].name).find("rotation") != std::string_view::npos ||
+        std::string_view(kFrameFields[i].name).find("position") != std::string_view::npos;
     for (std::size_t e = 0; e < x.f32.size(); ++e) {
       const double tol = kinematic ? 1e-6 : 1e-4 * (1.0 + std::abs(static_cast<double>(y.f32[e])));
       ASSERT_NEAR(x.f32[e], y.f32[e], tol) << kFrameFields[i].name << " element " << e;
@@ -173,7 +182,8 @@ TEST(IndexBuilder, OutputDoesNotDependOnTheThreadCount) {
     const fs::path in = dir / "in";
     fs::create_directories(in);
     for (int i = 0; i < 40; ++i)
-      fs::copy_file(golden_dir() / (i % 2 ? kWalk : kJump), in / ("c" + std::to_string(100 + i) + "_x_y_1.bvh"));
+      fs::copy_file(golden_dir() / (i % 2 ? kWalk : kJump),
+                    in / ("c" + std::to_string(100 + i) + "_x_y_1.bvh"));
     inputs = {in};
   }
   build(inputs, dir / "j1.h5", 1);
@@ -240,7 +250,8 @@ TEST(IndexBuilder, IncrementalRebuildReusesChangesAddsAndRemoves) {
   EXPECT_NEAR(inc.clip_frames(1, "root_position_m")[3 * 3 + 1], 0.98f, 1e-6f);
 
   // A touched file (new mtime, same bytes) is parsed again, as changed.
-  fs::last_write_time(in / "a_walk_normal_001.bvh", fs::file_time_type::clock::now() + std::chrono::seconds(5));
+  fs::last_write_time(in / "a_walk_normal_001.bvh",
+                      fs::file_time_type::clock::now() + std::chrono::seconds(5));
   s = build({in}, out);
   EXPECT_EQ(s.parsed_changed, 1u);
   EXPECT_EQ(s.reused, 2u);
@@ -252,7 +263,8 @@ TEST(IndexBuilder, BadFilesAreSkippedOrFailUnderStrict) {
   fs::create_directories(in);
   fs::copy_file(golden_dir() / kWalk, in / kWalk);
   write_text(in / "empty.bvh", "");
-  write_text(in / "malformed.bvh", "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 2 Xposition Wrotation\n}\n");
+  write_text(in / "malformed.bvh",
+             "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 2 Xposition Wrotation\n}\n");
   const fs::path out = dir / "i.h5";
   auto s = build({in}, out);
   EXPECT_EQ(s.clips, 1u);
@@ -277,7 +289,8 @@ TEST(IndexBuilder, BadFilesAreSkippedOrFailUnderStrict) {
   EXPECT_THROW(build({in}, out, 2, true), InputError);
   const std::string now_bytes = read_text(out);
   EXPECT_EQ(xxh64(now_bytes.data(), now_bytes.size()), old_hash);
-  for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename().string().find(".i.h5.tmp"), std::string::npos);
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".i.h5.tmp"), std::string::npos);
 
   // Nothing indexable at all is an error too.
   EXPECT_THROW(build({in / "empty.bvh"}, dir / "none.h5"), InputError);
@@ -291,15 +304,18 @@ TEST(IndexBuilder, LabelsFromSidecarsCfgFilesAndFileNames) {
   write_text(dir / "coll" / "cfg" / "content_label.txt", "coll-1_walk\ncoll-1_run\r\n");
   const fs::path clip = dir / "coll" / "data" / "coll-1_run_sad_001.bvh";
   fs::copy_file(golden_dir() / kWalk, clip);
-  write_text(dir / "coll" / "data" / "coll-1_run_sad_001.json", R"({"content": 1, "style": "sad", "take": 7})");
+  write_text(dir / "coll" / "data" / "coll-1_run_sad_001.json",
+             R"({"content": 1, "style": "sad", "take": 7})");
   ClipLabels l = resolve_clip_labels(clip);
   EXPECT_EQ(l.source, LabelSource::sidecar_cfg);
-  const std::vector<std::pair<std::string, std::string>> want{{"content", "run"}, {"style", "sad"}, {"take", "7"}};
+  const std::vector<std::pair<std::string, std::string>> want{
+      {"content", "run"}, {"style", "sad"}, {"take", "7"}};
   EXPECT_EQ(l.labels, want);
 
   l = resolve_clip_labels(golden_dir() / kWalk);
   EXPECT_EQ(l.source, LabelSource::file_name);
-  EXPECT_EQ(l.labels, (std::vector<std::pair<std::string, std::string>>{{"content", "walk"}, {"style", "normal"}}));
+  EXPECT_EQ(l.labels, (std::vector<std::pair<std::string, std::string>>{{"content", "walk"},
+                                                                        {"style", "normal"}}));
   l = resolve_clip_labels(golden_dir() / kJump);
   EXPECT_EQ(l.source, LabelSource::sidecar);
   l = resolve_clip_labels("/nowhere/131_01.bvh");
@@ -310,7 +326,8 @@ TEST(IndexBuilder, LabelsFromSidecarsCfgFilesAndFileNames) {
 TEST(IndexBuilder, RealDataSetOneAndCmu) {
   MOCAP_REQUIRE_DATA();
   const TempDir dir("index-real");
-  const auto s = build({test::data_dir() / "bandai-namco-1" / "data", test::data_dir() / "cmu"}, dir / "i.h5");
+  const auto s =
+      build({test::data_dir() / "bandai-namco-1" / "data", test::data_dir() / "cmu"}, dir / "i.h5");
   EXPECT_EQ(s.clips, 177u);
   EXPECT_TRUE(s.skipped.empty());
   const Index index = Index::open(dir / "i.h5");

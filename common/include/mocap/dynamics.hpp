@@ -49,6 +49,7 @@ struct EnergyParams {
   /// How far the centre of pressure may move from the contact points, metres:
   /// the free contact moment is capped at normal force x this radius.
   double contact_patch_radius_m = 0.15;
+  bool operator==(const EnergyParams&) const = default;
 };
 
 /// The immutable rigid-body description of a character on a skeleton.

@@ -1,13 +1,12 @@
 #pragma once
 // Source files as the tools read them: one stat(2) for size and modification
-// time, and whole-file reads into a buffer that is not zero-filled first (the
+// time, whole-file reads into a buffer that is not zero-filled first (the
 // search reads a query frame's BVH file: docs/search.md "Query frames from
-// indexed files").
+// indexed files"), and the XXH64 of a file's bytes read in bounded memory
+// (content hashes of the indexer, the index's whole-file checksum).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <optional>
-#include <string>
 #include <string_view>
 
 namespace mocap {
@@ -20,8 +19,10 @@ struct FileStat {
   bool operator==(const FileStat&) const = default;
 };
 
-/// stat(2) of `path`; nullopt with `error` set to the system's reason when it fails.
-std::optional<FileStat> stat_file(const std::filesystem::path& path, std::string& error);
+/// stat(2) of `path`. Throws InputError(path, 0, reason) when it fails, the
+/// reason being the system's alone (e.g. "No such file or directory") so that
+/// callers can say what they were doing.
+FileStat stat_file(const std::filesystem::path& path);
 
 /// Bytes read from a file; immutable once read.
 class FileBytes {
@@ -39,5 +40,10 @@ class FileBytes {
 /// (pass the size stat_file gave to read the whole file with one allocation).
 /// Throws InputError(path, 0, reason) when it cannot be opened or read.
 FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes);
+
+/// XXH64 (seed 0, mocap/xxh64.hpp) of the file's bytes from `offset` to its
+/// end (none when offset is at or past the end), read in 1 MiB blocks.
+/// Throws InputError(path, 0, reason) when it cannot be opened or read.
+std::uint64_t hash_file(const std::filesystem::path& path, std::uint64_t offset = 0);
 
 }  // namespace mocap

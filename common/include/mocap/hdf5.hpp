@@ -1,5 +1,5 @@
 #pragma once
-// Small RAII layer over the HDF5 C API, and the checksums the index uses.
+// Small RAII layer over the HDF5 C API.
 //
 // Why the C API: full control over chunking, filters, the user block, file
 // format bounds and error handling, with nothing hidden. Every hid_t lives in
@@ -7,7 +7,9 @@
 // hand. HDF5's automatic error printing is switched off; a failing call throws
 // InputError(file, 0, "<object path>: <what was attempted>: <HDF5's reason>"),
 // so a damaged or foreign file gives one clear message, never a crash or a
-// dump of the HDF5 error stack.
+// dump of the HDF5 error stack. Every call's status is checked. Calling code
+// that breaks an API contract (a value count that does not match the shape)
+// gets std::invalid_argument instead.
 //
 // Types: numbers are stored little-endian (float32/64, int/uint 8..64), read
 // into the native type of the caller's element. Strings are variable-length
@@ -30,30 +32,6 @@
 #include <type_traits>
 #include <utility>
 #include <vector>
-
-namespace mocap {
-
-/// Streaming XXH64 (Yann Collet's 64-bit xxHash, seed 0): the same value as
-/// `xxhsum -H1`. Fast (several GB/s), used for source-file content hashes,
-/// per-dataset checksums and the whole-file checksum of an index.
-class Xxh64 {
- public:
-  explicit Xxh64(std::uint64_t seed = 0);
-  void update(const void* data, std::size_t bytes);
-  std::uint64_t digest() const;
-
- private:
-  std::uint64_t v_[4];
-  std::uint64_t seed_;
-  std::uint64_t total_ = 0;
-  unsigned char buf_[32];
-  std::size_t buf_len_ = 0;
-};
-std::uint64_t xxh64(const void* data, std::size_t bytes, std::uint64_t seed = 0);
-/// 16 lowercase hex digits.
-std::string hex64(std::uint64_t v);
-
-}  // namespace mocap
 
 namespace mocap::h5 {
 
@@ -113,7 +91,9 @@ class Object {
 
   bool has_attribute(const std::string& name) const;
   void set_attribute(const std::string& name, std::string_view value);
-  void set_attribute(const std::string& name, const char* value) { set_attribute(name, std::string_view(value)); }
+  void set_attribute(const std::string& name, const char* value) {
+    set_attribute(name, std::string_view(value));
+  }
   void set_attribute(const std::string& name, double value);
   void set_attribute(const std::string& name, std::int64_t value);
   void set_attribute(const std::string& name, std::uint64_t value);
@@ -128,6 +108,9 @@ class Object {
 
   /// Throws InputError(file, 0, path + ": " + what [+ ": " + HDF5 reason]).
   [[noreturn]] void fail(const std::string& what) const;
+  /// Throws std::invalid_argument(file: path: what): the calling code broke
+  /// the API's contract (e.g. a value count that does not match the shape).
+  [[noreturn]] void misuse(const std::string& what) const;
 
  protected:
   Object() = default;
@@ -141,7 +124,8 @@ class Object {
 class Dataset : public Object {
  public:
   Dataset() = default;
-  Dataset(Id id, std::string file, std::string path) : Object(std::move(id), std::move(file), std::move(path)) {}
+  Dataset(Id id, std::string file, std::string path)
+      : Object(std::move(id), std::move(file), std::move(path)) {}
 
   std::vector<hsize_t> shape() const;
   /// Number of rows (first dimension; 1 for a scalar).
@@ -150,6 +134,8 @@ class Dataset : public Object {
   hsize_t row_elements() const;
   /// H5T_FLOAT, H5T_INTEGER, H5T_STRING, H5T_ENUM, ...
   H5T_class_t type_class() const;
+  /// True for a signed integer dataset (false for unsigned ones and other types).
+  bool is_signed() const;
   /// Size in bytes of one stored element.
   std::size_t element_bytes() const;
   bool is_chunked() const;
@@ -184,14 +170,16 @@ class Dataset : public Object {
   std::vector<std::pair<std::string, int>> enum_members() const;
 
  private:
-  void write_raw(hid_t mem_type, hid_t file_space, hsize_t first, hsize_t count, const void* values);
+  void write_raw(hid_t mem_type, hid_t file_space, hsize_t first, hsize_t count,
+                 const void* values);
   void read_raw(hid_t mem_type, hsize_t first, hsize_t count, void* out) const;
 };
 
 class Group : public Object {
  public:
   Group() = default;
-  Group(Id id, std::string file, std::string path) : Object(std::move(id), std::move(file), std::move(path)) {}
+  Group(Id id, std::string file, std::string path)
+      : Object(std::move(id), std::move(file), std::move(path)) {}
 
   bool exists(const std::string& name) const;
   /// Names of members (groups and datasets), in name order.
@@ -215,7 +203,8 @@ class Group : public Object {
 
   /// Convenience: whole small datasets in one call.
   template <Number T>
-  Dataset write_dataset(const std::string& name, const std::vector<hsize_t>& shape, std::span<const T> values) {
+  Dataset write_dataset(const std::string& name, const std::vector<hsize_t>& shape,
+                        std::span<const T> values) {
     Dataset d = create_dataset<T>(name, shape);
     d.write_all<T>(values);
     return d;

@@ -5,7 +5,8 @@
 // through `Index` (immutable; metadata loaded at open, per-frame arrays
 // loaded once per dataset on first use). The full schema, with every group,
 // dataset, dtype, shape, unit, chunking and the version policy, is
-// docs/index-format.md; this header is its code form.
+// docs/index-format.md; this header is its code form, with the record tables
+// and root attributes in mocap/index_tables.hpp.
 //
 // Layout in short (C clips sorted by path, S skeletons, per skeleton k:
 // N_k frames, J_k joints, C_k clips, B16_k / B64_k blocks):
@@ -19,7 +20,7 @@
 //   /skeletons/<k>/blocks16/*     [B16_k, ...] bounds per 16-frame block
 //   /skeletons/<k>/blocks64/*     [B64_k, ...] bounds per 64-frame block
 //   /skeletons/<k>/clip_bounds/*  [C_k, ...] bounds per clip
-//   /skipped/{path,reason}  files that were not indexed and why
+//   /skipped/*             files that were not indexed: path, reason, size, mtime
 // A clip's frames are rows [frame_start, frame_start + frame_count) of its
 // skeleton's frame arrays; its blocks start at block16_start / block64_start
 // (block b covers frames [16 b, 16 b + 16) of the clip, the last one fewer);
@@ -97,48 +98,62 @@ inline constexpr IndexFieldSpec kFrameFields[] = {
      "joint frame in world (world from joint), unit quaternion (w, x, y, z), w >= 0"},
     {"joint_positions_m", IndexDType::f32, RowShape::joints3, "m", "joint origin in world"},
     {"segment_com_m", IndexDType::f32, RowShape::joints3, "m",
-     "centre of mass of the joint's segment in world, x_j + R_j c_j (the joint origin for massless joints)"},
+     "centre of mass of the joint's segment in world, x_j + R_j c_j (the joint origin for massless "
+     "joints)"},
     {"segment_com_velocity_mps", IndexDType::f32, RowShape::joints3, "m/s", "segment COM velocity"},
     {"segment_angular_velocity_radps", IndexDType::f32, RowShape::joints3, "rad/s",
      "angular velocity of the joint frame, world vector"},
     {"h_scan", IndexDType::f32, RowShape::segments9, "mixed",
-     "per segment (skeleton dataset segments) the 9 values of energy.hpp HScanTable: COM x y z (m), "
+     "per segment (skeleton dataset segments) the 9 values of energy.hpp HScanTable: COM x y z "
+     "(m), "
      "1/2 m |v|^2 (J), orientation in principal axes q = R P (w x y z), 1/2 w^T I w (J)"},
     {"kd_features", IndexDType::f32, RowShape::segments3, "sqrt(J)",
-     "energy.hpp kd_feature: sqrt(m_b / 2) / T * c_b per segment, T = root attribute transition_time_s; "
+     "energy.hpp kd_feature: sqrt(m_b / 2) / T * c_b per segment, T = root attribute "
+     "transition_time_s; "
      "squared distances lower-bound h for static queries"},
     {"energy_prefix_J", IndexDType::f64, RowShape::scalar, "J",
-     "the clip's own per-step full energy g(F^i -> F^i+1) (newton_euler.hpp clip_step_energies, T = frame time) "
+     "the clip's own per-step full energy g(F^i -> F^i+1) (newton_euler.hpp clip_step_energies, T "
+     "= frame time) "
      "as prefix sums restarting at 0 on each clip's first frame: cost of F^s..F^e = P[e] - P[s]"},
 };
 inline constexpr std::size_t kFrameFieldCount = sizeof(kFrameFields) / sizeof(kFrameFields[0]);
 
 /// /skeletons/<k>/blocks16/* and blocks64/*: one row per block of frames.
 inline constexpr IndexFieldSpec kBlockFields[] = {
-    {"root_min_m", IndexDType::f32, RowShape::vec3, "m", "per-axis minimum of root_position_m over the block"},
-    {"root_max_m", IndexDType::f32, RowShape::vec3, "m", "per-axis maximum of root_position_m over the block"},
-    {"kd_min", IndexDType::f32, RowShape::segments3, "sqrt(J)", "per-element minimum of kd_features over the block"},
-    {"kd_max", IndexDType::f32, RowShape::segments3, "sqrt(J)", "per-element maximum of kd_features over the block"},
+    {"root_min_m", IndexDType::f32, RowShape::vec3, "m",
+     "per-axis minimum of root_position_m over the block"},
+    {"root_max_m", IndexDType::f32, RowShape::vec3, "m",
+     "per-axis maximum of root_position_m over the block"},
+    {"kd_min", IndexDType::f32, RowShape::segments3, "sqrt(J)",
+     "per-element minimum of kd_features over the block"},
+    {"kd_max", IndexDType::f32, RowShape::segments3, "sqrt(J)",
+     "per-element maximum of kd_features over the block"},
 };
 inline constexpr std::size_t kBlockFieldCount = sizeof(kBlockFields) / sizeof(kBlockFields[0]);
 
 /// /skeletons/<k>/clip_bounds/*: one row per clip of the skeleton.
 inline constexpr IndexFieldSpec kClipBoundFields[] = {
-    {"root_min_m", IndexDType::f32, RowShape::vec3, "m", "root position bounding box, minimum corner"},
-    {"root_max_m", IndexDType::f32, RowShape::vec3, "m", "root position bounding box, maximum corner"},
-    {"kd_min", IndexDType::f32, RowShape::segments3, "sqrt(J)", "per-element minimum of kd_features over the clip"},
-    {"kd_max", IndexDType::f32, RowShape::segments3, "sqrt(J)", "per-element maximum of kd_features over the clip"},
+    {"root_min_m", IndexDType::f32, RowShape::vec3, "m",
+     "root position bounding box, minimum corner"},
+    {"root_max_m", IndexDType::f32, RowShape::vec3, "m",
+     "root position bounding box, maximum corner"},
+    {"kd_min", IndexDType::f32, RowShape::segments3, "sqrt(J)",
+     "per-element minimum of kd_features over the clip"},
+    {"kd_max", IndexDType::f32, RowShape::segments3, "sqrt(J)",
+     "per-element maximum of kd_features over the clip"},
     {"local_rotation_min", IndexDType::f32, RowShape::joints4, "1",
      "per-component minimum of local_rotations (w, x, y, z) over the clip"},
     {"local_rotation_max", IndexDType::f32, RowShape::joints4, "1",
      "per-component maximum of local_rotations (w, x, y, z) over the clip"},
     {"rotation_channel_min_deg", IndexDType::f32, RowShape::joints3, "deg",
-     "range of motion: minimum of each rotation channel as written in the file, in the joint's channel order "
+     "range of motion: minimum of each rotation channel as written in the file, in the joint's "
+     "channel order "
      "(skeleton dataset channels); 0 for absent channels"},
     {"rotation_channel_max_deg", IndexDType::f32, RowShape::joints3, "deg",
      "range of motion: maximum of each rotation channel, as rotation_channel_min_deg"},
 };
-inline constexpr std::size_t kClipBoundFieldCount = sizeof(kClipBoundFields) / sizeof(kClipBoundFields[0]);
+inline constexpr std::size_t kClipBoundFieldCount =
+    sizeof(kClipBoundFields) / sizeof(kClipBoundFields[0]);
 
 /// Index of a field by name in one of the tables above, -1 if absent.
 int find_field(std::span<const IndexFieldSpec> table, std::string_view name);
@@ -199,28 +214,48 @@ struct IndexSkeleton {
   std::vector<std::size_t> clips;
 };
 
+/// A file that was not indexed (/skipped, one row each).
 struct IndexSkippedFile {
   std::string path;
+  /// "line N: what was expected", "empty file", an I/O error, or why an input is missing.
   std::string reason;
+  /// Size and modification time (ns since the Unix epoch) when it was tried;
+  /// 0 for a missing input. An incremental build does not parse an unchanged
+  /// bad file again.
+  std::uint64_t size_bytes = 0;
+  std::int64_t mtime_ns = 0;
 };
 
-/// Root attributes.
+/// The root attributes (index_tables.hpp kIndexAttributes lists them with
+/// the fixed texts between them). The writer fills one and writes it; the
+/// reader reads it back. Defaults: the current format tag, schema version and
+/// block sizes.
 struct IndexInfo {
-  std::string format;
-  std::int64_t schema_version = 0;
+  std::string format = kIndexFormat;
+  std::int64_t schema_version = kIndexSchemaVersion;
+  /// "mocap-index VERSION": a previous index built by another tool is not reused.
   std::string build_tool;
+  /// ISO 8601 UTC, e.g. "2026-11-22T07:29:07Z".
   std::string build_time_utc;
+  /// The character as canonical JSON (sorted keys), its name and total mass.
   std::string character_json;
   std::string character_name;
   double character_total_mass_kg = 0.0;
+  /// T of the kd features, seconds.
   double transition_time_s = 0.0;
   /// --unit given at build time ("auto" = detected per clip).
   std::string unit_option;
+  /// Compression level of the frame arrays (0 = none, 1..9 deflate).
   int deflate_level = 0;
   /// Constants of the energy model the dynamics were computed with.
   EnergyParams energy_params;
+  /// Frames per block of blocks16 / blocks64 (kIndexBlockSizes).
+  std::vector<double> block_sizes = {static_cast<double>(kIndexBlockSizes[0]),
+                                     static_cast<double>(kIndexBlockSizes[1])};
   std::uint64_t clip_count = 0;
   std::uint64_t frame_count = 0;
+  std::uint64_t skeleton_count = 0;
+  std::uint64_t skipped_count = 0;
 };
 
 /// A loaded array: rows x row_elements values, one of f32 / f64 filled.
@@ -267,7 +302,8 @@ class Index {
   /// One array of skeleton `k`: group is "frames", "blocks16", "blocks64" or
   /// "clip_bounds", field a name from the matching table. Loaded on first use
   /// (validated against its checksum), then shared.
-  const IndexArray& array(std::uint32_t skeleton, std::string_view group, std::string_view field) const;
+  const IndexArray& array(std::uint32_t skeleton, std::string_view group,
+                          std::string_view field) const;
   /// The rows of a float array (group and field as for array()) read in
   /// blocks of `rows_per_block` rows, in order: fn(first_row, row_count,
   /// values) with row_count x row_elements values, valid during the call.

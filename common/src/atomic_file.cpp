@@ -1,0 +1,82 @@
+// Atomic file replacement: temporary file, stale temporaries, fsync, rename
+// (mocap/atomic_file.hpp).
+#include "mocap/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <system_error>
+
+#include "mocap/error.hpp"
+
+namespace mocap {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string temporary_prefix(const fs::path& target) {
+  return "." + target.filename().string() + ".tmp-";
+}
+
+}  // namespace
+
+void remove_stale_temporaries(const fs::path& target) {
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  const std::string prefix = temporary_prefix(target);
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string pid_s = name.substr(prefix.size());
+    if (pid_s.empty() ||
+        !std::all_of(pid_s.begin(), pid_s.end(), [](unsigned char c) { return std::isdigit(c); }))
+      continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(pid_s));
+    if (pid == ::getpid() || (::kill(pid, 0) != 0 && errno == ESRCH)) fs::remove(e.path(), ec);
+  }
+}
+
+void sync_to_disk(const fs::path& path, bool folder) {
+  const int fd = ::open(path.c_str(), folder ? O_RDONLY | O_DIRECTORY : O_RDONLY);
+  if (fd < 0)
+    throw InputError(path.string(), 0, std::string("cannot open to sync: ") + std::strerror(errno));
+  const int synced = ::fsync(fd);
+  const int sync_errno = errno;
+  ::close(fd);
+  if (synced != 0 && !(folder && sync_errno == EINVAL))
+    throw InputError(path.string(), 0, std::string("cannot sync: ") + std::strerror(sync_errno));
+}
+
+AtomicFile::AtomicFile(const fs::path& target) : target_(target) {
+  const fs::path dir = target_.parent_path();
+  std::error_code ec;
+  if (!dir.empty() && !fs::create_directories(dir, ec) && ec)
+    throw InputError(dir.string(), 0, "cannot create the folder: " + ec.message());
+  remove_stale_temporaries(target_);
+  temporary_ = dir / (temporary_prefix(target_) + std::to_string(::getpid()));
+}
+
+AtomicFile::~AtomicFile() {
+  if (committed_) return;
+  std::error_code ec;
+  fs::remove(temporary_, ec);
+}
+
+void AtomicFile::commit() {
+  sync_to_disk(temporary_, false);
+  std::error_code ec;
+  fs::rename(temporary_, target_, ec);
+  if (ec) throw InputError(target_.string(), 0, "cannot replace the file: " + ec.message());
+  committed_ = true;
+  const fs::path dir = target_.parent_path();
+  sync_to_disk(dir.empty() ? fs::path(".") : dir, true);
+}
+
+}  // namespace mocap
