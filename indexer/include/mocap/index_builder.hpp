@@ -128,7 +128,7 @@ struct IndexBuildOptions {
   std::optional<LengthUnit> unit;
   /// Character file; nullopt = the default 70 kg male.
   std::optional<std::filesystem::path> character;
-  /// T of the kd features, seconds (ENERGY.md default 0.5).
+  /// T of the kd features, seconds (docs/energy.md; default 0.5).
   double transition_time_s = 0.5;
   /// 0 = no compression; 1..9 = shuffle + deflate on frame arrays.
   int deflate_level = 0;
