@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/bvh.hpp"
+#include "mocap/common/bvh.hpp"
 
 namespace {
 
@@ -76,8 +76,9 @@ void parse_corpus(benchmark::State& state, const Corpus& corpus, const char* wha
     }
   }
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * corpus.bytes));
-  state.counters["frames/s"] = benchmark::Counter(static_cast<double>(frames) * static_cast<double>(state.iterations()),
-                                                  benchmark::Counter::kIsRate);
+  state.counters["frames/s"] =
+      benchmark::Counter(static_cast<double>(frames) * static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate);
   state.counters["files"] = static_cast<double>(corpus.texts.size());
   state.counters["MB"] = static_cast<double>(corpus.bytes) / 1e6;
 }

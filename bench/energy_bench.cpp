@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/newton_euler.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/units.hpp"
 
 namespace {
 

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/index.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace {
 

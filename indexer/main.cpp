@@ -19,13 +19,13 @@
 #include <iostream>
 #include <map>
 
-#include "mocap/collection.hpp"
-#include "mocap/error.hpp"
-#include "mocap/index.hpp"
-#include "mocap/index_builder.hpp"
-#include "mocap/inspect.hpp"
-#include "mocap/units.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/units.hpp"
+#include "mocap/common/xxh64.hpp"
+#include "mocap/indexer/collection.hpp"
+#include "mocap/indexer/index_builder.hpp"
+#include "mocap/indexer/inspect.hpp"
 
 namespace {
 

@@ -22,11 +22,11 @@
 #include <optional>
 #include <string>
 
-#include "mocap/energy_command.hpp"
-#include "mocap/error.hpp"
-#include "mocap/index.hpp"
-#include "mocap/search.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/units.hpp"
+#include "mocap/search/energy_command.hpp"
+#include "mocap/search/search.hpp"
 
 #ifndef MOCAP_VERSION
 #define MOCAP_VERSION "dev"

@@ -16,11 +16,11 @@
 #include <optional>
 #include <sstream>
 
-#include "mocap/error.hpp"
-#include "mocap/index.hpp"
-#include "mocap/query.hpp"
-#include "mocap/search.hpp"
-#include "mocap/synth_job.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/search.hpp"
+#include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 
 namespace {

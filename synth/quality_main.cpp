@@ -18,10 +18,10 @@
 #include <string>
 #include <vector>
 
-#include "mocap/error.hpp"
-#include "mocap/index.hpp"
-#include "mocap/synth.hpp"
-#include "mocap/synth_json.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/synth/synth.hpp"
+#include "mocap/synth/synth_json.hpp"
 #include "refine_options.hpp"
 
 namespace {

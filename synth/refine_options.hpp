@@ -7,8 +7,8 @@
 #include <cmath>
 #include <cstddef>
 
-#include "mocap/error.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 

@@ -13,7 +13,9 @@ std::filesystem::path data_dir() {
   return MOCAP_DEFAULT_DATA_DIR;
 }
 
-bool have_data() { return std::filesystem::is_directory(data_dir() / "bandai-namco-1" / "data"); }
+bool have_data() {
+  return std::filesystem::is_directory(data_dir() / "bandai-namco-1" / "data");
+}
 
 namespace {
 
@@ -27,7 +29,8 @@ class TempDirs {
     dirs_.push_back(dir);
   }
   ~TempDirs() {
-    if (const char* keep = std::getenv("MOCAP_KEEP_TEST_DIRS"); keep && *keep && *keep != '0') return;
+    if (const char* keep = std::getenv("MOCAP_KEEP_TEST_DIRS"); keep && *keep && *keep != '0')
+      return;
     for (const auto& dir : dirs_) {
       std::error_code ec;
       std::filesystem::remove_all(dir, ec);
@@ -47,10 +50,11 @@ TempDirs& temp_dirs() {
 }  // namespace
 
 std::filesystem::path temp_dir(const std::string& tag) {
-  auto& registry = temp_dirs();  // constructed before, so destroyed after, any static using a folder
+  auto& registry =
+      temp_dirs();  // constructed before, so destroyed after, any static using a folder
   std::random_device rd;
-  auto dir = std::filesystem::temp_directory_path() /
-             ("mocap-test-" + tag + "-" + std::to_string(rd()));
+  auto dir =
+      std::filesystem::temp_directory_path() / ("mocap-test-" + tag + "-" + std::to_string(rd()));
   std::filesystem::create_directories(dir);
   registry.add(dir);
   return dir;

@@ -20,7 +20,7 @@ std::filesystem::path bandai_namco_2_dir();
 }  // namespace mocap::test
 
 /// Skips the current test when the real data is absent (local builds without ../shared).
-#define MOCAP_REQUIRE_DATA()                                                     \
-  do {                                                                           \
+#define MOCAP_REQUIRE_DATA()                                                                     \
+  do {                                                                                           \
     if (!::mocap::test::have_data()) GTEST_SKIP() << "no data at " << ::mocap::test::data_dir(); \
   } while (0)

@@ -7,7 +7,7 @@
 // toes) and where a class's mass goes when a skeleton lacks that class.
 #include <vector>
 
-#include "mocap/character.hpp"
+#include "mocap/common/character.hpp"
 
 namespace mocap::detail {
 

@@ -1,6 +1,6 @@
 // Atomic file replacement: temporary file, stale temporaries, fsync, rename
-// (mocap/atomic_file.hpp).
-#include "mocap/atomic_file.hpp"
+// (mocap/common/atomic_file.hpp).
+#include "mocap/common/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -13,7 +13,7 @@
 #include <string>
 #include <system_error>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 

@@ -1,7 +1,7 @@
 // Body building: a character's length scales applied to a skeleton, and its
 // segments (mass per class shared over the class's joints by bone length,
 // COM, inertia tensor) built on it.
-#include "mocap/body.hpp"
+#include "mocap/common/body.hpp"
 
 #include <Eigen/Geometry>
 #include <cmath>

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "bvh_text.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
 
 namespace mocap {
 

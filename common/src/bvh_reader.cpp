@@ -11,8 +11,8 @@
 #include <utility>
 
 #include "bvh_text.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 

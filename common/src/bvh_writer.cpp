@@ -9,8 +9,8 @@
 #include <system_error>
 
 #include "bvh_text.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 

@@ -1,7 +1,7 @@
 // Character files: parsing and validating the JSON form of a Character
 // (docs/character.md). Every error is an InputError naming the source and the
 // dotted field path ("segments.upper_arm.mass_kg").
-#include "mocap/character.hpp"
+#include "mocap/common/character.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <vector>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 

@@ -1,4 +1,4 @@
-#include "mocap/dynamics.hpp"
+#include "mocap/common/dynamics.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -8,7 +8,7 @@
 #include <string>
 
 #include "lanes.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "multiversion.hpp"
 
 namespace mocap {

@@ -1,11 +1,11 @@
-#include "mocap/energy.hpp"
+#include "mocap/common/energy.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "multiversion.hpp"
 
 namespace mocap {

@@ -1,11 +1,12 @@
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 #include <fmt/format.h>
 
 namespace mocap {
 
 namespace {
-std::string format_input_error(const std::string& source, std::size_t line, const std::string& msg) {
+std::string format_input_error(const std::string& source, std::size_t line,
+                               const std::string& msg) {
   if (line == 0) return fmt::format("{}: {}", source, msg);
   return fmt::format("{}:{}: {}", source, line, msg);
 }

@@ -1,5 +1,5 @@
-// stat(2), whole-file reads and file hashes with POSIX calls (mocap/file.hpp).
-#include "mocap/file.hpp"
+// stat(2), whole-file reads and file hashes with POSIX calls (mocap/common/file.hpp).
+#include "mocap/common/file.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/error.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 

@@ -1,4 +1,4 @@
-#include "mocap/half.hpp"
+#include "mocap/common/half.hpp"
 
 #include <bit>
 #include <cmath>
@@ -47,7 +47,7 @@ std::uint16_t float_to_half(float x, bool up) {
 #if defined(__x86_64__) && defined(__GNUC__)
 namespace {
 __attribute__((target("avx,f16c"))) void halves_to_floats_f16c(const std::uint16_t* in,
-                                                                std::size_t n, float* out) {
+                                                               std::size_t n, float* out) {
   std::size_t i = 0;
   for (; i + 8 <= n; i += 8)
     _mm256_storeu_ps(out + i,

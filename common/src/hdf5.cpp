@@ -1,8 +1,8 @@
-// The RAII layer over the HDF5 C API (mocap/hdf5.hpp): every call's status is
+// The RAII layer over the HDF5 C API (mocap/common/hdf5.hpp): every call's status is
 // checked; a failure throws InputError naming the file and the object path.
 // (Closing a handle in a destructor is the one exception: it cannot report,
 // so File::close() flushes first and reports that.)
-#include "mocap/hdf5.hpp"
+#include "mocap/common/hdf5.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "hdf5_internal.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap::h5 {
 

@@ -1,4 +1,4 @@
-// Datasets (mocap/hdf5.hpp): the number-type maps, creation with chunking and
+// Datasets (mocap/common/hdf5.hpp): the number-type maps, creation with chunking and
 // filters, row appends and reads, strings and enumerations. Every call's
 // status is checked (hdf5.cpp says how failures are reported).
 #include <algorithm>
@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "hdf5_internal.hpp"
-#include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/hdf5.hpp"
 
 namespace mocap::h5 {
 

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/hdf5.hpp"
+#include "mocap/common/hdf5.hpp"
 
 namespace mocap::h5::detail {
 

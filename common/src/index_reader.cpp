@@ -1,4 +1,4 @@
-// Runtime reader of the HDF5 index (mocap/index.hpp, docs/index-format.md).
+// Runtime reader of the HDF5 index (mocap/common/index.hpp, docs/index-format.md).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -12,12 +12,12 @@
 #include <type_traits>
 #include <variant>
 
-#include "mocap/error.hpp"
-#include "mocap/file.hpp"
-#include "mocap/hdf5.hpp"
-#include "mocap/index.hpp"
-#include "mocap/index_tables.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/hdf5.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/index_tables.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 

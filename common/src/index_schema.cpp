@@ -1,10 +1,10 @@
-// The schema's small helpers (mocap/index.hpp, mocap/index_tables.hpp): row
+// The schema's small helpers (mocap/common/index.hpp, mocap/common/index_tables.hpp): row
 // shapes, field lookup, the names of the stored enumerations.
 #include <string>
 #include <vector>
 
-#include "mocap/index.hpp"
-#include "mocap/index_tables.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/index_tables.hpp"
 
 namespace mocap {
 

@@ -7,10 +7,10 @@
 #include <sstream>
 #include <string>
 
-#include "mocap/error.hpp"
-#include "mocap/file.hpp"
-#include "mocap/index.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 

@@ -7,10 +7,10 @@
 #include <type_traits>
 #include <vector>
 
-#include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
-#include "mocap/index.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/hdf5.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 

@@ -7,7 +7,7 @@
 #include <initializer_list>
 
 #include "joint_names.hpp"
-#include "mocap/joint_classes.hpp"
+#include "mocap/common/joint_classes.hpp"
 
 namespace mocap {
 

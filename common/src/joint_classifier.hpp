@@ -5,8 +5,8 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/segment_class.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/segment_class.hpp"
+#include "mocap/common/skeleton.hpp"
 #include "skeleton_tree.hpp"
 
 namespace mocap::detail {

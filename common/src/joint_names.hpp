@@ -12,7 +12,7 @@
 #include <string>
 #include <utility>
 
-#include "mocap/segment_class.hpp"
+#include "mocap/common/segment_class.hpp"
 
 namespace mocap::detail {
 

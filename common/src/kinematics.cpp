@@ -1,4 +1,4 @@
-#include "mocap/kinematics.hpp"
+#include "mocap/common/kinematics.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -101,9 +101,9 @@ void end_site_positions(const Skeleton& skel, const WorldPose& world,
   const std::size_t n = skel.joint_count();
   out.resize(n);
   for (std::size_t j = 0; j < n; ++j)
-    out[j] = skel.has_end_site[j] ? Eigen::Vector3d(world.positions_m[j] +
-                                                    world.rotations[j] * skel.end_sites_m[j])
-                                  : world.positions_m[j];
+    out[j] = skel.has_end_site[j]
+                 ? Eigen::Vector3d(world.positions_m[j] + world.rotations[j] * skel.end_sites_m[j])
+                 : world.positions_m[j];
 }
 
 namespace {
@@ -127,7 +127,8 @@ ClipMotion motion_from_raw(const RawClip& clip, double scale_m, bool world) {
       const double* row = clip.frame(f);
       const std::size_t base = f * n;
       for (std::size_t j = 0; j < n; ++j)
-        local_transform(skel, j, row, m.local_translations_m[base + j], m.local_rotations[base + j]);
+        local_transform(skel, j, row, m.local_translations_m[base + j],
+                        m.local_rotations[base + j]);
       if (world)
         fk_into(skel, &m.local_translations_m[base], &m.local_rotations[base],
                 &m.world_positions_m[base], &m.world_rotations[base]);

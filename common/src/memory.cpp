@@ -1,4 +1,4 @@
-#include "mocap/memory.hpp"
+#include "mocap/common/memory.hpp"
 
 #include <cstdint>
 

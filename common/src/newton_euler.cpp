@@ -1,4 +1,4 @@
-#include "mocap/newton_euler.hpp"
+#include "mocap/common/newton_euler.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>

@@ -1,5 +1,5 @@
 // RawClip helpers: BVH channel names and axes, joint lookup by name.
-#include "mocap/raw_clip.hpp"
+#include "mocap/common/raw_clip.hpp"
 
 namespace mocap {
 

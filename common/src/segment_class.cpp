@@ -1,5 +1,5 @@
 // Segment classes and sides: their predicates and their names in JSON and docs.
-#include "mocap/segment_class.hpp"
+#include "mocap/common/segment_class.hpp"
 
 namespace mocap {
 

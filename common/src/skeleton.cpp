@@ -1,9 +1,9 @@
-#include "mocap/skeleton.hpp"
+#include "mocap/common/skeleton.hpp"
 
 #include <cmath>
 #include <cstring>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 
@@ -80,7 +80,8 @@ Skeleton build_skeleton(const RawClip& clip, double scale_m) {
       const int axis = channel_axis(ch);
       if (channel_is_rotation(ch)) {
         if (m.rotation_count >= 3)
-          throw InputError(clip.source, 0, "joint '" + rj.name + "' has more than 3 rotation channels");
+          throw InputError(clip.source, 0,
+                           "joint '" + rj.name + "' has more than 3 rotation channels");
         m.rotation_column[m.rotation_count] = col;
         m.rotation_axis[m.rotation_count] = static_cast<std::uint8_t>(axis);
         ++m.rotation_count;

@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "mocap/skeleton.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap::detail {
 

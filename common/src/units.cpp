@@ -1,12 +1,12 @@
-#include "mocap/units.hpp"
+#include "mocap/common/units.hpp"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <limits>
 
-#include "mocap/kinematics.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 
@@ -26,7 +26,8 @@ double median(std::vector<double>& v) {
 std::vector<std::size_t> sample_frames(const RawClip& clip, int samples) {
   std::vector<std::size_t> out;
   if (clip.frame_count == 0 || samples <= 0) return out;
-  const std::size_t count = std::min<std::size_t>(clip.frame_count, static_cast<std::size_t>(samples));
+  const std::size_t count =
+      std::min<std::size_t>(clip.frame_count, static_cast<std::size_t>(samples));
   for (std::size_t i = 0; i < count; ++i)
     out.push_back(count == 1 ? 0 : i * (clip.frame_count - 1) / (count - 1));
   return out;
@@ -63,8 +64,8 @@ std::vector<std::uint8_t> body_subtree(const Skeleton& skel) {
   return in;
 }
 
-Extremes extremes(const Skeleton& skel, const WorldPose& world, const std::vector<Eigen::Vector3d>& ends,
-                  const std::vector<std::uint8_t>& body) {
+Extremes extremes(const Skeleton& skel, const WorldPose& world,
+                  const std::vector<Eigen::Vector3d>& ends, const std::vector<std::uint8_t>& body) {
   Extremes e;
   for (std::size_t j = 0; j < skel.joint_count(); ++j) {
     if (!body[j]) continue;
@@ -81,22 +82,32 @@ Extremes extremes(const Skeleton& skel, const WorldPose& world, const std::vecto
 
 double unit_scale_m(LengthUnit u) {
   switch (u) {
-    case LengthUnit::m: return 1.0;
-    case LengthUnit::cm: return 0.01;
-    case LengthUnit::mm: return 0.001;
-    case LengthUnit::inch: return 0.0254;
-    case LengthUnit::cmu: return 0.056444;
+    case LengthUnit::m:
+      return 1.0;
+    case LengthUnit::cm:
+      return 0.01;
+    case LengthUnit::mm:
+      return 0.001;
+    case LengthUnit::inch:
+      return 0.0254;
+    case LengthUnit::cmu:
+      return 0.056444;
   }
   return 1.0;
 }
 
 const char* unit_name(LengthUnit u) {
   switch (u) {
-    case LengthUnit::m: return "m";
-    case LengthUnit::cm: return "cm";
-    case LengthUnit::mm: return "mm";
-    case LengthUnit::inch: return "inch";
-    case LengthUnit::cmu: return "cmu";
+    case LengthUnit::m:
+      return "m";
+    case LengthUnit::cm:
+      return "cm";
+    case LengthUnit::mm:
+      return "mm";
+    case LengthUnit::inch:
+      return "inch";
+    case LengthUnit::cmu:
+      return "cmu";
   }
   return "m";
 }
@@ -136,24 +147,26 @@ double median_over_samples(const RawClip& clip, int samples, Measure measure) {
 }  // namespace
 
 double standing_height_file_units(const RawClip& clip, int samples) {
-  return median_over_samples(clip, samples,
-                             [](const Skeleton&, const LocalPose&, const Extremes& e) { return e.hi - e.lo; });
+  return median_over_samples(
+      clip, samples,
+      [](const Skeleton&, const LocalPose&, const Extremes& e) { return e.hi - e.lo; });
 }
 
 double skeleton_height_file_units(const RawClip& clip, int samples) {
-  return median_over_samples(clip, samples, [](const Skeleton& skel, const LocalPose& local, const Extremes& e) {
-    // Bone lengths from each end up to the lowest common ancestor.
-    double length = (e.lo_end ? skel.end_sites_m[e.lo_joint].norm() : 0.0) +
-                    (e.hi_end ? skel.end_sites_m[e.hi_joint].norm() : 0.0);
-    int a = static_cast<int>(e.lo_joint), b = static_cast<int>(e.hi_joint);
-    while (a != b && a >= 0 && b >= 0) {
-      // parents[j] < j: the larger index is never an ancestor of the smaller.
-      int& deeper = a > b ? a : b;
-      length += local.translations_m[static_cast<std::size_t>(deeper)].norm();
-      deeper = skel.parents[static_cast<std::size_t>(deeper)];
-    }
-    return a == b ? length : -1.0;  // different trees (several ROOTs): not a body height
-  });
+  return median_over_samples(
+      clip, samples, [](const Skeleton& skel, const LocalPose& local, const Extremes& e) {
+        // Bone lengths from each end up to the lowest common ancestor.
+        double length = (e.lo_end ? skel.end_sites_m[e.lo_joint].norm() : 0.0) +
+                        (e.hi_end ? skel.end_sites_m[e.hi_joint].norm() : 0.0);
+        int a = static_cast<int>(e.lo_joint), b = static_cast<int>(e.hi_joint);
+        while (a != b && a >= 0 && b >= 0) {
+          // parents[j] < j: the larger index is never an ancestor of the smaller.
+          int& deeper = a > b ? a : b;
+          length += local.translations_m[static_cast<std::size_t>(deeper)].norm();
+          deeper = skel.parents[static_cast<std::size_t>(deeper)];
+        }
+        return a == b ? length : -1.0;  // different trees (several ROOTs): not a body height
+      });
 }
 
 LengthUnit detect_unit(const RawClip& clip) {

@@ -1,7 +1,7 @@
 // XXH64 after the reference description (xxhash.com, "XXH64 algorithm"):
 // four 64-bit lanes over 32-byte stripes, merged, then the tail and an
 // avalanche.
-#include "mocap/xxh64.hpp"
+#include "mocap/common/xxh64.hpp"
 
 #include <cstring>
 

@@ -12,7 +12,7 @@
 #include <set>
 #include <unordered_map>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 

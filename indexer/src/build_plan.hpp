@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "index_writer.hpp"
-#include "mocap/collection.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/file.hpp"
-#include "mocap/index.hpp"
-#include "mocap/index_builder.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/indexer/collection.hpp"
+#include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {
 

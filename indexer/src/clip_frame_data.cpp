@@ -7,11 +7,11 @@
 #include <limits>
 #include <stdexcept>
 
-#include "mocap/energy.hpp"
-#include "mocap/error.hpp"
-#include "mocap/index_builder.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/newton_euler.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/newton_euler.hpp"
+#include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {
 

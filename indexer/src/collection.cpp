@@ -1,4 +1,4 @@
-#include "mocap/collection.hpp"
+#include "mocap/indexer/collection.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -1,7 +1,7 @@
 // build_index: the orchestration of a build (index_builder.hpp): options,
 // the plan (build_plan.hpp), the TBB pipeline that parses files in parallel
 // and writes them in path order (index_writer.hpp), and the atomic replace.
-#include "mocap/index_builder.hpp"
+#include "mocap/indexer/index_builder.hpp"
 
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -18,13 +18,13 @@
 
 #include "build_plan.hpp"
 #include "index_writer.hpp"
-#include "mocap/atomic_file.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/collection.hpp"
-#include "mocap/error.hpp"
-#include "mocap/file.hpp"
-#include "mocap/hdf5.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/atomic_file.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/hdf5.hpp"
+#include "mocap/common/xxh64.hpp"
+#include "mocap/indexer/collection.hpp"
 
 namespace mocap {
 

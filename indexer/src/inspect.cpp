@@ -1,14 +1,14 @@
-#include "mocap/inspect.hpp"
+#include "mocap/indexer/inspect.hpp"
 
 #include <tbb/parallel_for.h>
 
 #include <system_error>
 
-#include "mocap/body.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/index_builder.hpp"
+#include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {
 

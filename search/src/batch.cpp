@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "mocap/error.hpp"
-#include "mocap/search.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/search/search.hpp"
 
 namespace mocap {
 

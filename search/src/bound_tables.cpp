@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <limits>
 
-#include "mocap/half.hpp"
-#include "mocap/memory.hpp"
+#include "mocap/common/half.hpp"
+#include "mocap/common/memory.hpp"
 
 namespace mocap::search_detail {
 

@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mocap/half.hpp"
+#include "mocap/common/half.hpp"
 #include "resolve.hpp"
 #include "skeleton_tables.hpp"
 

@@ -12,8 +12,8 @@
 #include <string>
 
 #include "bound_tables.hpp"
-#include "mocap/error.hpp"
-#include "mocap/newton_euler.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/newton_euler.hpp"
 
 namespace mocap::search_detail {
 

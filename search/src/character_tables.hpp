@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/index.hpp"
-#include "mocap/query.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/query.hpp"
 #include "skeleton_tables.hpp"
 
 namespace mocap::search_detail {

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "box_bounds.hpp"
-#include "mocap/index.hpp"
-#include "mocap/search.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/search.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"

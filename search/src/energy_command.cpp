@@ -1,4 +1,4 @@
-#include "mocap/energy_command.hpp"
+#include "mocap/search/energy_command.hpp"
 
 #include <fmt/format.h>
 
@@ -6,14 +6,14 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "mocap/body.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/newton_euler.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

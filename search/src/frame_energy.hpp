@@ -10,9 +10,9 @@
 #include <cstdint>
 #include <optional>
 
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/index.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/index.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"

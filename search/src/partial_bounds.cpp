@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "mocap/dynamics.hpp"
+#include "mocap/common/dynamics.hpp"
 #include "multiversion.hpp"
 
 namespace mocap::search_detail {

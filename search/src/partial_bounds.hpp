@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mocap/index.hpp"
+#include "mocap/common/index.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"

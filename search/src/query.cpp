@@ -1,4 +1,4 @@
-#include "mocap/query.hpp"
+#include "mocap/search/query.hpp"
 
 #include <fnmatch.h>
 
@@ -6,8 +6,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
 
 namespace mocap {
 

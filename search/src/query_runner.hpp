@@ -15,8 +15,8 @@
 
 #include "box_bounds.hpp"
 #include "clip_scans.hpp"
-#include "mocap/query.hpp"
-#include "mocap/search.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/search.hpp"
 #include "resolve.hpp"
 #include "search_engine_impl.hpp"
 #include "skeleton_tables.hpp"

@@ -5,11 +5,11 @@
 #include <cmath>
 #include <numbers>
 
-#include "mocap/body.hpp"
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/units.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/units.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 

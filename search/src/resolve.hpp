@@ -2,7 +2,7 @@
 // Internal to mocap_search: query frames resolved against one index skeleton,
 // with what the engine precomputes for them (scan queries, kd features). The
 // degrees of freedom themselves come from the public resolver
-// (mocap/query_pose.hpp), which synthesis uses too.
+// (mocap/search/query_pose.hpp), which synthesis uses too.
 #include <Eigen/Core>
 #include <array>
 #include <filesystem>
@@ -13,16 +13,16 @@
 #include <string>
 #include <vector>
 
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/index.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/query.hpp"
-#include "mocap/query_pose.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/query_pose.hpp"
 
 namespace mocap::search_detail {
 
-/// The public query-frame resolver's BVH cache (mocap/query_pose.hpp).
+/// The public query-frame resolver's BVH cache (mocap/search/query_pose.hpp).
 using LoadedBvh = QueryBvhFile;
 using BvhCache = QueryBvhCache;
 

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mocap/energy.hpp"
+#include "mocap/common/energy.hpp"
 
 namespace mocap::search_detail {
 

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "character_tables.hpp"
-#include "mocap/index.hpp"
-#include "mocap/search.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/search.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"

@@ -11,7 +11,7 @@
 #include <cstdint>
 
 #include "bound_tables.hpp"
-#include "mocap/newton_euler.hpp"
+#include "mocap/common/newton_euler.hpp"
 
 namespace mocap::search_detail {
 

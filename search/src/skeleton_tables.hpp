@@ -21,10 +21,10 @@
 #include <vector>
 
 #include "flann_knn.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/index.hpp"
-#include "mocap/search.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/search.hpp"
 
 namespace mocap::search_detail {
 

@@ -10,7 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "mocap/index.hpp"
+#include "mocap/common/index.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "mocap/synth.hpp"
+#include "mocap/synth/synth.hpp"
 #include "transition_math.hpp"
 
 namespace mocap {

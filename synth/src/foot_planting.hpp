@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
-#include "mocap/synth.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap::synth_detail {
 

@@ -7,9 +7,9 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "mocap/energy.hpp"
-#include "mocap/newton_euler.hpp"
-#include "mocap/path_cache.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/newton_euler.hpp"
+#include "mocap/synth/path_cache.hpp"
 #include "transition_math.hpp"
 
 namespace mocap {

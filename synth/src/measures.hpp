@@ -8,7 +8,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "mocap/synth.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap::synth_detail {
 

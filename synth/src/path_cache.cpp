@@ -1,11 +1,11 @@
 // The cached sequence of a transition and its local updates (path_cache.hpp).
-#include "mocap/path_cache.hpp"
+#include "mocap/synth/path_cache.hpp"
 
 #include <algorithm>
 #include <utility>
 
 #include "measures.hpp"
-#include "mocap/energy.hpp"
+#include "mocap/common/energy.hpp"
 
 namespace mocap {
 

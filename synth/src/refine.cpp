@@ -1,6 +1,6 @@
 // The refinement of a transition (refine.hpp): the job's setup and limits,
 // its L-BFGS stages (exact and smoothed) and its coordinate polishing.
-#include "mocap/refine.hpp"
+#include "mocap/synth/refine.hpp"
 
 #include <tbb/parallel_for.h>
 #include <algorithm>

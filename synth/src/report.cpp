@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "mocap/synth_job.hpp"
-#include "mocap/synth_json.hpp"
+#include "mocap/synth/synth_job.hpp"
+#include "mocap/synth/synth_json.hpp"
 
 namespace mocap {
 namespace {

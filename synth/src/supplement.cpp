@@ -10,9 +10,9 @@
 
 #include "astar.hpp"
 #include "measures.hpp"
-#include "mocap/path_cache.hpp"
-#include "mocap/refine.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/synth/path_cache.hpp"
+#include "mocap/synth/refine.hpp"
+#include "mocap/synth/synth.hpp"
 #include "transition_math.hpp"
 
 namespace mocap {

@@ -1,5 +1,5 @@
 // The synthesis job: results in, assembly, BVH out (synth_job.hpp).
-#include "mocap/synth_job.hpp"
+#include "mocap/synth/synth_job.hpp"
 
 #include <tbb/parallel_for.h>
 #include <algorithm>
@@ -13,12 +13,12 @@
 #include <sstream>
 #include <utility>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/query_pose.hpp"
-#include "mocap/skeleton.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
+#include "mocap/common/units.hpp"
+#include "mocap/search/query_pose.hpp"
 
 namespace mocap {
 namespace {
@@ -33,7 +33,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // Query frame i on the target skeleton: the DOFs it gives (the search
-// library's resolver, mocap/query_pose.hpp; joint rotations normalised),
+// library's resolver, mocap/search/query_pose.hpp; joint rotations normalised),
 // errors naming the query file.
 PartialPoseSpec resolve_query_frame(const Query& q, std::size_t i, const Index& index,
                                     const SynthSkeleton& sk, QueryBvhCache& cache,

@@ -1,5 +1,5 @@
 // JSON forms of the measures and parameters (synth_json.hpp).
-#include "mocap/synth_json.hpp"
+#include "mocap/synth/synth_json.hpp"
 
 namespace mocap {
 

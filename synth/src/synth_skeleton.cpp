@@ -6,9 +6,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 namespace {
@@ -71,7 +71,8 @@ SynthSkeleton make_synth_skeleton(const Index& index, std::uint32_t skeleton,
                 : Eigen::Vector3d(quat_at(rotations, static_cast<std::size_t>(p)).conjugate() *
                                   (x - vec_at(positions, static_cast<std::size_t>(p))));
     } else {
-      const double s = sk.skeleton.translation_scales.empty() ? 1.0 : sk.skeleton.translation_scales[j];
+      const double s =
+          sk.skeleton.translation_scales.empty() ? 1.0 : sk.skeleton.translation_scales[j];
       sk.local_translations_m[j] = sk.skeleton.offsets_m[j] * s;
     }
   }

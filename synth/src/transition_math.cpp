@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mocap/dynamics.hpp"
+#include "mocap/common/dynamics.hpp"
 
 namespace mocap::synth_detail {
 namespace {

@@ -7,7 +7,7 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 
-#include "mocap/synth.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap::synth_detail {
 

@@ -1,7 +1,7 @@
 // AtomicFile (common/src/atomic_file.cpp): commit replaces the target, an
 // abandoned replacement leaves it alone, stale temporaries of dead processes
 // go, sync errors are reported.
-#include "mocap/atomic_file.hpp"
+#include "mocap/common/atomic_file.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

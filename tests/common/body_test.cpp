@@ -1,6 +1,6 @@
 // Body model: joint classes, de Leva masses, COMs, inertias, length scales
 // (character files and segment-class names: character_test.cpp).
-#include "mocap/body.hpp"
+#include "mocap/common/body.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,11 +12,11 @@
 #include <random>
 #include <set>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/skeleton.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
+#include "mocap/common/units.hpp"
 #include "raw_clip_builder.hpp"
 #include "test_support.hpp"
 

@@ -19,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/skeleton.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
+#include "mocap/common/units.hpp"
 #include "test_support.hpp"
 
 namespace mocap {
@@ -147,7 +147,8 @@ ClipResult check_clip(const fs::path& path, LengthUnit expected_unit) {
 }
 
 struct Summary {
-  double height_lo = kInf, height_hi = -kInf, skel_lo = kInf, skel_hi = -kInf, foot_lo = kInf, foot_hi = -kInf;
+  double height_lo = kInf, height_hi = -kInf, skel_lo = kInf, skel_hi = -kInf, foot_lo = kInf,
+         foot_hi = -kInf;
   std::size_t frames = 0;
 };
 
@@ -178,7 +179,8 @@ Summary expect_all_good(const std::vector<ClipResult>& results, LengthUnit expec
   std::printf(
       "  %zu clips, %zu frames, standing height %.3f..%.3f m, skeleton height %.3f..%.3f m, "
       "lowest foot point %.4f..%.4f m\n",
-      results.size(), s.frames, s.height_lo, s.height_hi, s.skel_lo, s.skel_hi, s.foot_lo, s.foot_hi);
+      results.size(), s.frames, s.height_lo, s.height_hi, s.skel_lo, s.skel_hi, s.foot_lo,
+      s.foot_hi);
   return s;
 }
 
@@ -209,7 +211,8 @@ TEST(BvhRealData, BandaiNamcoSet1MissingClipDoesNotMatter) {
   {
     std::ifstream in(root / "cfg" / "content_label.txt");
     for (std::string line; std::getline(in, line);) {
-      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back())))
+        line.pop_back();
       if (!line.empty()) contents.push_back(line);
     }
   }
@@ -235,7 +238,8 @@ TEST(BvhRealData, BandaiNamcoSet1MissingClipDoesNotMatter) {
     ++clips_per_content[contents[static_cast<std::size_t>(content)]];
   }
   std::size_t jsons = 0;
-  for (const auto& e : fs::directory_iterator(root / "data")) jsons += e.path().extension() == ".json";
+  for (const auto& e : fs::directory_iterator(root / "data"))
+    jsons += e.path().extension() == ".json";
   EXPECT_EQ(jsons, 174u);
   EXPECT_EQ(clips_per_content.count("dataset-1_dance-long"), 0u);
   EXPECT_EQ(clips_per_content["dataset-1_dance-short"], 1);
@@ -253,7 +257,8 @@ TEST(BvhRealData, CmuEveryFile) {
   EXPECT_NEAR(clip.frame_time_s, 1.0 / 120.0, 1e-6);
   // 6 channels on the root, 3 rotations elsewhere; zero-length hip joints.
   EXPECT_EQ(clip.joints[0].channels.size(), 6u);
-  for (std::size_t j = 1; j < clip.joints.size(); ++j) EXPECT_EQ(clip.joints[j].channels.size(), 3u);
+  for (std::size_t j = 1; j < clip.joints.size(); ++j)
+    EXPECT_EQ(clip.joints[j].channels.size(), 3u);
   const int lhip = clip.find_joint("LHipJoint");
   ASSERT_GE(lhip, 0);
   EXPECT_EQ(clip.joints[static_cast<std::size_t>(lhip)].offset, Eigen::Vector3d::Zero());

@@ -13,10 +13,10 @@
 #include <random>
 #include <string>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/units.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

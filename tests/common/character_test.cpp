@@ -1,14 +1,14 @@
 // Tests of character.cpp and segment_class.cpp: character files (invalid
 // input first, one test per kind of error, then every field), the equality of
 // characters, and the segment classes' names and predicates.
-#include "mocap/character.hpp"
+#include "mocap/common/character.hpp"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <string>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

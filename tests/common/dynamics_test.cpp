@@ -1,5 +1,5 @@
 // DynamicsModel, states and per-frame finite-difference dynamics on hand-built data.
-#include "mocap/dynamics.hpp"
+#include "mocap/common/dynamics.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <numbers>
 
 #include "energy_fixtures.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 namespace {

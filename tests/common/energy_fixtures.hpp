@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap::test {
 

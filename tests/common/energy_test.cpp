@@ -1,6 +1,6 @@
 // The approximate energy change h on hand-built bodies: definition, properties,
 // partial queries, the kd-tree bound and the vectorised scan.
-#include "mocap/energy.hpp"
+#include "mocap/common/energy.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "energy_fixtures.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 namespace {

@@ -1,5 +1,5 @@
 // stat_file, read_file_bytes and hash_file (common/src/file.cpp) on real files.
-#include "mocap/file.hpp"
+#include "mocap/common/file.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <functional>
 #include <string>
 
-#include "mocap/error.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

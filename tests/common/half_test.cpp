@@ -1,6 +1,6 @@
-// Half floats for bound tables (mocap/half.hpp): directed rounding is exact
+// Half floats for bound tables (mocap/common/half.hpp): directed rounding is exact
 // where possible and otherwise brackets the value between neighbours.
-#include "mocap/half.hpp"
+#include "mocap/common/half.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,9 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-bool is_nan_half(std::uint16_t h) { return (h & 0x7c00u) == 0x7c00u && (h & 0x3ffu) != 0; }
+bool is_nan_half(std::uint16_t h) {
+  return (h & 0x7c00u) == 0x7c00u && (h & 0x3ffu) != 0;
+}
 
 TEST(Half, NanAndInfinities) {
   EXPECT_TRUE(is_nan_half(float_to_half(std::numeric_limits<float>::quiet_NaN(), false)));
@@ -69,7 +71,7 @@ TEST(Half, DirectedRoundingBracketsRandomFloats) {
     if (l == u) continue;
     // Neighbours: the next half above l is u (order of halves: bits for >= 0,
     // reversed for negative values).
-    const float next = l >= 0.0f ? half_to_float(static_cast<std::uint16_t>(lo + 1))
+    const float next = l >= 0.0f         ? half_to_float(static_cast<std::uint16_t>(lo + 1))
                        : (lo == 0x8000u) ? half_to_float(0x0001u)
                                          : half_to_float(static_cast<std::uint16_t>(lo - 1));
     ASSERT_EQ(next, u) << x;

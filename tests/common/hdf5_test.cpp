@@ -1,7 +1,7 @@
 // The HDF5 layer (common/src/hdf5.cpp): round trips of numbers, strings,
 // enums and attributes, and failures reported as InputError naming the file
 // and the object.
-#include "mocap/hdf5.hpp"
+#include "mocap/common/hdf5.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

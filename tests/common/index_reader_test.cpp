@@ -10,13 +10,13 @@
 #include <fstream>
 #include <string>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
-#include "mocap/index.hpp"
-#include "mocap/index_tables.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/hdf5.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/index_tables.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/xxh64.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

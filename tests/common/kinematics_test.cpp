@@ -1,5 +1,5 @@
 // Tests for common/src/kinematics.cpp: Euler conversions, local poses, forward kinematics.
-#include "mocap/kinematics.hpp"
+#include "mocap/common/kinematics.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,15 +20,15 @@ Eigen::Matrix3d axis_matrix(int axis, double deg) {
       .toRotationMatrix();
 }
 
-const std::array<std::array<std::uint8_t, 3>, 6> kOrders = {{
-    {0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}}};
+const std::array<std::array<std::uint8_t, 3>, 6> kOrders = {
+    {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}}};
 
 TEST(EulerTest, QuaternionIsProductInListedOrderForAllSixOrders) {
   const std::array<double, 3> deg{30.0, -50.0, 70.0};
   for (const auto& order : kOrders) {
     const Eigen::Quaterniond q = euler_to_quaternion(order, deg);
-    const Eigen::Matrix3d expect =
-        axis_matrix(order[0], deg[0]) * axis_matrix(order[1], deg[1]) * axis_matrix(order[2], deg[2]);
+    const Eigen::Matrix3d expect = axis_matrix(order[0], deg[0]) * axis_matrix(order[1], deg[1]) *
+                                   axis_matrix(order[2], deg[2]);
     EXPECT_TRUE(q.toRotationMatrix().isApprox(expect, 1e-12));
   }
 }
@@ -61,9 +61,9 @@ TEST(EulerTest, GimbalLockStillGivesTheSameRotation) {
 
 RawClip chain_clip() {
   RawClipBuilder b;
-  const int root = b.joint("Hips", -1, {0, 0, 0},
-                           {C::Xposition, C::Yposition, C::Zposition, C::Zrotation, C::Xrotation,
-                            C::Yrotation});
+  const int root =
+      b.joint("Hips", -1, {0, 0, 0},
+              {C::Xposition, C::Yposition, C::Zposition, C::Zrotation, C::Xrotation, C::Yrotation});
   const int child = b.joint("Spine", root, {1, 0, 0}, {C::Zrotation, C::Xrotation, C::Yrotation});
   b.end_site(child, {0, 2, 0});
   // Root at (1,2,3) turned +90 deg about Y; the child bends +90 deg about Z.
@@ -140,9 +140,9 @@ TEST(ForwardKinematicsTest, TranslationScalesLengthenBones) {
 // The batched, TBB-parallel clip path equals the one-frame reference.
 TEST(ForwardKinematicsTest, ClipMotionEqualsPerFrameReference) {
   RawClipBuilder b;
-  int parent = b.joint("Hips", -1, {0, 0, 0},
-                       {C::Xposition, C::Yposition, C::Zposition, C::Yrotation, C::Xrotation,
-                        C::Zrotation});
+  int parent =
+      b.joint("Hips", -1, {0, 0, 0},
+              {C::Xposition, C::Yposition, C::Zposition, C::Yrotation, C::Xrotation, C::Zrotation});
   for (int j = 1; j < 20; ++j)
     parent = b.joint("J" + std::to_string(j), j % 4 == 0 ? 0 : parent, {0.1 * j, 0.2, -0.05},
                      {C::Zrotation, C::Yrotation, C::Xrotation});

@@ -1,6 +1,6 @@
 // Recursive Newton-Euler against closed-form (Lagrangian) torques, contacts,
 // and the full energy change g on hand-built bodies.
-#include "mocap/newton_euler.hpp"
+#include "mocap/common/newton_euler.hpp"
 
 #include <gtest/gtest.h>
 

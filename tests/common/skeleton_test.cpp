@@ -1,11 +1,11 @@
 // Tests for common/src/skeleton.cpp: validity first, then the channel layout and ids.
-#include "mocap/skeleton.hpp"
+#include "mocap/common/skeleton.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "raw_clip_builder.hpp"
 
 namespace mocap {
@@ -55,9 +55,9 @@ TEST(SkeletonValidityTest, RejectsFourRotationsAndRepeatedPositions) {
 
 TEST(SkeletonTest, ChannelMapFollowsFileOrder) {
   RawClipBuilder b;
-  const int r = b.joint("Hips", -1, {0, 0, 0},
-                        {C::Zposition, C::Xposition, C::Yrotation, C::Yposition, C::Xrotation,
-                         C::Zrotation});
+  const int r =
+      b.joint("Hips", -1, {0, 0, 0},
+              {C::Zposition, C::Xposition, C::Yrotation, C::Yposition, C::Xrotation, C::Zrotation});
   b.joint("Leg", r, {0, -1, 0}, {C::Xrotation, C::Zrotation});
   const Skeleton s = build_skeleton(b.build(), 0.5);
   EXPECT_EQ(s.channel_count, 8u);

@@ -1,5 +1,5 @@
 // Tests for common/src/units.cpp: unit names, scales and detection by standing height.
-#include "mocap/units.hpp"
+#include "mocap/common/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -33,9 +33,9 @@ TEST(UnitsTest, Scales) {
 RawClip figure(double height_m, LengthUnit unit) {
   const double k = 1.0 / unit_scale_m(unit);
   test::RawClipBuilder b;
-  const int hips = b.joint("Hips", -1, {0, 0, 0},
-                           {C::Xposition, C::Yposition, C::Zposition, C::Zrotation, C::Xrotation,
-                            C::Yrotation});
+  const int hips =
+      b.joint("Hips", -1, {0, 0, 0},
+              {C::Xposition, C::Yposition, C::Zposition, C::Zrotation, C::Xrotation, C::Yrotation});
   const int head = b.joint("Head", hips, {0.45 * height_m * k, 0, 0}, {});
   b.end_site(head, {0.05 * height_m * k, 0, 0});
   b.joint("Foot", hips, {-0.5 * height_m * k, 0, 0}, {});
@@ -49,9 +49,11 @@ TEST(UnitsTest, StandingHeightUsesPosedFramesNotTheRestPose) {
 }
 
 TEST(UnitsTest, DetectsEveryUnitForAdultsAndChildren) {
-  for (LengthUnit u : {LengthUnit::m, LengthUnit::cm, LengthUnit::mm, LengthUnit::inch, LengthUnit::cmu})
+  for (LengthUnit u :
+       {LengthUnit::m, LengthUnit::cm, LengthUnit::mm, LengthUnit::inch, LengthUnit::cmu})
     for (double h : {1.2, 1.5, 1.7, 1.95}) {
-      if (u == LengthUnit::inch && h < 1.4) continue;  // inch vs cm: 2.54x apart, children ambiguous
+      if (u == LengthUnit::inch && h < 1.4)
+        continue;  // inch vs cm: 2.54x apart, children ambiguous
       EXPECT_EQ(detect_unit(figure(h, u)), u) << unit_name(u) << " " << h;
     }
 }

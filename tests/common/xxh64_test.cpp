@@ -1,7 +1,7 @@
 // XXH64 against the reference implementation's published vectors (the
 // xxhsum sanity check: seeds 0 and 2654435761 over a fixed pseudo-random
 // buffer, and well-known strings), and streaming against one-shot hashing.
-#include "mocap/xxh64.hpp"
+#include "mocap/common/xxh64.hpp"
 
 #include <gtest/gtest.h>
 

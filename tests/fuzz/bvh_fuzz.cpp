@@ -12,8 +12,8 @@
 #include <string>
 #include <string_view>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
 
 namespace {
 
@@ -29,8 +29,9 @@ bool same_clip(const mocap::RawClip& a, const mocap::RawClip& b) {
   for (std::size_t j = 0; j < a.joints.size(); ++j) {
     const mocap::RawJoint& x = a.joints[j];
     const mocap::RawJoint& y = b.joints[j];
-    if (x.name != y.name || x.parent != y.parent || x.channels != y.channels || x.first_column != y.first_column ||
-        x.offset != y.offset || x.has_end_site != y.has_end_site || (x.has_end_site && x.end_site != y.end_site))
+    if (x.name != y.name || x.parent != y.parent || x.channels != y.channels ||
+        x.first_column != y.first_column || x.offset != y.offset ||
+        x.has_end_site != y.has_end_site || (x.has_end_site && x.end_site != y.end_site))
       return false;
   }
   return true;
@@ -46,7 +47,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const mocap::InputError&) {
     return 0;
   }
-  if (clip.values.size() != clip.frame_count * clip.channel_count) fail("values size != frames x channels");
+  if (clip.values.size() != clip.frame_count * clip.channel_count)
+    fail("values size != frames x channels");
   if (clip.values.size() > size) fail("more values than bytes of text");
   std::string written;
   try {

@@ -1,5 +1,5 @@
 // Tests for indexer/src/collection.cpp: inputs -> sorted, de-duplicated BVH files.
-#include "mocap/collection.hpp"
+#include "mocap/indexer/collection.hpp"
 
 #include <gtest/gtest.h>
 

@@ -7,12 +7,12 @@
 #include <sstream>
 #include <thread>
 
-#include "mocap/bvh.hpp"
-#include "mocap/error.hpp"
-#include "mocap/index.hpp"
-#include "mocap/index_builder.hpp"
-#include "mocap/units.hpp"
-#include "mocap/xxh64.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/units.hpp"
+#include "mocap/common/xxh64.hpp"
+#include "mocap/indexer/index_builder.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

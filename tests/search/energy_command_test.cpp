@@ -1,13 +1,13 @@
 // The `mocap-search energy` command logic: argument parsing, errors, and the
 // report on real files.
-#include "mocap/energy_command.hpp"
+#include "mocap/search/energy_command.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "mocap/error.hpp"
+#include "mocap/common/error.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

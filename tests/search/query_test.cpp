@@ -1,13 +1,13 @@
 // Tests for search/src/query.cpp: the query language. Invalid queries first
 // (each error names the field path), then what valid ones mean.
-#include "mocap/query.hpp"
+#include "mocap/search/query.hpp"
 
 #include <gtest/gtest.h>
 
 #include <numbers>
 
-#include "mocap/error.hpp"
-#include "mocap/kinematics.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/kinematics.hpp"
 
 namespace mocap {
 namespace {

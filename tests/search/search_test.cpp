@@ -16,12 +16,12 @@
 #include <stdexcept>
 #include <string>
 
-#include "mocap/error.hpp"
-#include "mocap/hdf5.hpp"
-#include "mocap/index.hpp"
-#include "mocap/query.hpp"
-#include "mocap/query_pose.hpp"
-#include "mocap/search.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/hdf5.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/query_pose.hpp"
+#include "mocap/search/search.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

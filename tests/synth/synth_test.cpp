@@ -11,10 +11,10 @@
 #include <limits>
 #include <string>
 
-#include "mocap/error.hpp"
-#include "mocap/refine.hpp"
-#include "mocap/synth.hpp"
-#include "mocap/synth_job.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/synth/refine.hpp"
+#include "mocap/synth/synth.hpp"
+#include "mocap/synth/synth_job.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -24,11 +24,11 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/index.hpp"
-#include "mocap/raw_clip.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/raw_clip.hpp"
+#include "mocap/common/units.hpp"
 
 namespace mocap {
 

@@ -44,8 +44,8 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/index.hpp"
-#include "mocap/query.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/query.hpp"
 
 namespace mocap {
 

@@ -12,7 +12,7 @@
 #include <map>
 #include <string>
 
-#include "mocap/segment_class.hpp"
+#include "mocap/common/segment_class.hpp"
 
 namespace mocap {
 

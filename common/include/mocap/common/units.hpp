@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-#include "mocap/raw_clip.hpp"
+#include "mocap/common/raw_clip.hpp"
 
 namespace mocap {
 

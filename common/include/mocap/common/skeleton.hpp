@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/raw_clip.hpp"
-#include "mocap/units.hpp"
+#include "mocap/common/raw_clip.hpp"
+#include "mocap/common/units.hpp"
 
 namespace mocap {
 

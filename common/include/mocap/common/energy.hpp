@@ -39,7 +39,7 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/dynamics.hpp"
+#include "mocap/common/dynamics.hpp"
 
 namespace mocap {
 

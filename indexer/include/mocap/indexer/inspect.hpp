@@ -8,15 +8,15 @@
 #include <string>
 #include <vector>
 
-#include "mocap/units.hpp"
+#include "mocap/common/units.hpp"
 
 namespace mocap {
 
 struct InspectOptions {
   std::filesystem::path file;
-  std::size_t frame = 0;                            // 0-based
-  std::optional<LengthUnit> unit;                   // nullopt: detect_unit()
-  std::optional<std::filesystem::path> character;   // nullopt: default 70 kg male
+  std::size_t frame = 0;                           // 0-based
+  std::optional<LengthUnit> unit;                  // nullopt: detect_unit()
+  std::optional<std::filesystem::path> character;  // nullopt: default 70 kg male
 };
 
 /// One frame in world space (metres, Y up), the contract of docs/cli.md:

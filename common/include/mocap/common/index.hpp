@@ -6,7 +6,7 @@
 // loaded once per dataset on first use). The full schema, with every group,
 // dataset, dtype, shape, unit, chunking and the version policy, is
 // docs/index-format.md; this header is its code form, with the record tables
-// and root attributes in mocap/index_tables.hpp.
+// and root attributes in mocap/common/index_tables.hpp.
 //
 // Layout in short (C clips sorted by path, S skeletons, per skeleton k:
 // N_k frames, J_k joints, C_k clips, B16_k / B64_k blocks):
@@ -41,9 +41,9 @@
 #include <string_view>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

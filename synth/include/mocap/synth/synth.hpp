@@ -39,10 +39,10 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/index.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 
@@ -120,7 +120,7 @@ SynthFrame place_frame(const SynthSkeleton& sk, const SynthFrame& frame, const P
 /// Heading of the root joint's world rotation (dynamics.hpp heading_rad), radians.
 double root_heading(const SynthSkeleton& sk, const SynthFrame& frame);
 
-/// The refinement's settings (refine_transition, mocap/refine.hpp).
+/// The refinement's settings (refine_transition, mocap/synth/refine.hpp).
 struct RefineOptions {
   std::size_t iterations = 0;
   /// Metres; the input's own sliding is always allowed.
@@ -176,7 +176,7 @@ struct SupplementParams {
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
   /// After the search: the refinement of the whole path (refine_transition,
-  /// mocap/refine.hpp); none when refine.iterations and refine.polish_sweeps
+  /// mocap/synth/refine.hpp); none when refine.iterations and refine.polish_sweeps
   /// are 0 (the default, which the median-time goal is measured with).
   /// supplement_astar sets refine.foot_sliding_limit_m and
   /// refine.angular_speed_limit_radps to those of the slerp transition of

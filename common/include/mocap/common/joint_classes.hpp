@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/segment_class.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/segment_class.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

@@ -4,7 +4,7 @@
 // cannot drift apart (docs/synthesis.md lists the fields).
 #include <nlohmann/json.hpp>
 
-#include "mocap/synth.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/units.hpp"
+#include "mocap/common/units.hpp"
 
 namespace mocap {
 

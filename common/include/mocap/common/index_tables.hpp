@@ -26,8 +26,8 @@
 #include <variant>
 #include <vector>
 
-#include "mocap/dynamics.hpp"
-#include "mocap/index.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/index.hpp"
 
 namespace mocap {
 

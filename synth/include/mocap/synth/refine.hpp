@@ -9,8 +9,8 @@
 #include <cstddef>
 #include <vector>
 
-#include "mocap/path_cache.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/synth/path_cache.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 

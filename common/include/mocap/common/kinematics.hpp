@@ -10,8 +10,8 @@
 #include <span>
 #include <vector>
 
-#include "mocap/raw_clip.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/raw_clip.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

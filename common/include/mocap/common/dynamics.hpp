@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/body.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/body.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

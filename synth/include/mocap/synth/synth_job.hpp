@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "mocap/index.hpp"
-#include "mocap/query.hpp"
-#include "mocap/search.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/search.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 

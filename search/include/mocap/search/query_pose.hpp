@@ -15,13 +15,13 @@
 #include <unordered_map>
 #include <vector>
 
-#include "mocap/bvh.hpp"
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
-#include "mocap/file.hpp"
-#include "mocap/index.hpp"
-#include "mocap/kinematics.hpp"
-#include "mocap/query.hpp"
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "mocap/search/query.hpp"
 
 namespace mocap {
 

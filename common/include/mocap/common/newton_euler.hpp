@@ -45,8 +45,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "mocap/dynamics.hpp"
-#include "mocap/energy.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/energy.hpp"
 
 namespace mocap {
 

@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "mocap/character.hpp"
-#include "mocap/joint_classes.hpp"
-#include "mocap/segment_class.hpp"
-#include "mocap/skeleton.hpp"
+#include "mocap/common/character.hpp"
+#include "mocap/common/joint_classes.hpp"
+#include "mocap/common/segment_class.hpp"
+#include "mocap/common/skeleton.hpp"
 
 namespace mocap {
 

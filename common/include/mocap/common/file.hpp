@@ -41,7 +41,7 @@ class FileBytes {
 /// Throws InputError(path, 0, reason) when it cannot be opened or read.
 FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes);
 
-/// XXH64 (seed 0, mocap/xxh64.hpp) of the file's bytes from `offset` to its
+/// XXH64 (seed 0, mocap/common/xxh64.hpp) of the file's bytes from `offset` to its
 /// end (none when offset is at or past the end), read in 1 MiB blocks.
 /// Throws InputError(path, 0, reason) when it cannot be opened or read.
 std::uint64_t hash_file(const std::filesystem::path& path, std::uint64_t offset = 0);

@@ -12,9 +12,9 @@
 #include <cstddef>
 #include <vector>
 
-#include "mocap/dynamics.hpp"
-#include "mocap/newton_euler.hpp"
-#include "mocap/synth.hpp"
+#include "mocap/common/dynamics.hpp"
+#include "mocap/common/newton_euler.hpp"
+#include "mocap/synth/synth.hpp"
 
 namespace mocap {
 
