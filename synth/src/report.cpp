@@ -68,8 +68,6 @@ void stick_figure(std::ostringstream& o, const SynthSkeleton& sk, const SynthFra
       << fmt(1, b.first) << "\" y2=\"" << fmt(1, b.second) << "\" stroke=\"" << colour
       << "\" stroke-width=\"2.5\" stroke-linecap=\"round\"/>";
   }
-  const auto head = px(wp.positions_m.back());
-  (void)head;
 }
 
 void filmstrip(std::ostringstream& o, const std::string& id, const std::string& title,
