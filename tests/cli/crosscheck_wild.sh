@@ -7,8 +7,10 @@
 #   - agree with Blender's importer to 1e-4 m at frames 0, a third and the
 #     last (compare.py with detected unit and up axis; a Z-up file is compared
 #     with Blender's positions rotated the way ours are, docs/crosscheck.md).
-# A file marked otherwise (`expect` = words of its real defect) must be refused
-# by inspect and skipped by build with an error containing those words.
+# A file marked otherwise must be refused, its `expect` naming the real defect
+# as LINE: WORDS (e.g. `20: too few values`): inspect must fail with an error
+# containing FILE:LINE: WORDS, and build must skip it with the reason
+# containing line LINE: WORDS.
 #   bash tests/cli/crosscheck_wild.sh BUILD_DIR DATA_DIR
 # Exit 77 (skipped) when Blender or the data is missing; under CI=true a
 # missing Blender fails. See docs/crosscheck.md and docs/units.md.
@@ -36,9 +38,10 @@ while IFS=$'\t' read -r file _repo _path _commit _sha _bytes _licence exporter u
   need_files "$path"
   if [ "$expect" != "ok" ]; then
     bad_files+=("$path")
+    printf '%s\t%s\n' "$path" "$expect" >>"$tmp/bad.tsv"
     if "$bin" inspect "$path" --frame 0 --json >/dev/null 2>"$tmp/err"; then
       fail "$file: read, but the manifest says it is malformed ($expect)"
-    elif ! grep -qF -- "$expect" "$tmp/err"; then
+    elif ! grep -qF -- "$file:$expect" "$tmp/err"; then
       fail "$file: refused with '$(cat "$tmp/err")', expected an error naming '$expect'"
     else
       echo "refused as expected: $(cat "$tmp/err")"
@@ -60,10 +63,12 @@ done <"$wild/MANIFEST.tsv"
 
 "$bin" build --out "$tmp/wild.h5" --quiet --json "${ok_files[@]}" "${bad_files[@]}" \
   >"$tmp/build.json" || true
-python3 - "$tmp/build.json" "${#ok_files[@]}" "${bad_files[@]}" <<'PY' || status=1
+touch "$tmp/bad.tsv"
+python3 - "$tmp/build.json" "${#ok_files[@]}" "$tmp/bad.tsv" <<'PY' || status=1
 import json, sys
 b = json.load(open(sys.argv[1]))
-ok, bad = int(sys.argv[2]), sys.argv[3:]
+ok = int(sys.argv[2])
+bad = dict(line.rstrip("\n").split("\t", 1) for line in open(sys.argv[3]) if line.strip())
 skipped = {s["path"]: s["reason"] for s in b["skipped"]}
 wrong = sorted(set(skipped) - set(bad))
 if wrong:
@@ -73,6 +78,9 @@ if b["clips"] != ok:
 missing = [p for p in bad if p not in skipped]
 if missing:
     sys.exit("FAIL: build indexed malformed files: %s" % missing)
+unnamed = {p: skipped[p] for p, words in bad.items() if "line " + words not in skipped[p]}
+if unnamed:
+    sys.exit("FAIL: build skipped malformed files without naming their defect: %s" % unnamed)
 print("build: %d clips indexed, %d malformed skipped" % (ok, len(bad)))
 PY
 exit $status
