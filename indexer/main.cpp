@@ -1,9 +1,10 @@
 // mocap-index: capture collections -> HDF5 index, and tools to look at files.
 //
 // Subcommands (docs/cli.md):
-//   inspect FILE --frame N [--unit U] [--character C.json] [--json]
-//   summary INPUT... [--unit U] [--json]
-//   build --out INDEX.h5 INPUT... [--jobs N] [--strict] [--unit U] [--character C.json] [--json]
+//   inspect FILE --frame N [--unit U] [--up A] [--character C.json] [--json]
+//   summary INPUT... [--unit U] [--up A] [--json]
+//   build --out INDEX.h5 INPUT... [--jobs N] [--strict] [--unit U] [--up A] [--character C.json]
+//         [--json]
 //   verify INDEX.h5
 //   info INDEX.h5 [--json]
 // Exit status: 0 success; 1 some inputs were bad (reported, the rest done);
@@ -37,16 +38,29 @@ std::optional<mocap::LengthUnit> unit_option(const std::string& s) {
   if (s.empty() || s == "auto") return std::nullopt;
   auto u = mocap::parse_unit(s);
   if (!u)
-    throw CLI::ValidationError("--unit", "expected m, cm, mm, inch, cmu or auto, got '" + s + "'");
+    throw CLI::ValidationError("--unit",
+                               "expected m, dm, cm, mm, inch, cmu or auto, got '" + s + "'");
   return u;
 }
 
+std::optional<mocap::UpAxis> up_option(const std::string& s) {
+  if (s.empty() || s == "auto") return std::nullopt;
+  auto a = mocap::parse_up_axis(s);
+  if (!a) throw CLI::ValidationError("--up", "expected y, z or auto, got '" + s + "'");
+  return a;
+}
+
+constexpr const char* kUpHelp =
+    "Up axis of the files: y, z or auto (default: detected per file); a Z-up file is rotated "
+    "to Y up, (x, y, z) -> (x, z, -y)";
+
 int run_inspect(const std::string& file, std::size_t frame, const std::string& unit,
-                const std::string& character, bool json) {
+                const std::string& up, const std::string& character, bool json) {
   mocap::InspectOptions opt;
   opt.file = file;
   opt.frame = frame;
   opt.unit = unit_option(unit);
+  opt.up = up_option(up);
   if (!character.empty()) opt.character = character;
   const nlohmann::json out = mocap::inspect_frame(opt);
   if (json) {
@@ -74,7 +88,8 @@ int run_inspect(const std::string& file, std::size_t frame, const std::string& u
   return kExitOk;
 }
 
-int run_summary(const std::vector<std::string>& inputs, const std::string& unit, bool json) {
+int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
+                const std::string& up, bool json) {
   const mocap::Collection col = mocap::list_collection(inputs);
   for (const auto& p : col.problems) fmt::print(stderr, "mocap-index: {}: {}\n", p.input, p.reason);
   if (col.files.empty()) {
@@ -84,7 +99,7 @@ int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
   std::vector<std::filesystem::path> files;
   files.reserve(col.files.size());
   for (const auto& e : col.files) files.push_back(e.path);
-  const auto sums = mocap::summarize_files(files, unit_option(unit));
+  const auto sums = mocap::summarize_files(files, unit_option(unit), up_option(up));
 
   std::size_t ok = 0, frames = 0, bytes = 0;
   double seconds = 0.0;
@@ -184,9 +199,10 @@ class ProgressPrinter {
   std::chrono::steady_clock::time_point last_{};
 };
 
-int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& character,
-              bool json, bool quiet) {
+int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& up,
+              const std::string& character, bool json, bool quiet) {
   opt.unit = unit_option(unit);
+  opt.up = up_option(up);
   if (!character.empty()) opt.character = character;
   opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
   ProgressPrinter printer;
@@ -338,7 +354,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(MOCAP_VERSION));
 
-  std::string file, unit, character;
+  std::string file, unit, up, character;
   std::size_t frame = 0;
   bool json = false;
   auto* inspect = app.add_subcommand(
@@ -346,24 +362,26 @@ int main(int argc, char** argv) {
   inspect->add_option("FILE", file, "BVH file")->required();
   inspect->add_option("--frame", frame, "Frame number, 0-based")->required();
   inspect->add_option("--unit", unit,
-                      "Length unit of the file: m, cm, mm, inch, cmu (0.056444 m) or auto "
-                      "(default: detected from the standing height)");
+                      "Length unit of the file: m, dm, cm, mm, inch, cmu (0.056444 m) or auto "
+                      "(default: detected from the skeleton height)");
+  inspect->add_option("--up", up, kUpHelp);
   inspect->add_option("--character", character,
                       "Character JSON (docs/character.md); default 70 kg male");
   inspect->add_flag("--json", json, "Print one JSON object (docs/cli.md)");
 
   std::vector<std::string> inputs;
-  std::string sum_unit;
+  std::string sum_unit, sum_up;
   bool sum_json = false;
   auto* summary = app.add_subcommand(
       "summary", "Parse capture files and print one line per clip (frames, rate, unit, height)");
   summary->add_option("INPUT", inputs, "Folders (searched recursively), .bvh files or list files")
       ->required();
   summary->add_option("--unit", sum_unit, "Length unit of the files (default: detected per file)");
+  summary->add_option("--up", sum_up, kUpHelp);
   summary->add_flag("--json", sum_json, "Print one JSON object");
 
   mocap::IndexBuildOptions build_opt;
-  std::string build_unit, build_character;
+  std::string build_unit, build_up, build_character;
   bool build_json = false, build_quiet = false;
   auto* build = app.add_subcommand("build",
                                    "Index capture collections into one HDF5 file "
@@ -383,7 +401,8 @@ int main(int argc, char** argv) {
                   "Fail (keeping the previous index) on the first bad file");
   build->add_option(
       "--unit", build_unit,
-      "Length unit of the files: m, cm, mm, inch, cmu or auto (default: detected per file)");
+      "Length unit of the files: m, dm, cm, mm, inch, cmu or auto (default: detected per file)");
+  build->add_option("--up", build_up, kUpHelp);
   build->add_option(
       "--character", build_character,
       "Character JSON the dynamics are computed for (docs/character.md); default 70 kg male");
@@ -417,9 +436,10 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*inspect) return run_inspect(file, frame, unit, character, json);
-    if (*summary) return run_summary(inputs, sum_unit, sum_json);
-    if (*build) return run_build(build_opt, build_unit, build_character, build_json, build_quiet);
+    if (*inspect) return run_inspect(file, frame, unit, up, character, json);
+    if (*summary) return run_summary(inputs, sum_unit, sum_up, sum_json);
+    if (*build)
+      return run_build(build_opt, build_unit, build_up, build_character, build_json, build_quiet);
     if (*verify) return run_verify(verify_file, verify_json);
     if (*info) return run_info(info_file, info_json);
   } catch (const CLI::ValidationError& e) {

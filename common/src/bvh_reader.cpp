@@ -172,6 +172,22 @@ class BvhParser {
     return std::string(name);
   }
 
+  // The rest of an "End Site" line: an optional name that several exporters
+  // write ("End Site Head_end", read by Blender; it names nothing we keep) and
+  // the opening brace, on that line or the next.
+  void end_site_name_and_brace() {
+    const std::size_t line = line_;
+    std::string_view rest = rest_of_line();
+    bool opened = false;
+    if (!rest.empty() && rest.back() == '{') {
+      rest.remove_suffix(1);
+      opened = true;
+    }
+    if (rest.find_first_of("{}") != std::string_view::npos)
+      fail(line, "expected an End Site name without braces, found " + show(rest));
+    if (!opened) expect("{", "'{' after End Site");
+  }
+
   // A ROOT or JOINT after its keyword: its name and opening brace (`brace`
   // says what is expected when the brace is missing); the joint, a child of
   // `parent` (-1 for a ROOT) whose channels start at `column`, is appended to
@@ -313,7 +329,7 @@ class BvhParser {
         if (joint.has_end_site) fail(line, "second End Site in joint '" + joint.name + "'");
         joint.has_end_site = true;
         top.has_children = true;
-        expect("{", "'{' after End Site");
+        end_site_name_and_brace();
         stack.push_back({-1, false, false, false});
         continue;
       }

@@ -11,8 +11,11 @@
 namespace mocap {
 
 namespace {
-constexpr LengthUnit kAllUnits[] = {LengthUnit::m, LengthUnit::cm, LengthUnit::mm, LengthUnit::inch,
-                                    LengthUnit::cmu};
+constexpr LengthUnit kAllUnits[] = {LengthUnit::m,    LengthUnit::cm,  LengthUnit::mm,
+                                    LengthUnit::inch, LengthUnit::cmu, LengthUnit::dm};
+constexpr UpAxis kAllUpAxes[] = {UpAxis::y, UpAxis::z};
+// Z extent over Y extent above which a clip is taken to stand along Z.
+constexpr double kZUpRatio = 1.5;
 constexpr double kReferenceHeightM = 1.7;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -64,13 +67,15 @@ std::vector<std::uint8_t> body_subtree(const Skeleton& skel) {
   return in;
 }
 
+// Extremes along `axis` (1 = Y, 2 = Z).
 Extremes extremes(const Skeleton& skel, const WorldPose& world,
-                  const std::vector<Eigen::Vector3d>& ends, const std::vector<std::uint8_t>& body) {
+                  const std::vector<Eigen::Vector3d>& ends, const std::vector<std::uint8_t>& body,
+                  int axis = 1) {
   Extremes e;
   for (std::size_t j = 0; j < skel.joint_count(); ++j) {
     if (!body[j]) continue;
     for (int k = 0; k < 2; ++k) {
-      const double y = k == 0 ? world.positions_m[j][1] : ends[j][1];
+      const double y = k == 0 ? world.positions_m[j][axis] : ends[j][axis];
       if (k == 1 && !skel.has_end_site[j]) continue;
       if (y < e.lo) e = {j, e.hi_joint, k == 1, e.hi_end, y, e.hi};
       if (y > e.hi) e = {e.lo_joint, j, e.lo_end, k == 1, e.lo, y};
@@ -92,6 +97,8 @@ double unit_scale_m(LengthUnit u) {
       return 0.0254;
     case LengthUnit::cmu:
       return 0.056444;
+    case LengthUnit::dm:
+      return 0.1;
   }
   return 1.0;
 }
@@ -108,8 +115,14 @@ const char* unit_name(LengthUnit u) {
       return "inch";
     case LengthUnit::cmu:
       return "cmu";
+    case LengthUnit::dm:
+      return "dm";
   }
   return "m";
+}
+
+const char* up_axis_name(UpAxis a) {
+  return a == UpAxis::z ? "z" : "y";
 }
 
 std::optional<LengthUnit> parse_unit(std::string_view s) {
@@ -121,11 +134,18 @@ std::optional<LengthUnit> parse_unit(std::string_view s) {
   return std::nullopt;
 }
 
+std::optional<UpAxis> parse_up_axis(std::string_view s) {
+  for (UpAxis a : kAllUpAxes)
+    if (s.size() == 1 && std::tolower(static_cast<unsigned char>(s[0])) == up_axis_name(a)[0])
+      return a;
+  return std::nullopt;
+}
+
 namespace {
 // Median over sampled frames of `measure(skel, local, extremes)`; frames whose
 // extremes are not finite or whose measure is negative (no height) are skipped.
 template <class Measure>
-double median_over_samples(const RawClip& clip, int samples, Measure measure) {
+double median_over_samples(const RawClip& clip, int samples, Measure measure, int axis = 1) {
   if (clip.joints.empty()) return 0.0;
   const Skeleton skel = build_skeleton(clip, 1.0);
   const std::vector<std::uint8_t> body = body_subtree(skel);
@@ -137,7 +157,7 @@ double median_over_samples(const RawClip& clip, int samples, Measure measure) {
     local_pose_from_row(skel, clip.frame(f), local);
     forward_kinematics(skel, local, world);
     end_site_positions(skel, world, ends);
-    const Extremes e = extremes(skel, world, ends, body);
+    const Extremes e = extremes(skel, world, ends, body, axis);
     if (!std::isfinite(e.hi - e.lo)) continue;
     const double h = measure(skel, local, e);
     if (h >= 0.0) heights.push_back(h);
@@ -150,6 +170,15 @@ double standing_height_file_units(const RawClip& clip, int samples) {
   return median_over_samples(
       clip, samples,
       [](const Skeleton&, const LocalPose&, const Extremes& e) { return e.hi - e.lo; });
+}
+
+UpAxis detect_up_axis(const RawClip& clip, int samples) {
+  const auto extent = [](const Skeleton&, const LocalPose&, const Extremes& e) {
+    return e.hi - e.lo;
+  };
+  const double y = median_over_samples(clip, samples, extent, 1);
+  const double z = median_over_samples(clip, samples, extent, 2);
+  return z > kZUpRatio * y ? UpAxis::z : UpAxis::y;
 }
 
 double skeleton_height_file_units(const RawClip& clip, int samples) {

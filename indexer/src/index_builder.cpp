@@ -105,6 +105,7 @@ void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Charac
       raw = parse_bvh(text.view(), f.path);
     }
     if (raw.frame_count == 0) throw InputError(f.path, 0, "the clip has no frames");
+    normalise_up_axis(raw, opt.up);
     const LengthUnit unit = opt.unit ? *opt.unit : detect_unit(raw);
     times.parse_ns += ns_since(t);
     t = Clock::now();

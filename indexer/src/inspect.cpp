@@ -19,7 +19,8 @@ nlohmann::json vec3(const Eigen::Vector3d& v) {
 }  // namespace
 
 nlohmann::json inspect_frame(const InspectOptions& opt) {
-  const RawClip clip = read_bvh_file(opt.file);
+  RawClip clip = read_bvh_file(opt.file);
+  const UpAxis up = normalise_up_axis(clip, opt.up);
   if (opt.frame >= clip.frame_count)
     throw InputError(opt.file.string(), 0,
                      "frame " + std::to_string(opt.frame) + " out of range: the clip has " +
@@ -51,15 +52,21 @@ nlohmann::json inspect_frame(const InspectOptions& opt) {
                         {"mass_kg", seg.mass_kg},
                         {"com_m", vec3(com)}});
   }
-  return {{"file", opt.file.string()},   {"frame", opt.frame},
-          {"frames", clip.frame_count},  {"frame_time_s", clip.frame_time_s},
-          {"unit", unit_name(unit)},     {"unit_scale_m", unit_scale_m(unit)},
-          {"character", character.name}, {"total_mass_kg", body.total_mass_kg},
-          {"joints", std::move(joints)}, {"segments", std::move(segments)}};
+  return {{"file", opt.file.string()},
+          {"frame", opt.frame},
+          {"frames", clip.frame_count},
+          {"frame_time_s", clip.frame_time_s},
+          {"unit", unit_name(unit)},
+          {"unit_scale_m", unit_scale_m(unit)},
+          {"up", up_axis_name(up)},
+          {"character", character.name},
+          {"total_mass_kg", body.total_mass_kg},
+          {"joints", std::move(joints)},
+          {"segments", std::move(segments)}};
 }
 
 std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path>& files,
-                                         std::optional<LengthUnit> unit) {
+                                         std::optional<LengthUnit> unit, std::optional<UpAxis> up) {
   std::vector<ClipSummary> out(files.size());
   tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t i) {
     ClipSummary& s = out[i];
@@ -67,7 +74,8 @@ std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path
     std::error_code ec;
     s.bytes = static_cast<std::size_t>(std::filesystem::file_size(files[i], ec));
     try {
-      const RawClip clip = read_bvh_file(files[i]);
+      RawClip clip = read_bvh_file(files[i]);
+      normalise_up_axis(clip, up);
       const LengthUnit u = unit ? *unit : detect_unit(clip);
       s.frames = clip.frame_count;
       s.joints = clip.joints.size();

@@ -47,6 +47,33 @@ expect_fail() {
 expect_fail "out of range" inspect "$bn" --frame 999999 --json
 expect_fail "no-such.bvh" inspect "$tmp/no-such.bvh" --frame 0 --json
 expect_fail "unit" inspect "$bn" --frame 0 --unit furlong --json
+expect_fail "expected y, z or auto" inspect "$bn" --frame 0 --up x --json
 printf 'HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 2 Xposition Wrotation\n}\n' > "$tmp/bad.bvh"
 expect_fail "bad.bvh:5" inspect "$tmp/bad.bvh" --frame 0 --json
 echo "inspect errors ok"
+
+# --up and dm: a 17 dm figure standing along +Z (hand-written) is detected as
+# Z up and dm and rotated to Y up, (x, y, z) -> (x, z, -y); declared --up y
+# keeps the file's axes.
+printf '%s\n' HIERARCHY 'ROOT Hips' '{' ' OFFSET 0 0 9' \
+  ' CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation' \
+  ' JOINT Head' ' {' '  OFFSET 0 1 7' '  CHANNELS 3 Zrotation Yrotation Xrotation' \
+  '  End Site Head_end' '  {' '   OFFSET 0 0 1' '  }' ' }' ' JOINT Foot' ' {' '  OFFSET 0 0 -9' \
+  '  CHANNELS 3 Zrotation Yrotation Xrotation' '  End Site' '  {' '   OFFSET 0 0 0' '  }' ' }' '}' \
+  MOTION 'Frames: 1' 'Frame Time: 0.1' '1 2 9 0 0 0 0 0 0 0 0 0' > "$tmp/zup.bvh"
+"$bin" inspect "$tmp/zup.bvh" --frame 0 --json > "$tmp/zup.json"
+"$bin" inspect "$tmp/zup.bvh" --frame 0 --up y --unit dm --json > "$tmp/zup-y.json"
+python3 - "$tmp" <<'PY'
+import json, os, sys
+tmp = sys.argv[1]
+auto = json.load(open(os.path.join(tmp, "zup.json")))
+kept = json.load(open(os.path.join(tmp, "zup-y.json")))
+assert auto["up"] == "z" and auto["unit"] == "dm", (auto["up"], auto["unit"])
+assert kept["up"] == "y" and kept["unit"] == "dm"
+for a, k in zip(auto["joints"], kept["joints"]):
+    x, y, z = k["position_m"]
+    assert max(abs(p - q) for p, q in zip(a["position_m"], (x, z, -y))) < 1e-12, (a, k)
+head = {j["name"]: j["position_m"] for j in auto["joints"]}["Head"]
+assert abs(head[0] - 0.1) < 1e-12 and abs(head[1] - 1.6) < 1e-12 and abs(head[2] + 0.3) < 1e-12, head
+print("inspect --up ok")
+PY

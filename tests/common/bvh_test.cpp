@@ -381,6 +381,31 @@ TEST(BvhParse, SeveralRoots) {
   EXPECT_DOUBLE_EQ(clip.frame_time_s, 0.04);
 }
 
+TEST(BvhParse, NamedEndSitesReadLikeUnnamedOnes) {
+  const std::string motion = "Frames: 1\nFrame Time: 0.1\n1 2 3 4 5 6 7 8 9\n";
+  const RawClip plain = parse_bvh(two_joints(motion), "mem");
+  for (const char* named :
+       {"    End Site Head_end\n", "    End Site Head_end {\n", "    End Site  Spine end\t\r\n"}) {
+    std::string text = two_joints(motion);
+    std::string line = named;
+    if (line.find('{') != std::string::npos) text.erase(text.find("    {\n      OFFSET 0 5"), 6);
+    text.replace(text.find("    End Site\n"), 13, line);
+    const RawClip clip = parse_bvh(text, "mem");
+    ASSERT_EQ(clip.joints.size(), 2u) << named;
+    EXPECT_TRUE(clip.joints[1].has_end_site) << named;
+    EXPECT_EQ(clip.joints[1].end_site, plain.joints[1].end_site) << named;
+    EXPECT_EQ(clip.values, plain.values) << named;
+  }
+  // A named End Site and a real defect later: the error names the defect.
+  std::string both = two_joints(
+      "Frames: 3\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n");
+  both.replace(both.find("    End Site\n"), 13, "    End Site Head_end\n");
+  expect_input_error(both, 20, "too few");
+  std::string braced = two_joints("Frames: 0\nFrame Time: 0.1\n");
+  braced.replace(braced.find("    End Site\n"), 13, "    End Site A}\n");
+  expect_input_error(braced, 10, "End Site name");
+}
+
 TEST(BvhParse, ZeroFramesAndBraceOnNameLine) {
   const RawClip clip = parse_bvh(
       "HIERARCHY\nROOT R {\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n JOINT C {\n "

@@ -11,7 +11,10 @@ frame, run each reference once for all sampled frames (tests/crosscheck/
 blender_fk.py under `blender -b`, tests/crosscheck/three_fk.mjs under node),
 and compare world joint positions joint by joint (matched by name; the parent
 names must match too). References report file units; they are converted with
-the unit_scale_m that our JSON reports, so the error is in metres.
+the unit_scale_m that our JSON reports, so the error is in metres. References
+keep the file's axes; when our JSON reports "up": "z" (a Z-up file, which we
+rotate to Y up), their positions get the same rotation, (x, y, z) -> (x, z, -y),
+before the comparison (docs/crosscheck.md).
 Without --bin, the references are compared with each other (needs two --ref).
 
 Prints one row per (file, reference) and exits 1 if any error exceeds --tol
@@ -115,6 +118,11 @@ def check_parents(label, path, a, b, a_label, b_label):
                            ", ".join("%s (%s vs %s)" % (n, a[n], b.get(n)) for n in wrong[:5])))
 
 
+def rotate_z_up_to_y_up(frames):
+    """Our Z-up normalisation applied to a reference's frames: (x, y, z) -> (x, z, -y)."""
+    return {f: {n: [p[0], p[2], -p[1]] for n, p in joints.items()} for f, joints in frames.items()}
+
+
 def max_error(a, b, scale_a, scale_b):
     """(max distance, joint) over joints; a, b: name -> [x, y, z]."""
     worst = (0.0, None)
@@ -155,9 +163,11 @@ def main():
                 first, _, _ = ours(args.bin, path, 0, args.unit)
                 count = int(first["frames"])
                 scale = float(first["unit_scale_m"])
+                up = first.get("up", "y")
             else:
                 count = header_frame_count(path)
                 scale = args.ref_scale if args.ref_scale else 1.0
+                up = "y"
             frames = sample_frames(path, count, args.random, args.seed, args.frames)
             refs = {kind: reference(kind, path, frames, args) for kind in dict.fromkeys(args.ref)}
             for kind, ref in refs.items():
@@ -178,7 +188,8 @@ def main():
                 pairs = [(kinds[0], k) for k in kinds[1:]]
                 sources = {}
             for kind, ref in refs.items():
-                sources[kind] = (ref["frames"], ref["parents"], scale)
+                ref_frames = rotate_z_up_to_y_up(ref["frames"]) if up == "z" else ref["frames"]
+                sources[kind] = (ref_frames, ref["parents"], scale)
 
             for a_label, b_label in pairs:
                 a_frames, a_parents, a_scale = sources[a_label]
@@ -195,7 +206,7 @@ def main():
                 ok = worst[0] <= args.tol
                 failed = failed or not ok
                 rows.append((os.path.basename(path), "%s vs %s" % (a_label, b_label), len(frames),
-                             len(a_parents), scale, worst[0], "%s@%d" % (worst[1], worst[2]),
+                             len(a_parents), scale, up, worst[0], "%s@%d" % (worst[1], worst[2]),
                              "ok" if ok else "FAIL"))
     except ToolError as e:
         print_table(rows)
@@ -211,8 +222,9 @@ def main():
 def print_table(rows):
     if not rows:
         return
-    head = ("file", "compared", "frames", "joints", "m/unit", "max error m", "worst joint@frame", "")
-    cells = [head] + [(r[0], r[1], str(r[2]), str(r[3]), "%g" % r[4], "%.3e" % r[5], r[6], r[7]) for r in rows]
+    head = ("file", "compared", "frames", "joints", "m/unit", "up", "max error m", "worst joint@frame", "")
+    cells = [head] + [(r[0], r[1], str(r[2]), str(r[3]), "%g" % r[4], r[5], "%.3e" % r[6], r[7], r[8])
+                      for r in rows]
     widths = [max(len(c[i]) for c in cells) for i in range(len(head))]
     for c in cells:
         print("  ".join(x.ljust(w) for x, w in zip(c, widths)).rstrip())

@@ -126,6 +126,9 @@ struct IndexBuildOptions {
   bool strict = false;
   /// Length unit of every file; nullopt = detect per clip (units.hpp).
   std::optional<LengthUnit> unit;
+  /// Up axis of every file; nullopt = detect per clip (units.hpp). A Z-up
+  /// clip is rotated to Y up before anything else.
+  std::optional<UpAxis> up;
   /// Character file; nullopt = the default 70 kg male.
   std::optional<std::filesystem::path> character;
   /// T of the kd features, seconds (docs/energy.md; default 0.5).

@@ -16,16 +16,18 @@ struct InspectOptions {
   std::filesystem::path file;
   std::size_t frame = 0;                           // 0-based
   std::optional<LengthUnit> unit;                  // nullopt: detect_unit()
+  std::optional<UpAxis> up;                        // nullopt: detect_up_axis()
   std::optional<std::filesystem::path> character;  // nullopt: default 70 kg male
 };
 
 /// One frame in world space (metres, Y up), the contract of docs/cli.md:
-/// {"file", "frames", "frame_time_s", "unit", "unit_scale_m", "total_mass_kg",
+/// {"file", "frames", "frame_time_s", "unit", "unit_scale_m", "up", "total_mass_kg",
 ///  "joints": [{"name", "parent", "position_m"}],
 ///  "segments": [{"joint", "joint_index", "class", "side", "mass_kg", "com_m"}]}.
-/// Segments are the joints with mass (class none is not a segment). The
-/// character's length scales are applied before forward kinematics.
-/// Throws InputError for a bad file, frame or character.
+/// "up" is the file's up axis ("y" or "z", declared or detected); a Z-up file
+/// is rotated to Y up (units.hpp: rotate_to_y_up). Segments are the joints with mass (class none is
+/// not a segment). The character's length scales are applied before forward kinematics. Throws
+/// InputError for a bad file, frame or character.
 nlohmann::json inspect_frame(const InspectOptions& opt);
 
 /// Per-clip facts for the summary (one line each).
@@ -43,9 +45,11 @@ struct ClipSummary {
   std::size_t bytes = 0;
 };
 
-/// Parses every file (TBB-parallel, results in input order).
+/// Parses every file (TBB-parallel, results in input order); a Z-up file
+/// (declared or detected) is rotated to Y up before its heights are measured.
 std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path>& files,
-                                         std::optional<LengthUnit> unit);
+                                         std::optional<LengthUnit> unit,
+                                         std::optional<UpAxis> up = std::nullopt);
 
 nlohmann::json to_json(const ClipSummary& s);
 
