@@ -101,7 +101,7 @@ void add_energy_command(CLI::App& app, EnergyArgs& args) {
   cmd->add_option("--character", args.character,
                   "Character JSON file (docs/character.md); default body otherwise");
   cmd->add_option("--unit", args.unit,
-                  "Length unit of both files: m, cm, mm, inch, cmu or auto (detected per file)")
+                  "Length unit of both files: m, dm, cm, mm, inch, cmu or auto (detected per file)")
       ->default_val("auto");
   cmd->add_flag("--json", args.json,
                 "Print one JSON object: {h_J, g_J, terms: [{name, kind, h_J, g_J}], ...}");
@@ -117,7 +117,7 @@ int run_energy(const EnergyArgs& args) {
     o.unit = mocap::parse_unit(args.unit);
     if (!o.unit)
       throw mocap::InputError("--unit", 0,
-                              "expected m, cm, mm, inch, cmu or auto, got '" + args.unit + "'");
+                              "expected m, dm, cm, mm, inch, cmu or auto, got '" + args.unit + "'");
   }
   const mocap::EnergyReport r = mocap::run_energy_command(o);
   std::cout << (args.json ? mocap::energy_report_json(r) + "\n" : mocap::energy_report_text(r));

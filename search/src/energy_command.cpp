@@ -43,7 +43,8 @@ struct LoadedClip {
 
 LoadedClip load_clip(const FrameSpec& spec, const Character& character,
                      const std::optional<LengthUnit>& unit) {
-  const RawClip raw = read_bvh_file(spec.file);
+  RawClip raw = read_bvh_file(spec.file);
+  normalise_up_axis(raw, std::nullopt);  // Y up, as the indexer reads it
   if (spec.frame >= raw.frame_count)
     throw InputError(spec.file.string(), 0,
                      fmt::format("frame {} out of range: the clip has {} frames (0-based)",

@@ -85,8 +85,11 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::store(const std::string& key,
 
 namespace {
 
-// The whole file from its parsed text, as get() builds it.
-std::shared_ptr<QueryBvhFile> whole_file(const RawClip& raw, const std::string& unit_option) {
+// The whole file from its parsed text, as get() builds it: Y up as the
+// indexer makes it (a Z-up clip, detected over the whole clip, is rotated),
+// then in metres.
+std::shared_ptr<QueryBvhFile> whole_file(RawClip raw, const std::string& unit_option) {
+  normalise_up_axis(raw, std::nullopt);
   std::optional<LengthUnit> unit;
   if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
   const LengthUnit u = unit ? *unit : detect_unit(raw);
@@ -186,6 +189,14 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
       std::lock_guard lock(mutex_);
       if (hierarchies_.size() >= kHierarchies) hierarchies_.clear();
       hierarchies_.push_back(std::move(parsed));
+    }
+    // A window that looks Z up is read as the whole file instead, so that
+    // the up axis is decided over the whole clip, as the indexer decided it
+    // (a lying pose can look Z up over a few frames).
+    if (detect_up_axis(w.clip) == UpAxis::z) {
+      loaded = whole_file(parse_bvh(text, path.string()), unit_option);
+      loaded->stat = st;
+      return store(key, std::move(loaded));
     }
     loaded = std::make_shared<QueryBvhFile>();
     loaded->motion = clip_locals_from_raw(w.clip, it_known->second.unit_scale_m);

@@ -7,7 +7,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/units.hpp"
 #include "test_support.hpp"
 
 namespace mocap {
@@ -44,6 +46,29 @@ EnergyCommandOptions options(std::size_t from, std::size_t to) {
   o.from = {walk(), from};
   o.to = {walk(), to};
   return o;
+}
+
+// A Z-up file is read Y up, as the indexer reads it: its energies equal those
+// of the same clip written Y up (rotate_to_y_up), to round-off.
+TEST(EnergyCommand, ZUpFileEqualsItsYUpCopy) {
+  const std::filesystem::path zup = test::data_dir() / "bvh-wild" / "pybvh_test1_mixedorders.bvh";
+  if (!std::filesystem::exists(zup)) GTEST_SKIP() << "no " << zup;
+  const RawClip raw = read_bvh_file(zup);
+  ASSERT_EQ(detect_up_axis(raw), UpAxis::z);
+  const std::filesystem::path yup = test::temp_dir("energy-zup") / "yup.bvh";
+  write_bvh_file(rotate_to_y_up(raw, UpAxis::z), yup, 17);
+  for (const auto& [from, to] : {std::pair<std::size_t, std::size_t>{0, 10}, {20, 21}}) {
+    EnergyCommandOptions z, y;
+    z.from = {zup, from};
+    z.to = {zup, to};
+    y.from = {yup, from};
+    y.to = {yup, to};
+    const EnergyReport rz = run_energy_command(z), ry = run_energy_command(y);
+    EXPECT_EQ(rz.from_unit, ry.from_unit);
+    EXPECT_NEAR(rz.h_J, ry.h_J, 1e-9 * (1.0 + ry.h_J)) << from << "->" << to;
+    EXPECT_NEAR(rz.g_J, ry.g_J, 1e-9 * (1.0 + ry.g_J)) << from << "->" << to;
+    EXPECT_GT(ry.g_J, 0.0);
+  }
 }
 
 TEST(EnergyCommand, ReportOnARealClip) {

@@ -986,3 +986,28 @@ TEST(Search, WorldQueryAfterARelativeOneOnTheSameThread) {
     expect_same_results(w, alone, "world after relative");
   }
 }
+
+// A query frame of a Z-up file is put Y up as the indexer put the clip: two
+// frames of an indexed Z-up clip find that clip's own partial motion at h = 0
+// (the indexed-file window is read through the whole file when it looks Z up).
+TEST(Search, ZUpQueryFramesMatchTheirIndexedClip) {
+  const fs::path source = test::data_dir() / "bvh-wild" / "pybvh_test1_mixedorders.bvh";
+  if (!fs::exists(source)) GTEST_SKIP() << "no " << source;
+  const fs::path dir = test::temp_dir("search-zup");
+  fs::create_directories(dir / "clips");
+  fs::copy_file(source, dir / "clips" / "zup.bvh");
+  const fs::path index_path = build_index_with_binary(dir / "clips", dir / "zup.h5", {});
+  ASSERT_FALSE(index_path.empty());
+  const Index index = Index::open(index_path);
+  const SearchEngine engine(index);
+  const std::string file = (dir / "clips" / "zup.bvh").string();
+  const Query q = parse("{\"relative\": false, \"top\": 1, \"frames\": [{\"bvh\": \"" + file +
+                        "\", \"frame\": 5}, {\"bvh\": \"" + file + "\", \"frame\": 30}]}");
+  const QueryOutcome r = engine.run(q, {});
+  ASSERT_FALSE(r.error) << *r.error;
+  ASSERT_EQ(r.pairs.size(), 1u);
+  ASSERT_EQ(r.pairs[0].results.size(), 1u);
+  EXPECT_EQ(r.pairs[0].results[0].start_frame, 5u);
+  EXPECT_EQ(r.pairs[0].results[0].end_frame, 30u);
+  EXPECT_EQ(r.pairs[0].results[0].score_J, 0.0);
+}
