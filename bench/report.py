@@ -134,7 +134,8 @@ def main():
     w(f"| load average (start / end) | {mc['load_average_at_start']:.2f} / "
       f"{m.get('load_average_at_end', 0):.2f} |")
     w(f"| wall time of the whole run | {m.get('seconds', 0) / 60:.1f} min |")
-    w(f"| data | Bandai Namco set 2 (2,902 clips, 384,931 frames) and set 1, from `{m['data']}` |")
+    w("| data | Bandai Namco set 2 (2,902 clips, 384,931 frames) and set 1, from the data folder "
+      "(`../shared/data` or `$MOCAP_DATA_DIR`) |")
     kept = {}
     for key, st in sorted(m.get("stages", {}).items()):
         if st.get("date") != m["date"]:
