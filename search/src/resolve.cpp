@@ -173,7 +173,6 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
       verified_[key] = {st, verified};
     }
   }
-  std::shared_ptr<QueryBvhFile> loaded;
   if (verified) {
     const std::string_view text = verified->view();
     // The indexer parsed these bytes: the window's lines are all that is
@@ -190,22 +189,20 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
       if (hierarchies_.size() >= kHierarchies) hierarchies_.clear();
       hierarchies_.push_back(std::move(parsed));
     }
-    // A window that looks Z up is read as the whole file instead, so that
-    // the up axis is decided over the whole clip, as the indexer decided it
-    // (a lying pose can look Z up over a few frames).
-    if (detect_up_axis(w.clip) == UpAxis::z) {
-      loaded = whole_file(parse_bvh(text, path.string()), unit_option);
+    // A window that looks Z up is read as the whole file below instead, so
+    // that the up axis is decided over the whole clip, as the indexer
+    // decided it (a lying pose can look Z up over a few frames).
+    if (detect_up_axis(w.clip) == UpAxis::y) {
+      auto loaded = std::make_shared<QueryBvhFile>();
+      loaded->motion = clip_locals_from_raw(w.clip, it_known->second.unit_scale_m);
+      loaded->first_frame = w.first_frame;
+      loaded->file_frame_count = w.file_frame_count;
       loaded->stat = st;
-      return store(key, std::move(loaded));
+      return store(window_key, std::move(loaded));
     }
-    loaded = std::make_shared<QueryBvhFile>();
-    loaded->motion = clip_locals_from_raw(w.clip, it_known->second.unit_scale_m);
-    loaded->first_frame = w.first_frame;
-    loaded->file_frame_count = w.file_frame_count;
-    loaded->stat = st;
-    return store(window_key, std::move(loaded));
   }
-  loaded = whole_file(parse_bvh(read->view(), path.string()), unit_option);
+  const FileBytes& bytes = verified ? *verified : *read;
+  auto loaded = whole_file(parse_bvh(bytes.view(), path.string()), unit_option);
   loaded->stat = st;
   return store(key, std::move(loaded));
 }
