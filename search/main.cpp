@@ -55,7 +55,8 @@ struct SearchArgs {
   std::string mode = "exact";
   unsigned threads = 0;
   bool quiet = false;
-  double max_length_s = 2.0;
+  double min_length_s = mocap::SearchOptions{}.min_length_s;
+  double max_length_s = mocap::SearchOptions{}.max_length_s;
   int checks = 256;
   int trees = 4;
   bool no_recall = false;
@@ -74,8 +75,13 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
   app.add_option("--threads", a.threads,
                  "Worker threads (default: all cores); results do not depend on it");
   app.add_flag("-q,--quiet", a.quiet, "No progress output on stderr");
+  app.add_option("--min-length", a.min_length_s,
+                 "Shortest partial motion in seconds, for queries without min_length_s "
+                 "(default 0.2)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--max-length", a.max_length_s,
-                 "Relative mode: longest partial motion in seconds (default 2)")
+                 "Longest partial motion in seconds, for queries without max_length_s "
+                 "(default 2)")
       ->check(CLI::PositiveNumber);
   app.add_option("--checks", a.checks, "approx: kd-tree leaves visited per search (default 256)")
       ->check(CLI::PositiveNumber);
@@ -134,7 +140,10 @@ int run_search(const SearchArgs& a) {
   if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
   mocap::SearchOptions opt;
   opt.mode = *mocap::parse_search_mode(a.mode);
+  opt.min_length_s = a.min_length_s;
   opt.max_length_s = a.max_length_s;
+  if (opt.min_length_s > opt.max_length_s)
+    throw mocap::InputError("--min-length", 0, "must not exceed --max-length");
   opt.approx_checks = a.checks;
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;

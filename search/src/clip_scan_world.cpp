@@ -1,4 +1,4 @@
-// The clip scans of world and relative mode (clip_scans.hpp), and the
+// The clip scans of world mode (clip_scans.hpp), and the
 // running minimum that finds a clip's best pair (search.hpp).
 #include <algorithm>
 #include <cmath>
@@ -11,16 +11,7 @@ namespace mocap {
 
 using search_detail::kInf;
 
-namespace {
-
-// (score, e, s) lexicographic: true when the candidate beats the incumbent.
-bool better(double score, std::size_t e, std::size_t s, const ClipBest& best, bool have) {
-  if (!have) return true;
-  if (score != best.score) return score < best.score;
-  if (e != best.e) return e < best.e;
-  return s < best.s;
-}
-}  // namespace
+using search_detail::better;
 
 bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
                          double lambda, ClipBest& out) {
@@ -246,74 +237,6 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
          best.e,
          scratch.a[best.s],
          scratch.b[best.e],
-         prefix[best.e] - prefix[best.s]};
-  return true;
-}
-
-// Relative mode: a(s) with Q^h placed on F^s, b(s, e) with Q^h+1 placed
-// relative to F^s; O(K L) with L = max_length_s / frame time.
-bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
-                        ClipCounters& counters, ClipMatch& out) {
-  const SkeletonData& skeleton = *pair.skeleton;
-  const SkeletonTables& tables = skeleton.tables;
-  const std::size_t k = ci.frame_count;
-  if (k < 2) return false;
-  const double dt = pair.index->clips()[ci.clip].frame_time_s;
-  const std::size_t l =
-      std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(pair.max_length_s / dt)));
-  const bool prune = pair.mode != SearchMode::brute;
-  const float* root = tables.table.root_positions.data();
-  const std::size_t stride = tables.table.stride;
-  auto anchor = [&](std::size_t f, const Eigen::Vector2d& off) {
-    const std::size_t g = ci.frame_start + f;
-    return Eigen::Vector2d(static_cast<double>(root[g]) + off[0],
-                           static_cast<double>(root[2 * stride + g]) + off[1]);
-  };
-  std::uint64_t total = 0;
-  for (std::size_t s = 0; s + 1 < k; ++s) total += 1 + std::min(l, k - 1 - s);
-  scratch.a.assign(k, kInf);
-  double min_a = kInf;
-  for (std::size_t s = 0; s + 1 < k; ++s) {
-    evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s, ci.frame_start + s + 1,
-               scratch.a.data() + s, scratch, anchor(s, pair.offset_a));
-    min_a = std::min(min_a, scratch.a[s]);
-  }
-  counters.evaluated += k - 1;
-  if (prune && safe(min_a) > tau) {
-    counters.clip_pruned = true;
-    counters.pruned += total - (k - 1);
-    return false;
-  }
-  const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
-  ClipBest best;
-  bool have = false;
-  scratch.b.resize(l);
-  for (std::size_t s = 0; s + 1 < k; ++s) {
-    const std::size_t e1 = std::min(k - 1, s + l);
-    if (prune && safe(scratch.a[s]) > tau) {
-      counters.pruned += e1 - s;
-      continue;
-    }
-    evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + s + 1,
-               ci.frame_start + e1 + 1, scratch.b.data(), scratch, anchor(s, pair.offset_b));
-    counters.evaluated += e1 - s;
-    for (std::size_t e = s + 1; e <= e1; ++e) {
-      const double score = (scratch.b[e - s - 1] + pair.lambda * prefix[e]) +
-                           (scratch.a[s] - pair.lambda * prefix[s]);
-      if (better(score, e, s, best, have)) {
-        best = {score, s, e};
-        out.h_out = scratch.b[e - s - 1];
-        have = true;
-      }
-    }
-  }
-  if (!have) return false;
-  out = {best.score,
-         ci.clip,
-         best.s,
-         best.e,
-         scratch.a[best.s],
-         out.h_out,
          prefix[best.e] - prefix[best.s]};
   return true;
 }

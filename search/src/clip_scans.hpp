@@ -7,11 +7,13 @@
 //  - eval_clip_blocks: world mode, exact, both query frames bounded by boxes
 //    only: the same decisions per 16-frame block, with the clip's own best
 //    as a threshold (clip_block_bounds gives the blocks' bounds);
-//  - eval_clip_relative: relative mode, O(K L).
+//  - eval_clip_relative (clip_scan_relative.cpp): relative placements, O(K L).
 // Each returns false when the clip has no pair s < e that can score <= tau
 // (its bounds prove it, or no pair has finite values), else its best match.
 // Every mode that is exact gives the same match for a clip.
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -47,10 +49,10 @@ struct PairContext {
   const ResolvedFrame* qa;  // Q^h
   const ResolvedFrame* qb;  // Q^h+1
   double t, lambda;         // transition time (s), path weight
-  bool relative;
+  FramePlacement placement;
   Eigen::Vector2d offset_a, offset_b;  // relative mode x/z offsets (m)
   SearchMode mode;                     // exact or brute (approx scans as exact)
-  double max_length_s;
+  double min_length_s, max_length_s;   // the query's partial-motion length limits
   // Per skeleton frame lower bounds of a / b for partial query frames (world mode), or null.
   const double* frame_lb_a = nullptr;
   const double* frame_lb_b = nullptr;
@@ -61,6 +63,27 @@ struct PairContext {
   FrameCache* cache_a = nullptr;
   FrameCache* cache_b = nullptr;
 };
+
+// (score, e, s) lexicographic: true when the candidate beats the incumbent.
+inline bool better(double score, std::size_t e, std::size_t s, const ClipBest& best, bool have) {
+  if (!have) return true;
+  if (score != best.score) return score < best.score;
+  if (e != best.e) return e < best.e;
+  return s < best.s;
+}
+
+// A partial motion's length limits in frames for a clip of frame time dt:
+// min <= e - s <= max, 1 <= min <= max (SearchOptions::min_length_s).
+struct LengthFrames {
+  std::size_t min = 1, max = 1;
+};
+inline LengthFrames length_frames(const PairContext& pair, double dt) {
+  auto frames = [dt](double seconds) {
+    return std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(seconds / dt)));
+  };
+  const std::size_t lo = frames(pair.min_length_s);
+  return {lo, std::max(lo, frames(pair.max_length_s))};
+}
 
 // What a clip scan did: frames evaluated and pruned, and whether the whole
 // clip was pruned by its bounds.

@@ -189,13 +189,25 @@ std::optional<std::array<std::uint8_t, 3>> parse_euler_order(const std::string& 
   return axes;
 }
 
+const char* placement_name(FramePlacement p) {
+  switch (p) {
+    case FramePlacement::world:
+      return "world";
+    case FramePlacement::position:
+      return "position";
+    case FramePlacement::relative:
+      return "relative";
+  }
+  return "?";
+}
+
 Query parse_query(const json& j, const std::string& source, std::size_t line,
                   const std::filesystem::path& base_dir, const std::string& default_id) {
   const Ctx c{source, line};
   if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
-  check_keys(
-      c, j, "",
-      {"id", "frames", "relative", "character", "transition_time", "top", "path_weight", "filter"});
+  check_keys(c, j, "",
+             {"id", "frames", "relative", "character", "transition_time", "top", "path_weight",
+              "filter", "min_length_s", "max_length_s"});
   Query q;
   q.id = default_id;
   if (j.contains("id")) {
@@ -214,9 +226,22 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   for (std::size_t i = 0; i < frames.size(); ++i)
     q.frames.push_back(query_frame(c, frames[i], "frames[" + std::to_string(i) + "]", base_dir));
   if (j.contains("relative")) {
-    if (!j["relative"].is_boolean()) c.fail("relative", "expected true or false");
-    q.relative = j["relative"].get<bool>();
+    const json& r = j["relative"];
+    if (r.is_boolean())
+      q.placement = r.get<bool>() ? FramePlacement::relative : FramePlacement::world;
+    else if (r.is_string() && r.get<std::string>() == "position")
+      q.placement = FramePlacement::position;
+    else
+      c.fail("relative", "expected true, false or \"position\", got " + r.dump());
   }
+  for (const char* key : {"min_length_s", "max_length_s"})
+    if (j.contains(key)) {
+      const double v = number(c, j[key], key);
+      if (v <= 0.0) c.fail(key, "must be > 0 seconds");
+      (std::string(key) == "min_length_s" ? q.min_length_s : q.max_length_s) = v;
+    }
+  if (q.min_length_s && q.max_length_s && *q.min_length_s > *q.max_length_s)
+    c.fail("min_length_s", "must not exceed max_length_s");
   if (j.contains("character")) {
     if (!j["character"].is_string() || j["character"].get<std::string>().empty())
       c.fail("character", "expected a character JSON file path");

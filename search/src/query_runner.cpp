@@ -40,7 +40,7 @@ void QueryRunner::prepare() {
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
     }
   prepare_caches();
-  if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) && !q_.relative)
+  if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) && !q_.relative())
     compute_frame_bounds();
 }
 
@@ -50,7 +50,7 @@ void QueryRunner::prepare_caches() {
     cache_.emplace_back();
     cache_.back().resize(q_.frames.size());
   }
-  if (q_.relative) return;
+  if (q_.relative()) return;
   for (std::size_t k = 0; k < skeletons_.size(); ++k)
     for (std::size_t i = 1; i + 1 < q_.frames.size(); ++i) {
       const std::size_t n = skeletons_[k]->tables.sk->frame_count;
@@ -136,22 +136,23 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
                    &resolved_[k][h + 1],
                    q_.transition_time_s,
                    q_.path_weight,
-                   q_.relative,
+                   q_.placement,
                    Eigen::Vector2d::Zero(),
                    Eigen::Vector2d::Zero(),
                    mode,
-                   options_.max_length_s,
+                   q_.min_length_s.value_or(options_.min_length_s),
+                   q_.max_length_s.value_or(options_.max_length_s),
                    nullptr,
                    nullptr,
                    &bounds_[k][h],
                    &bounds_[k][h + 1],
                    cache_of(k, h),
                    cache_of(k, h + 1)};
-  if (mode == SearchMode::exact && !q_.relative) {
+  if (mode == SearchMode::exact && !q_.relative()) {
     pair.frame_lb_a = frame_bounds_of(k, h);
     pair.frame_lb_b = frame_bounds_of(k, h + 1);
   }
-  if (q_.relative) {
+  if (q_.relative()) {
     // Hand-written frames: given x/z are the offsets. BVH frames: offsets
     // from the pair's first query frame when it is a BVH frame, else 0.
     auto offset = [&](const ResolvedFrame& f) {
@@ -173,7 +174,7 @@ std::optional<std::vector<std::pair<std::size_t, std::size_t>>> QueryRunner::app
   for (std::size_t k = 0; k < skeletons_.size(); ++k) {
     const ResolvedFrame& qa = resolved_[k][h];
     const ResolvedFrame& qb = resolved_[k][h + 1];
-    if (qa.kind != FrameKind::full || qb.kind != FrameKind::full || q_.relative)
+    if (qa.kind != FrameKind::full || qb.kind != FrameKind::full || q_.relative())
       return std::nullopt;
   }
   for (std::size_t k = 0; k < skeletons_.size(); ++k) {
@@ -209,7 +210,7 @@ class PairSearch {
         q_(runner.q_),
         h_(h),
         eval_mode_(mode == SearchMode::approx ? SearchMode::exact : mode),
-        bounded_(eval_mode_ == SearchMode::exact && !q_.relative),
+        bounded_(eval_mode_ == SearchMode::exact && !q_.relative()),
         top_(q_.top) {
     const std::size_t skeletons = runner_.skeletons_.size();
     for (std::size_t k = 0; k < skeletons; ++k)
@@ -392,7 +393,7 @@ class PairSearch {
     ClipCounters counters;
     ClipMatch match{};
     bool found = false;
-    if (q_.relative) {
+    if (q_.relative()) {
       found = eval_clip_relative(pair, ci, tau, scratch, counters, match);
     } else if (blocks_only_[w.k]) {
       clip_block_bounds(pair, ci, tau, scratch);
@@ -434,8 +435,8 @@ class PairSearch {
     auto prune_all = [&](std::size_t from) {
       for (std::size_t j = from; j < work.size(); ++j) {
         totals.pruned +=
-            q_.relative ? 0
-                        : 2 * runner_.skeletons_[work[j].k]->tables.clips[work[j].r].frame_count;
+            q_.relative() ? 0
+                          : 2 * runner_.skeletons_[work[j].k]->tables.clips[work[j].r].frame_count;
         ++totals.clips_pruned;
       }
     };

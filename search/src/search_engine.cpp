@@ -47,6 +47,10 @@ std::optional<SearchMode> parse_search_mode(const std::string& s) {
 void validate_search_options(const SearchOptions& options) {
   if (!(options.max_length_s > 0.0))
     throw std::invalid_argument("SearchOptions::max_length_s must be > 0");
+  if (!(options.min_length_s > 0.0))
+    throw std::invalid_argument("SearchOptions::min_length_s must be > 0");
+  if (!(options.min_length_s <= options.max_length_s))
+    throw std::invalid_argument("SearchOptions::min_length_s must not exceed max_length_s");
 }
 
 SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>(index)) {

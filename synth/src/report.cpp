@@ -99,7 +99,8 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                 {"file", query_path},
                 {"frames", query.frames.size()},
                 {"transition_time_s", query.transition_time_s},
-                {"relative", query.relative}};
+                {"relative", query.relative()},
+                {"placement", placement_name(query.placement)}};
   j["index"] = index.path().string();
   nlohmann::json chosen = nlohmann::json::array();
   for (std::size_t h = 0; h < result.chosen.size(); ++h) {

@@ -176,7 +176,7 @@ std::vector<std::vector<SynthFrame>> place_pieces(
     for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
       raw.push_back(source.frame(m.clip_index, f));
     Placement p;
-    const bool world_xz = !query.relative && qf[h].root_position_m[0] && qf[h].root_position_m[2];
+    const bool world_xz = !query.relative() && qf[h].root_position_m[0] && qf[h].root_position_m[2];
     if (h > 0 && !world_xz) {
       const auto& prev = pieces[h - 1];
       const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
@@ -203,11 +203,11 @@ std::vector<SynthFrame> complete_query_frames(const SynthSkeleton& sk, const Que
     if (h + 1 < H) {
       const auto& pc = pieces[h];
       const Eigen::Vector3d vs = horizontal_root_velocity(pc[0], pc[1], dt);
-      out.push_back(complete_query(sk, qf[h], pc[0], query.relative, -0.5 * T * vs));
+      out.push_back(complete_query(sk, qf[h], pc[0], query.relative(), -0.5 * T * vs));
     } else {
       const auto& pc = pieces[h - 1];
       const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
-      out.push_back(complete_query(sk, qf[h], pc.back(), query.relative, 0.5 * T * ve));
+      out.push_back(complete_query(sk, qf[h], pc.back(), query.relative(), 0.5 * T * ve));
     }
   }
   return out;

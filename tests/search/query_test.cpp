@@ -90,7 +90,7 @@ TEST(QueryValidityTest, Options) {
   expect_error(pre + R"(, "top": 0})", "top: expected an integer >= 1");
   expect_error(pre + R"(, "top": 2.5})", "top: expected an integer");
   expect_error(pre + R"(, "path_weight": -1})", "path_weight: must be >= 0");
-  expect_error(pre + R"(, "relative": "yes"})", "relative: expected true or false");
+  expect_error(pre + R"(, "relative": "yes"})", "relative: expected true, false or \"position\"");
   expect_error(pre + R"(, "filter": {"genre": ["x"]}})", "filter.genre: unknown field");
   expect_error(pre + R"(, "filter": {"content": [1]}})", "filter.content[0]: expected a string");
   expect_error(pre + R"(, "id": [1]})", "id: expected a string");
@@ -101,7 +101,7 @@ TEST(QueryTest, DefaultsAndPartialRootPositions) {
   const Query q = parse(std::string("{") + kTwo + "}");
   EXPECT_EQ(q.id, "<line 7>");
   EXPECT_EQ(q.frames.size(), 2u);
-  EXPECT_FALSE(q.relative);
+  EXPECT_EQ(q.placement, FramePlacement::relative);
   EXPECT_DOUBLE_EQ(q.transition_time_s, 0.5);
   EXPECT_EQ(q.top, 10u);
   EXPECT_DOUBLE_EQ(q.path_weight, 0.0);

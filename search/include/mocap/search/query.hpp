@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -64,11 +65,36 @@ struct QueryFilter {
                const std::string& style_label) const;
 };
 
+/// How query frames are placed on a partial motion F^s..F^e (docs/queries.md
+/// "Placement"; JSON "relative").
+enum class FramePlacement : std::uint8_t {
+  /// "relative": false. Root positions and headings are world values.
+  world,
+  /// "relative": "position". The first query frame's root ground position
+  /// (x, z) is put on F^s's; later frames keep their ground offsets from the
+  /// first; headings stay absolute (world).
+  position,
+  /// "relative": true (the default). The first query frame's root ground
+  /// position and heading are put on F^s's; later frames keep their ground
+  /// displacement and heading change from the first, turned into F^s's
+  /// heading (velocities turn with them). Hand-written root_position x/z are
+  /// offsets in the first query frame's body frame (+z forward, +x to the
+  /// character's left), root_heading a heading change from the first frame.
+  relative,
+};
+/// "world", "position", "relative".
+const char* placement_name(FramePlacement p);
+
 struct Query {
   std::string id;  // default "<line N>" / file stem
   std::vector<QueryFrameSpec> frames;
-  /// true: root positions are relative to where each partial motion starts.
-  bool relative = false;
+  FramePlacement placement = FramePlacement::relative;
+  /// Any relative placement (position or position and heading).
+  bool relative() const { return placement != FramePlacement::world; }
+  /// Length limits of a partial motion, seconds (e - s >= round(min / frame
+  /// time), >= 1 frame; e - s <= round(max / frame time)); unset: the search
+  /// options' (SearchOptions::min_length_s, max_length_s).
+  std::optional<double> min_length_s, max_length_s;
   std::optional<std::filesystem::path> character;
   double transition_time_s = 0.5;  // > 0
   std::size_t top = 10;            // the paper's r, >= 1

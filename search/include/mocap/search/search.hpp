@@ -65,14 +65,17 @@ struct SearchOptions {
   int approx_neighbours_per_result = 32;
   /// approx: also run exact and report recall (top-r overlap) per query.
   bool compute_recall = true;
-  /// Relative mode only: longest partial motion, seconds (e - s <= L frames,
-  /// L = round(max_length_s / frame time)); > 0.
+  /// Shortest and longest partial motion, seconds, in every placement:
+  /// round(min_length_s / frame time) <= e - s <= round(max_length_s / frame
+  /// time), the lower limit at least 1 frame (so s < e). A query's own
+  /// min_length_s / max_length_s replace them. 0 < min_length_s <= max_length_s.
+  double min_length_s = 0.2;
   double max_length_s = 2.0;
   /// Parallelise over clips inside one query (TBB); results do not depend on it.
   bool parallel_clips = true;
 };
 
-/// Checks the options' ranges (max_length_s > 0). Invalid options are a
+/// Checks the options' ranges (0 < min_length_s <= max_length_s). Invalid options are a
 /// caller's error (a command line checks its values where it reads them):
 /// throws std::invalid_argument. SearchEngine::run and run_query_batch call it.
 void validate_search_options(const SearchOptions& options);
