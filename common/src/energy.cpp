@@ -1,5 +1,7 @@
 #include "mocap/common/energy.hpp"
 
+#include "mocap/common/ground_pose.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -397,6 +399,27 @@ HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
       c[11 + k] = static_cast<float>(model.principal_moments_kgm2[j][k] * half_inv_t2);
   }
   return q;
+}
+
+void place_h_scan_query(const HScanQuery& body, const GroundPose& g, HScanQuery& out) {
+  out.segment_count = body.segment_count;
+  out.constants.resize(body.constants.size());
+  const double c = std::cos(g.heading_rad), s = std::sin(g.heading_rad);
+  const Eigen::Quaterniond back(Eigen::AngleAxisd(-g.heading_rad, Eigen::Vector3d::UnitY()));
+  for (std::size_t b = 0; b < body.segment_count; ++b) {
+    const float* in = body.constants.data() + b * HScanQuery::kConstants;
+    float* o = out.constants.data() + b * HScanQuery::kConstants;
+    std::copy(in, in + HScanQuery::kConstants, o);
+    const double x = in[0], z = in[2];
+    o[0] = static_cast<float>(c * x + s * z + g.position_m.x());
+    o[2] = static_cast<float>(-s * x + c * z + g.position_m.y());
+    // conj(R_y q P) = conj(q P) conj(R_y).
+    const Eigen::Quaterniond q = Eigen::Quaterniond(in[6], in[7], in[8], in[9]) * back;
+    o[6] = static_cast<float>(q.w());
+    o[7] = static_cast<float>(q.x());
+    o[8] = static_cast<float>(q.y());
+    o[9] = static_cast<float>(q.z());
+  }
 }
 
 namespace {

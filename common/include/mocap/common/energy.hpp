@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "mocap/common/dynamics.hpp"
+#include "mocap/common/ground_pose.hpp"
 
 namespace mocap {
 
@@ -236,6 +237,11 @@ struct HScanQuery {
 /// Prepares h(state -> frame) for a full query state (static or with velocities).
 HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
                              double transition_time_s);
+/// `body` moved by the ground pose g (ground_pose.hpp): the query of the
+/// state placed by g (COM x, z turned and moved, orientations turned; kinetic
+/// energies and heights unchanged), computed in double from body's floats.
+/// `out` is resized as needed (reused without allocating).
+void place_h_scan_query(const HScanQuery& body, const GroundPose& g, HScanQuery& out);
 /// out[i] = h(query, frame begin + i) for frames [begin, end), joules (float).
 /// Agrees with approximate_energy to float precision (test).
 void scan_approximate_energy(const HScanView& table, const HScanQuery& query, std::size_t begin,
