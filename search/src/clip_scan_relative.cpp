@@ -5,6 +5,7 @@
 
 #include "clip_scans.hpp"
 #include "frame_energy.hpp"
+#include "relative_frames.hpp"
 
 namespace mocap::search_detail {
 
@@ -13,7 +14,6 @@ namespace mocap::search_detail {
 bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                         ClipCounters& counters, ClipMatch& out) {
   const SkeletonData& skeleton = *pair.skeleton;
-  const SkeletonTables& tables = skeleton.tables;
   const std::size_t k = ci.frame_count;
   const double dt = pair.index->clips()[ci.clip].frame_time_s;
   const LengthFrames len = length_frames(pair, dt);
@@ -21,12 +21,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   const std::size_t l = len.max;
   const std::size_t s_end = k - len.min;  // s < s_end
   const bool prune = pair.mode != SearchMode::brute;
-  const float* root = tables.table.root_positions.data();
-  const std::size_t stride = tables.table.stride;
-  auto anchor = [&](std::size_t f, const Eigen::Vector2d& off) {
-    const std::size_t g = ci.frame_start + f;
-    return Eigen::Vector2d(static_cast<double>(root[g]) + off[0],
-                           static_cast<double>(root[2 * stride + g]) + off[1]);
+  auto place = [&](std::size_t f) {
+    return frame_placement(skeleton, pair.placement, ci.frame_start + f);
   };
   std::uint64_t total = 0;
   for (std::size_t s = 0; s < s_end; ++s) total += 1 + (std::min(k - 1, s + l) - (s + len.min) + 1);
@@ -34,7 +30,7 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   double min_a = kInf;
   for (std::size_t s = 0; s < s_end; ++s) {
     evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s, ci.frame_start + s + 1,
-               scratch.a.data() + s, scratch, anchor(s, pair.offset_a));
+               scratch.a.data() + s, scratch, place(s));
     min_a = std::min(min_a, scratch.a[s]);
   }
   counters.evaluated += s_end;
@@ -54,11 +50,11 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
       continue;
     }
     evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + e0,
-               ci.frame_start + e1 + 1, scratch.b.data(), scratch, anchor(s, pair.offset_b));
+               ci.frame_start + e1 + 1, scratch.b.data(), scratch, place(s));
     counters.evaluated += e1 - e0 + 1;
     for (std::size_t e = e0; e <= e1; ++e) {
-      const double score = (scratch.b[e - e0] + pair.lambda * prefix[e]) +
-                           (scratch.a[s] - pair.lambda * prefix[s]);
+      const double score =
+          (scratch.b[e - e0] + pair.lambda * prefix[e]) + (scratch.a[s] - pair.lambda * prefix[s]);
       if (better(score, e, s, best, have)) {
         best = {score, s, e};
         out.h_out = scratch.b[e - e0];

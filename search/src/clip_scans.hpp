@@ -46,13 +46,14 @@ struct FrameCache {
 struct PairContext {
   const Index* index;
   const SkeletonData* skeleton;
-  const ResolvedFrame* qa;  // Q^h
-  const ResolvedFrame* qb;  // Q^h+1
-  double t, lambda;         // transition time (s), path weight
+  // Q^h and Q^h+1: world coordinates, or body-frame ones in the relative
+  // placements (relative_frames.hpp).
+  const ResolvedFrame* qa;
+  const ResolvedFrame* qb;
+  double t, lambda;  // transition time (s), path weight
   FramePlacement placement;
-  Eigen::Vector2d offset_a, offset_b;  // relative mode x/z offsets (m)
-  SearchMode mode;                     // exact or brute (approx scans as exact)
-  double min_length_s, max_length_s;   // the query's partial-motion length limits
+  SearchMode mode;                    // exact or brute (approx scans as exact)
+  double min_length_s, max_length_s;  // the query's partial-motion length limits
   // Per skeleton frame lower bounds of a / b for partial query frames (world mode), or null.
   const double* frame_lb_a = nullptr;
   const double* frame_lb_b = nullptr;

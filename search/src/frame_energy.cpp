@@ -69,40 +69,33 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
 
 }  // namespace
 
-// h(Q -> F) for skeleton frames [g0, g1) into out. With `shift` (relative
-// mode) the query's given x/z root components are placed at shift (world).
+// h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
 void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
                 std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
-                const std::optional<Eigen::Vector2d>& xz, const std::uint8_t* skip,
+                const std::optional<GroundPose>& place, const std::uint8_t* skip,
                 const HScanView* tile) {
   const SkeletonTables& tables = skeleton.tables;
   const std::size_t n = g1 - g0;
   if (n == 0) return;
   // A whole block in world mode: scan its tile (same values, contiguous).
-  const HScanView table = tile != nullptr && !xz ? *tile : tables.table.view();
-  const std::size_t b0 = tile != nullptr && !xz ? 0 : g0;
+  const HScanView table = tile != nullptr && !place ? *tile : tables.table.view();
+  const std::size_t b0 = tile != nullptr && !place ? 0 : g0;
   if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
     scratch.fbuf.resize(n);
     if (q.kind == FrameKind::full) {
       const HScanQuery* sq = &q.scan;
-      if (xz) {
-        scratch.shifted_scan = q.scan;
-        const double dx = (*xz)[0] - q.root_m[0], dz = (*xz)[1] - q.root_m[2];
-        for (std::size_t b = 0; b < scratch.shifted_scan.segment_count; ++b) {
-          scratch.shifted_scan.constants[b * HScanQuery::kConstants + 0] = static_cast<float>(
-              q.state.coms_m[static_cast<std::size_t>(tables.model.segments[b])][0] + dx);
-          scratch.shifted_scan.constants[b * HScanQuery::kConstants + 2] = static_cast<float>(
-              q.state.coms_m[static_cast<std::size_t>(tables.model.segments[b])][2] + dz);
-        }
+      if (place) {
+        place_h_scan_query(q.scan, *place, scratch.shifted_scan);
         sq = &scratch.shifted_scan;
       }
       scan_approximate_energy(table, *sq, b0, b0 + n, scratch.fbuf.data());
     } else {
       const HScanRootQuery* rq = &q.root_scan;
-      if (xz) {
+      if (place) {
         scratch.shifted_root = q.root_scan;
-        if (q.given[0]) scratch.shifted_root.position[0] = static_cast<float>((*xz)[0]);
-        if (q.given[2]) scratch.shifted_root.position[2] = static_cast<float>((*xz)[1]);
+        const Eigen::Vector3d p = place->apply(q.root_m);
+        if (q.given[0]) scratch.shifted_root.position[0] = static_cast<float>(p.x());
+        if (q.given[2]) scratch.shifted_root.position[2] = static_cast<float>(p.z());
         rq = &scratch.shifted_root;
       }
       scan_root_translation_energy(table, *rq, b0, b0 + n, scratch.fbuf.data());
@@ -111,10 +104,14 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
     return;
   }
   const PartialQuery* pq = &q.partial;
-  if (xz && (q.given[0] || q.given[2])) {
+  const PartialPoseSpec& spec = q.partial.spec;
+  if (place && (q.given[0] || q.given[2] || spec.root_heading_rad)) {
     scratch.shifted_partial = q.partial;
-    if (q.given[0]) scratch.shifted_partial.spec.root_position_m[0] = (*xz)[0];
-    if (q.given[2]) scratch.shifted_partial.spec.root_position_m[2] = (*xz)[1];
+    PartialPoseSpec& moved = scratch.shifted_partial.spec;
+    const Eigen::Vector3d p = place->apply(q.root_m);
+    if (q.given[0]) moved.root_position_m[0] = p.x();
+    if (q.given[2]) moved.root_position_m[2] = p.z();
+    if (spec.root_heading_rad) moved.root_heading_rad = *spec.root_heading_rad + place->heading_rad;
     pq = &scratch.shifted_partial;
   }
   if (!q.subtree.empty()) {  // joint rotations only: no root component to shift

@@ -12,6 +12,7 @@
 
 #include "mocap/common/dynamics.hpp"
 #include "mocap/common/energy.hpp"
+#include "mocap/common/ground_pose.hpp"
 #include "mocap/common/index.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
@@ -20,15 +21,17 @@
 namespace mocap::search_detail {
 
 // h(Q -> F) (J) for skeleton frames [g0, g1) into out[0, g1 - g0), with
-// transition time t (s). With `xz` (relative mode) the query's given x/z root
-// components are placed at xz (world, metres). Frames with skip[i] != 0 are
-// left alone (partial frames only: full and root-only frames are scanned
-// whole). With `tile` (a whole block in world mode: SkeletonTables::tile),
-// the scan reads the block's tile (the same values, contiguous). Throws what
-// loading the frame arrays or columns throws (InputError for a damaged index).
+// transition time t (s). With `place` (relative placements) the query frame
+// is in body-frame coordinates (relative_frames.hpp) and is placed on the
+// ground by `place` first: full frames turned and moved, given root x/z
+// components moved (and turned: both are given then), a given heading turned. Frames with skip[i]
+// != 0 are left alone (partial frames only: full and root-only frames are scanned whole). With
+// `tile` (a whole block in world mode: SkeletonTables::tile), the scan reads the block's tile (the
+// same values, contiguous). Throws what loading the frame arrays or columns throws (InputError for
+// a damaged index).
 void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
                 std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
-                const std::optional<Eigen::Vector2d>& xz = std::nullopt,
+                const std::optional<GroundPose>& place = std::nullopt,
                 const std::uint8_t* skip = nullptr, const HScanView* tile = nullptr);
 
 // Sets q.need_joints / q.local_joints: the joints partial_approximate_energy

@@ -14,6 +14,7 @@
 
 #include "frame_energy.hpp"
 #include "partial_bounds.hpp"
+#include "relative_frames.hpp"
 #include "subtree_kernel.hpp"
 
 namespace mocap::search_detail {
@@ -39,6 +40,15 @@ void QueryRunner::prepare() {
       set_subtree_plan(resolved_[k].back(), skeleton, *m.index, q_.transition_time_s);
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
     }
+  if (q_.relative()) {
+    body_.assign(skeletons_.size(), {});
+    for (std::size_t k = 0; k < skeletons_.size(); ++k)
+      for (std::size_t h = 0; h + 1 < q_.frames.size(); ++h) {
+        auto& pair = body_[k].emplace_back();
+        pair_body_frames(q_, h, resolved_[k][h], resolved_[k][h + 1], skeletons_[k]->tables,
+                         q_.transition_time_s, pair[0], pair[1]);
+      }
+  }
   prepare_caches();
   if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) && !q_.relative())
     compute_frame_bounds();
@@ -137,8 +147,6 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
                    q_.transition_time_s,
                    q_.path_weight,
                    q_.placement,
-                   Eigen::Vector2d::Zero(),
-                   Eigen::Vector2d::Zero(),
                    mode,
                    q_.min_length_s.value_or(options_.min_length_s),
                    q_.max_length_s.value_or(options_.max_length_s),
@@ -153,17 +161,8 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
     pair.frame_lb_b = frame_bounds_of(k, h + 1);
   }
   if (q_.relative()) {
-    // Hand-written frames: given x/z are the offsets. BVH frames: offsets
-    // from the pair's first query frame when it is a BVH frame, else 0.
-    auto offset = [&](const ResolvedFrame& f) {
-      if (!f.from_bvh)
-        return Eigen::Vector2d(f.given[0] ? f.root_m[0] : 0.0, f.given[2] ? f.root_m[2] : 0.0);
-      const ResolvedFrame& first = *pair.qa;
-      if (!first.from_bvh) return Eigen::Vector2d::Zero().eval();
-      return Eigen::Vector2d(f.root_m[0] - first.root_m[0], f.root_m[2] - first.root_m[2]);
-    };
-    pair.offset_a = offset(*pair.qa);
-    pair.offset_b = offset(*pair.qb);
+    pair.qa = &body_[k][h][0];
+    pair.qb = &body_[k][h][1];
   }
   return pair;
 }

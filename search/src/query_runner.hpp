@@ -6,6 +6,7 @@
 // pair {Q^h, Q^h+1}: candidate clips, groups of clips ordered by bound, a
 // best-first seeding, then a (parallel) sweep of the groups with the clip
 // scans (clip_scans.hpp). The answer does not depend on the order.
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -94,6 +95,9 @@ class QueryRunner {
   // for partial query frames (exact mode, world), computed once per query
   // frame and shared by its two pairs; empty otherwise.
   std::vector<std::vector<std::vector<double>>> frame_lb_;
+  // body_[k][h]: pair h's query frames in body-frame coordinates on skeleton
+  // k (relative placements; pair_body_frames); empty in world mode.
+  std::vector<std::vector<std::array<ResolvedFrame, 2>>> body_;
 };
 
 }  // namespace mocap::search_detail

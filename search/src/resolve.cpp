@@ -294,6 +294,7 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     const std::size_t r = static_cast<std::size_t>(root);
     out.local_rotations = locals_at_frame;
     out.file_joints = map;
+    out.file_pose = ground_pose_of(v.joint_positions_m[r], v.rotations[r]);
     if (spec.only.empty()) {
       out.full = true;
       out.state.resize(nj);
@@ -365,6 +366,7 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
   ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option, file);
   ResolvedFrame out;
   out.from_bvh = pose.from_bvh;
+  out.file_pose = pose.file_pose;
   if (pose.full) {
     out.kind = FrameKind::full;
     out.state = std::move(pose.state);

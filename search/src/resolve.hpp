@@ -46,8 +46,9 @@ struct ResolvedFrame {
   /// the given components), metres; `given` says which axes constrain.
   Eigen::Vector3d root_m = Eigen::Vector3d::Zero();
   std::array<bool, 3> given{false, false, false};
-  /// From a BVH file (relative mode measures offsets from the pair's first such frame).
+  /// From a BVH file, and its root's ground pose there (ResolvedQueryPose::file_pose).
   bool from_bvh = false;
+  GroundPose file_pose;
   /// partial: the joints of a database frame that partial_approximate_energy
   /// reads (empty = all: whole-body queries) and those whose local
   /// translation it needs (the given subtrees); set by the engine.

@@ -173,6 +173,9 @@ struct SkeletonCaches {
   // A query character's energy prefix sums (lambda > 0), built on first use.
   std::once_flag prefix_once;
   std::vector<double> prefix;
+  // Each frame's root heading (relative placements; relative_frames.hpp).
+  std::once_flag headings_once;
+  std::vector<double> headings;
   // The FLANN forest of the frames' kd features (approx mode).
   std::once_flag forest_once;
   std::unique_ptr<KnnIndex> forest;

@@ -19,6 +19,7 @@
 #include "mocap/common/dynamics.hpp"
 #include "mocap/common/energy.hpp"
 #include "mocap/common/file.hpp"
+#include "mocap/common/ground_pose.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/search/query.hpp"
@@ -99,6 +100,10 @@ struct ResolvedQueryPose {
   bool from_bvh = false;
   /// A whole BVH frame (no "only"): `state` holds its world state.
   bool full = false;
+  /// from_bvh: the ground pose (ground_pose.hpp) of the frame's root in its
+  /// file, whatever "only" keeps: where relative placements measure the
+  /// pair's other frames from.
+  GroundPose file_pose;
   /// The degrees of freedom the frame gives, on the index skeleton: root
   /// (pelvis) world position components (metres), root heading (radians,
   /// heading_rad()), local rotations by joint index (each joint once; a joint

@@ -1,0 +1,101 @@
+// Relative placements: body-frame query frames and the frames' ground poses
+// (relative_frames.hpp).
+#include "relative_frames.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "mocap/common/error.hpp"
+
+namespace mocap::search_detail {
+
+GroundPose frame_ground_pose(const ResolvedFrame& f) {
+  if (f.from_bvh) return f.file_pose;
+  GroundPose g;
+  g.heading_rad = f.partial.spec.root_heading_rad.value_or(0.0);
+  g.position_m = Eigen::Vector2d(f.given[0] ? f.root_m.x() : 0.0, f.given[2] ? f.root_m.z() : 0.0);
+  return g;
+}
+
+namespace {
+
+// Moves a BVH frame by `g` (world -> body): its state and scan query, or its
+// given root components and heading.
+void move_frame(ResolvedFrame& f, const GroundPose& g, const SkeletonTables& tables, double t) {
+  if (f.kind == FrameKind::full) {
+    place_state(g, f.state);
+    f.scan = make_h_scan_query(tables.model, f.state.view(), t);
+    f.root_m = f.state.joint_positions_m[static_cast<std::size_t>(tables.model.root())];
+    return;
+  }
+  const Eigen::Vector3d p = g.apply(f.root_m);
+  PartialPoseSpec& spec = f.partial.spec;
+  for (std::size_t a : {0u, 2u})
+    if (f.given[a]) {
+      f.root_m[static_cast<Eigen::Index>(a)] = p[static_cast<Eigen::Index>(a)];
+      spec.root_position_m[a] = p[static_cast<Eigen::Index>(a)];
+      f.root_scan.position[a] = static_cast<float>(p[static_cast<Eigen::Index>(a)]);
+    }
+  if (spec.root_heading_rad) spec.root_heading_rad = *spec.root_heading_rad + g.heading_rad;
+}
+
+}  // namespace
+
+void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,
+                      const ResolvedFrame& qb, const SkeletonTables& tables, double t,
+                      ResolvedFrame& a, ResolvedFrame& b) {
+  const bool turn = q.placement == FramePlacement::relative;
+  std::size_t i = h;
+  for (const ResolvedFrame* f : {&qa, &qb}) {
+    if (turn && !f->from_bvh && f->given[0] != f->given[2])
+      throw InputError("query " + q.id, 0,
+                       fmt::format("frames[{}].root_position: \"relative\": true needs root x and "
+                                   "z together (or neither): a turn mixes them; for one axis use "
+                                   "\"relative\": \"position\" or false",
+                                   i));
+    ++i;
+  }
+  auto reference = [&](const ResolvedFrame& own) {
+    GroundPose g = frame_ground_pose(qa.from_bvh ? qa : own);
+    if (!turn) g.heading_rad = 0.0;
+    return g.inverse();
+  };
+  a = qa;
+  b = qb;
+  if (a.from_bvh) move_frame(a, reference(qa), tables, t);
+  if (b.from_bvh) move_frame(b, reference(qb), tables, t);
+}
+
+const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
+  SkeletonCaches& caches = skeleton.caches;
+  std::call_once(caches.headings_once, [&] {
+    const SkeletonTables& tables = skeleton.tables;
+    const std::size_t n = tables.table.frame_count;
+    caches.headings.assign(n, 0.0);
+    const int root = tables.model.root();
+    if (root < 0) return;
+    const auto r = static_cast<std::size_t>(root);
+    const auto seg = static_cast<std::size_t>(tables.segment_of_joint[r]);
+    // The table holds q = R P (the segment's principal frame): R = q P^-1.
+    const Eigen::Quaterniond back = tables.model.principal_frames[r].conjugate();
+    const float* w = tables.table.field(seg, 4);
+    const float* x = tables.table.field(seg, 5);
+    const float* y = tables.table.field(seg, 6);
+    const float* z = tables.table.field(seg, 7);
+    for (std::size_t f = 0; f < n; ++f)
+      caches.headings[f] = heading_rad(Eigen::Quaterniond(w[f], x[f], y[f], z[f]) * back);
+  });
+  return caches.headings;
+}
+
+GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g) {
+  const HScanTable& table = skeleton.tables.table;
+  GroundPose p;
+  p.position_m =
+      Eigen::Vector2d(table.root_positions[g], table.root_positions[2 * table.stride + g]);
+  if (placement == FramePlacement::relative) p.heading_rad = frame_headings(skeleton)[g];
+  return p;
+}
+
+}  // namespace mocap::search_detail

@@ -1,0 +1,42 @@
+#pragma once
+// Internal to mocap_search: relative placements (docs/queries.md
+// "Placement"). A pair's query frames are put into the body frame of the
+// pair's first query frame once per query; a partial motion starting at F^s
+// then places them with F^s's ground pose (frame_placement): heading and
+// root x/z for "relative": true, root x/z alone for "position".
+#include <cstddef>
+#include <vector>
+
+#include "mocap/common/ground_pose.hpp"
+#include "mocap/search/query.hpp"
+#include "resolve.hpp"
+#include "skeleton_tables.hpp"
+
+namespace mocap::search_detail {
+
+// The ground pose of a resolved frame (ground_pose.hpp): a BVH frame's root
+// ground pose in its file (whatever "only" keeps); a hand-written frame's
+// given root x/z (0 where not given) and heading (0 when not given).
+GroundPose frame_ground_pose(const ResolvedFrame& f);
+
+// Query frames qa (Q^h) and qb (Q^h+1) of one pair in body-frame coordinates
+// for `placement` (position or relative), into a / b. Frames from BVH files
+// are moved from the world into the body frame of qa when qa is a BVH frame,
+// else into their own (root at the origin, facing +z); with "position" only
+// the x/z move applies (headings stay world). Hand-written frames already
+// are in body-frame coordinates. Throws InputError ("query ID",
+// "frames[i].root_position: ...") for a hand-written frame giving only one
+// of root x and z under "relative": true (a turn would mix them).
+void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,
+                      const ResolvedFrame& qb, const SkeletonTables& tables, double t,
+                      ResolvedFrame& a, ResolvedFrame& b);
+
+// Heading of the root of every skeleton frame (radians, heading_rad), from
+// the scan table's root-segment orientation; computed once per skeleton.
+const std::vector<double>& frame_headings(const SkeletonData& skeleton);
+
+// Where a partial motion starting at skeleton frame g places body-frame
+// query frames: F^g's root x/z, and its heading for "relative": true.
+GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g);
+
+}  // namespace mocap::search_detail

@@ -1,0 +1,172 @@
+// Relative placements (docs/queries.md "Placement"): invalid queries first,
+// then invariance of "relative": true under a turn and move of the query's
+// clip (written as a BVH file), the body-frame meaning of hand-written
+// offsets, "position" keeping headings absolute, and exact == brute on
+// random held-out relative queries over set 1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "mocap/common/bvh.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/ground_pose.hpp"
+#include "mocap/common/index.hpp"
+#include "mocap/common/kinematics.hpp"
+#include "search_fixtures.hpp"
+
+namespace fs = std::filesystem;
+using namespace mocap;
+using test::parse;
+
+namespace {
+
+const fs::path& index_path() {
+  return test::set1_index("search-relative-set1");
+}
+
+// The clip turned by `yaw_deg` about the vertical and moved by (dx, dz)
+// (file units) on the ground: the ROOT joint's channels changed, everything
+// below follows.
+RawClip turned_clip(const RawClip& in, double yaw_deg, double dx, double dz) {
+  RawClip out = in;
+  const RawJoint& root = out.joints.at(0);
+  const Eigen::Quaterniond turn(
+      Eigen::AngleAxisd(yaw_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()));
+  std::array<int, 3> pos{-1, -1, -1};
+  std::array<std::uint8_t, 3> axes{};
+  std::array<int, 3> rot{-1, -1, -1};
+  int r = 0;
+  for (std::size_t c = 0; c < root.channels.size(); ++c) {
+    const int col = static_cast<int>(root.first_column + c);
+    const int axis = channel_axis(root.channels[c]);
+    if (channel_is_rotation(root.channels[c])) {
+      axes[static_cast<std::size_t>(r)] = static_cast<std::uint8_t>(axis);
+      rot[static_cast<std::size_t>(r++)] = col;
+    } else {
+      pos[static_cast<std::size_t>(axis)] = col;
+    }
+  }
+  EXPECT_EQ(r, 3) << "the test turns a ROOT with three rotation channels";
+  for (std::size_t f = 0; f < out.frame_count; ++f) {
+    double* row = out.values.data() + f * out.channel_count;
+    Eigen::Vector3d p(pos[0] >= 0 ? row[pos[0]] : 0.0, pos[1] >= 0 ? row[pos[1]] : 0.0,
+                      pos[2] >= 0 ? row[pos[2]] : 0.0);
+    p = turn * p + Eigen::Vector3d(dx, 0.0, dz);
+    for (int a = 0; a < 3; ++a)
+      if (pos[static_cast<std::size_t>(a)] >= 0) row[pos[static_cast<std::size_t>(a)]] = p[a];
+    const double deg[3] = {row[rot[0]], row[rot[1]], row[rot[2]]};
+    const Eigen::Quaterniond q = turn * euler_to_quaternion(axes, deg);
+    const Eigen::Vector3d e = quaternion_to_euler(q, axes);
+    for (int k = 0; k < 3; ++k) row[rot[static_cast<std::size_t>(k)]] = e[k];
+  }
+  return out;
+}
+
+std::string frame(const fs::path& bvh, std::size_t f, const std::string& extra = "") {
+  return "{\"bvh\": \"" + bvh.string() + "\", \"frame\": " + std::to_string(f) + extra + "}";
+}
+
+}  // namespace
+
+TEST(RelativeQuery, OneOfRootXAndZIsAnErrorWhenHeadingsAreFree) {
+  const Index index = Index::open(test::golden_index());
+  const SearchEngine engine(index);
+  const Query q =
+      parse(R"({"frames": [{"root_position": [0, null, 0]}, {"root_position": [1, null, null]}]})");
+  EXPECT_THROW(
+      {
+        try {
+          engine.run(q, SearchOptions{});
+        } catch (const InputError& e) {
+          EXPECT_NE(std::string(e.what()).find("frames[1].root_position"), std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      InputError);
+  // With "position" (no turn) one axis is fine.
+  const Query p = parse(
+      R"({"relative": "position", "frames": [{"root_position": [0, null, 0]}, {"root_position": [1, null, null]}]})");
+  SearchOptions opt;
+  opt.min_length_s = 0.05;
+  EXPECT_FALSE(engine.run(p, opt).error);
+}
+
+TEST(RelativeQuery, TurnedAndMovedQueryClipGivesTheSameResults) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(index_path().empty()) << "could not build the set-1 index";
+  const Index index = Index::open(index_path());
+  const SearchEngine engine(index);
+  const fs::path dir = test::temp_dir("search-relative-turned");
+  const fs::path original = test::data_dir() / "bandai-namco-1/data/dataset-1_walk_normal_001.bvh";
+  const RawClip clip = read_bvh_file(original);
+  ASSERT_GT(clip.frame_count, 60u);
+  const std::size_t f0 = clip.frame_count / 5, f1 = f0 + 30, f2 = f0 + 45;
+  auto query = [&](const fs::path& bvh, const std::string& relative) {
+    return parse("{\"id\": \"turned\", \"relative\": " + relative + ", \"frames\": [" +
+                 frame(bvh, f0) + ", " + frame(bvh, f1) + ", " +
+                 frame(bvh, f2, ", \"only\": [\"root_position_xz\", \"RightUpperArm\"]") +
+                 "], \"filter\": {\"exclude\": [\"" + original.filename().string() +
+                 "\"]}, \"top\": 5}");
+  };
+  SearchOptions opt;
+  const QueryOutcome base = engine.run(query(original, "true"), opt);
+  ASSERT_FALSE(base.error) << *base.error;
+  ASSERT_EQ(base.pairs.size(), 2u);
+  ASSERT_EQ(base.pairs[0].results.size(), 5u);
+  const QueryOutcome base_position = engine.run(query(original, "\"position\""), opt);
+  bool position_changed = false;
+  for (const double yaw : {90.0, -137.5, 180.0, 23.0}) {
+    const fs::path turned = dir / ("turned_" + std::to_string(static_cast<int>(yaw)) + ".bvh");
+    write_bvh_file(turned_clip(clip, yaw, 312.0, -871.0), turned);
+    const std::string what = "turned by " + std::to_string(yaw) + " deg";
+    test::expect_same_results(base, engine.run(query(turned, "true"), opt), what, 1e-5);
+    SearchOptions brute = opt;
+    brute.mode = SearchMode::brute;
+    test::expect_same_results(base, engine.run(query(turned, "true"), brute), what + " brute",
+                              1e-5);
+    // "position" keeps headings absolute: a turned query scores otherwise.
+    const QueryOutcome pos = engine.run(query(turned, "\"position\""), opt);
+    ASSERT_FALSE(pos.error) << *pos.error;
+    position_changed |=
+        std::abs(pos.pairs[0].results[0].score_J - base_position.pairs[0].results[0].score_J) > 1.0;
+  }
+  EXPECT_TRUE(position_changed);
+}
+
+TEST(RelativeQuery, HandWrittenOffsetsAreInTheBodyFrame) {
+  // A root path one metre forward (+z in the body frame) finds partial
+  // motions whose root ends about one metre ahead of where it started,
+  // whichever way their clip faces.
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(index_path().empty());
+  const Index index = Index::open(index_path());
+  const SearchEngine engine(index);
+  const QueryOutcome r = engine.run(
+      parse(
+          R"({"frames": [{"root_position": [0, null, 0], "root_heading_deg": 0}, {"root_position": [0, null, 1.2], "root_heading_deg": 0}], "top": 5, "max_length_s": 2})"),
+      SearchOptions{});
+  ASSERT_FALSE(r.error) << *r.error;
+  ASSERT_EQ(r.pairs[0].results.size(), 5u);
+  for (const SearchResult& m : r.pairs[0].results) {
+    const IndexClip& c = index.clips()[m.clip_index];
+    const IndexArray& roots = index.array(c.skeleton, "frames", "root_position_m");
+    const IndexArray& rotations = index.array(c.skeleton, "frames", "world_rotations");
+    const std::size_t nj = index.skeletons()[c.skeleton].skeleton.joint_count();
+    const int root = index.dynamics_model(c.skeleton).root();
+    const std::size_t g0 = c.frame_start + m.start_frame, g1 = c.frame_start + m.end_frame;
+    auto v3 = [&](std::size_t g) {
+      return Eigen::Vector3d(roots.f32[g * 3], roots.f32[g * 3 + 1], roots.f32[g * 3 + 2]);
+    };
+    const float* q = rotations.f32.data() + (g0 * nj + static_cast<std::size_t>(root)) * 4;
+    const GroundPose start =
+        ground_pose_of(v3(g0), Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized());
+    const Eigen::Vector3d moved = start.inverse().apply(v3(g1));
+    EXPECT_NEAR(moved.z(), 1.2, 0.4) << m.clip << " " << m.start_frame << "-" << m.end_frame;
+    EXPECT_NEAR(moved.x(), 0.0, 0.4) << m.clip << " " << m.start_frame << "-" << m.end_frame;
+  }
+}
