@@ -23,6 +23,7 @@
 #include "box_bounds.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/search/search.hpp"
+#include "relative_bounds.hpp"
 #include "resolve.hpp"
 #include "scratch.hpp"
 #include "skeleton_tables.hpp"
@@ -63,6 +64,10 @@ struct PairContext {
   // Values shared with the neighbouring pair (world mode), or null.
   FrameCache* cache_a = nullptr;
   FrameCache* cache_b = nullptr;
+  // Relative placements, a full Q^h+1: what bounds b(s, e) (relative_bounds.hpp), or null.
+  const OutBoundQuery* out_bound = nullptr;
+  // The same for a full Q^h (a(s) is h(F^s -> Q^h placed at F^s)), or null.
+  const OutBoundQuery* in_bound = nullptr;
 };
 
 // (score, e, s) lexicographic: true when the candidate beats the incumbent.

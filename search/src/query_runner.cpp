@@ -48,6 +48,15 @@ void QueryRunner::prepare() {
         pair_body_frames(q_, h, resolved_[k][h], resolved_[k][h + 1], skeletons_[k]->tables,
                          q_.transition_time_s, pair[0], pair[1]);
       }
+    bound_.assign(skeletons_.size(), {});
+    for (std::size_t k = 0; k < skeletons_.size(); ++k)
+      for (const auto& pair : body_[k]) {
+        auto& ob = bound_[k].emplace_back();
+        for (std::size_t side = 0; side < 2; ++side)
+          if (q_.placement == FramePlacement::relative && pair[side].kind == FrameKind::full)
+            ob[side] =
+                make_out_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
+      }
   }
   prepare_caches();
   if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) && !q_.relative())
@@ -163,6 +172,8 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
   if (q_.relative()) {
     pair.qa = &body_[k][h][0];
     pair.qb = &body_[k][h][1];
+    if (mode == SearchMode::exact && bound_[k][h][0]) pair.in_bound = &*bound_[k][h][0];
+    if (mode == SearchMode::exact && bound_[k][h][1]) pair.out_bound = &*bound_[k][h][1];
   }
   return pair;
 }
@@ -329,6 +340,32 @@ class PairSearch {
 
   bool bounded() const { return bounded_; }
 
+  // Relative placements with full query frames (exact): the 2r candidates
+  // of least clip box bound (relative_bounds.hpp) first, one thread, so that
+  // tau is finite and low before the sweep; those clips are skipped there.
+  void seed_relative() {
+    std::vector<ClipWork> work;
+    for (std::size_t i = 0; i < candidates_.size(); ++i) {
+      const auto [k, r] = candidates_[i];
+      const PairContext& pair = contexts_[k];
+      if (pair.in_bound == nullptr || pair.out_bound == nullptr) return;
+      const SkeletonTables& tables = runner_.skeletons_[k]->tables;
+      work.push_back(
+          {clip_out_bound(*pair.in_bound, tables, r) + clip_out_bound(*pair.out_bound, tables, r),
+           tables.clips[r].clip, k, r, i});
+    }
+    const std::size_t n = std::min(work.size(), 2 * q_.top);
+    std::partial_sort(work.begin(), work.begin() + static_cast<std::ptrdiff_t>(n), work.end(),
+                      by_bound);
+    Scratch& scratch = runner_.engine_.scratch.local();
+    ScanTotals totals;
+    for (std::size_t i = 0; i < n; ++i) {
+      evaluate_clip(work[i], top_.tau(), scratch, totals);
+      seeded_[work[i].candidate] = 1;
+    }
+    add(totals);
+  }
+
   PairRun finish() {
     result_.top = top_.take();
     result_.stats.frames_evaluated = evaluated_;
@@ -479,6 +516,7 @@ PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
   search.collect_candidates(mode);
   search.form_groups();
   if (search.bounded()) search.seed();
+  if (q_.placement == FramePlacement::relative && mode != SearchMode::brute) search.seed_relative();
   search.sweep(options_.parallel_clips);
   return search.finish();
 }

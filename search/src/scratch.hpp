@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mocap/common/energy.hpp"
+#include "relative_bounds.hpp"
 
 namespace mocap::search_detail {
 
@@ -39,6 +40,9 @@ struct Scratch {
   std::vector<Eigen::Quaterniond> rot, lrot;
   BodyState state;
   HScanQuery shifted_scan;
+  // Relative clip scan: per-frame bounds of b (relative_bounds.hpp), frames to evaluate.
+  OutBoundFrames out_frames, in_frames;
+  std::vector<std::uint8_t> need_e;
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;
 };
