@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <numbers>
 #include <random>
 #include <string>
@@ -169,4 +170,77 @@ TEST(RelativeQuery, HandWrittenOffsetsAreInTheBodyFrame) {
     EXPECT_NEAR(moved.z(), 1.2, 0.4) << m.clip << " " << m.start_frame << "-" << m.end_frame;
     EXPECT_NEAR(moved.x(), 0.0, 0.4) << m.clip << " " << m.start_frame << "-" << m.end_frame;
   }
+}
+
+namespace {
+
+// Held-out relative queries over set 1 ("relative": true; the query's clip
+// excluded): 2 or 3 frames in time order from one clip, a window of up to
+// 1.5 s; in turn full BVH frames (two in five), the root's ground position
+// and an arm of BVH frames ("only"), a hand-written root path (every other
+// one with headings), and a hand-written first frame before BVH frames.
+std::vector<Query> held_out_queries(const Index& index, std::size_t count) {
+  std::mt19937 rng(2026);
+  std::vector<Query> out;
+  const auto& clips = index.clips();
+  for (std::size_t i = 0; i < count; ++i) {
+    const IndexClip& c = clips[rng() % clips.size()];
+    const std::size_t nframes = 2 + (i % 3 == 2 ? 1 : 0);
+    const auto span = static_cast<std::size_t>(1.5 / c.frame_time_s);
+    const std::size_t first = rng() % c.frame_count;
+    std::string frames;
+    for (std::size_t f = 0; f < nframes; ++f) {
+      const std::size_t fr = std::min<std::size_t>(c.frame_count - 1, first + f * (span / 2));
+      const std::string bvh = "\"bvh\": \"" + c.path + "\", \"frame\": " + std::to_string(fr);
+      std::string one;
+      switch (i % 5) {
+        case 0:
+        case 1:
+          one = "{" + bvh + "}";
+          break;
+        case 2:
+          one = "{" + bvh + ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+          break;
+        case 3:  // a root path; every other one with headings
+          one = "{\"root_position\": [" + std::to_string(0.1 * (rng() % 5)) + ", null, " +
+                std::to_string(0.4 * f) + "]" +
+                (i % 10 == 3 ? ", \"root_heading_deg\": " + std::to_string(rng() % 60) : "") + "}";
+          break;
+        default:
+          one = f == 0 ? "{\"root_position\": [0, null, 0]}" : "{" + bvh + "}";
+      }
+      frames += (f ? ", " : "") + one;
+    }
+    const std::string name = fs::path(c.path).filename().string();
+    out.push_back(parse("{\"id\": \"h" + std::to_string(i) + "\", \"frames\": [" + frames +
+                        "], \"filter\": {\"exclude\": [\"" + name +
+                        "\"]}, \"top\": " + std::to_string(1 + rng() % 10) +
+                        (i % 5 == 0 ? ", \"path_weight\": 0.01" : "") + "}"));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(RelativeQuery, ExactEqualsBruteOnHeldOutQueriesSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(index_path().empty());
+  const Index index = Index::open(index_path());
+  const SearchEngine engine(index);
+  const char* v = std::getenv("MOCAP_SEARCH_TEST_QUERIES");
+  const std::size_t count = v != nullptr && std::atoi(v) > 0 ? std::stoul(v) : 200;
+  SearchOptions exact, brute;
+  exact.max_length_s = brute.max_length_s = 0.4;
+  brute.mode = SearchMode::brute;
+  std::size_t pruned = 0;
+  for (const Query& q : held_out_queries(index, count)) {
+    ASSERT_EQ(q.placement, FramePlacement::relative);
+    const QueryOutcome e = engine.run(q, exact);
+    const QueryOutcome b = engine.run(q, brute);
+    test::expect_same_results(e, b, q.id);
+    EXPECT_EQ(b.stats.frames_pruned, 0u);
+    EXPECT_LE(e.stats.frames_evaluated, b.stats.frames_evaluated) << q.id;
+    pruned += e.stats.frames_pruned > 0;
+  }
+  EXPECT_GE(pruned, count / 2) << "exact mode should prune";
 }
