@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <span>
+#include <stdexcept>
+#include <vector>
 
 #include "clip_scans.hpp"
 #include "frame_energy.hpp"
+#include "window_minima.hpp"
 
 namespace mocap {
 
@@ -13,24 +16,30 @@ using search_detail::kInf;
 
 using search_detail::better;
 
+namespace {
+
+void check_gaps(std::size_t min_gap, std::size_t max_gap) {
+  if (min_gap < 1 || min_gap > max_gap)
+    throw std::invalid_argument("best_partial_motion: need 1 <= min_gap <= max_gap");
+}
+
+}  // namespace
+
 bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
-                         double lambda, ClipBest& out) {
+                         double lambda, std::size_t min_gap, std::size_t max_gap, ClipBest& out) {
+  check_gaps(min_gap, max_gap);
+  thread_local std::vector<search_detail::WindowMin::Entry> storage;
+  // a(s) - lambda P[s] over s in [e - max_gap, e - min_gap]
+  search_detail::WindowMin window(storage, k);
   bool have = false;
-  double run_min = kInf;  // min_{s<e} (a(s) - lambda P[s])
-  std::size_t run_s = 0;
-  for (std::size_t e = 1; e < k; ++e) {
-    const std::size_t s = e - 1;
-    if (std::isfinite(a[s])) {
-      const double v = a[s] - lambda * prefix[s];
-      if (v < run_min) {  // strict: the earliest s wins ties
-        run_min = v;
-        run_s = s;
-      }
-    }
-    if (!std::isfinite(b[e]) || !std::isfinite(run_min)) continue;
-    const double score = (b[e] + lambda * prefix[e]) + run_min;
+  for (std::size_t e = min_gap; e < k; ++e) {
+    const std::size_t s = e - min_gap;
+    if (std::isfinite(a[s])) window.push(s, a[s] - lambda * prefix[s]);
+    if (e > max_gap) window.drop_before(e - max_gap);
+    if (!std::isfinite(b[e]) || window.empty()) continue;
+    const double score = (b[e] + lambda * prefix[e]) + window.min();
     if (score < out.score || !have) {  // strict: the earliest e wins ties
-      out = {score, run_s, e};
+      out = {score, window.argmin(), e};
       have = true;
     }
   }
@@ -38,12 +47,14 @@ bool best_partial_motion(const double* a, const double* b, const double* prefix,
 }
 
 bool best_partial_motion_quadratic(const double* a, const double* b, const double* prefix,
-                                   std::size_t k, double lambda, ClipBest& out) {
+                                   std::size_t k, double lambda, std::size_t min_gap,
+                                   std::size_t max_gap, ClipBest& out) {
+  check_gaps(min_gap, max_gap);
   bool have = false;
   for (std::size_t e = 1; e < k; ++e) {
     if (!std::isfinite(b[e])) continue;
     for (std::size_t s = 0; s < e; ++s) {
-      if (!std::isfinite(a[s])) continue;
+      if (!std::isfinite(a[s]) || e - s < min_gap || e - s > max_gap) continue;
       const double score = (b[e] + lambda * prefix[e]) + (a[s] - lambda * prefix[s]);
       if (better(score, e, s, out, have)) {
         out = {score, s, e};
@@ -95,7 +106,8 @@ void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const Resolve
 }
 
 // World mode: per-frame lower bounds (block boxes, partial-frame bounds),
-// a(s) and b(e) where they can matter, then the running minimum.
+// a(s) and b(e) where they can matter, then the sliding-window minimum
+// (best_partial_motion) over the pairs within the length limits.
 bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                      ClipCounters& counters, ClipMatch& out) {
   const SkeletonData& skeleton = *pair.skeleton;
@@ -107,6 +119,10 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
   scratch.skip_a.assign(k, 0);
   scratch.skip_b.assign(k, 0);
   const bool prune = pair.mode != SearchMode::brute;
+  const LengthFrames len = length_frames(pair, pair.index->clips()[ci.clip].frame_time_s);
+  // The partners of s: e in [s + min, s + max]; of e: s in [e - max, e - min].
+  const std::size_t width = len.max - len.min + 1;
+  thread_local FixedWindowMinima windows;
   if (prune) {
     scratch.la.resize(k);
     scratch.lb.resize(k);
@@ -130,25 +146,33 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
     if (pair.frame_lb_b != nullptr)
       for (std::size_t f = 0; f < k; ++f)
         scratch.lb[f] = std::max(scratch.lb[f], pair.frame_lb_b[ci.frame_start + f]);
-    // s is needed only if la(s) + min_{e>s} lb(e) can reach tau; e only if
-    // lb(e) + min_{s<e} la(s) can.
-    double clip_lb = kInf, suffix = kInf;
-    for (std::size_t f = k; f-- > 0;) {
-      const double x = scratch.la[f] + suffix;
+    // s is needed only if la(s) + min lb(e) over its ends e in [s + min,
+    // s + max] can reach tau; e only if lb(e) + min la(s) over its starts s
+    // in [e - max, e - min] can. A frame with no partner in the clip is not needed.
+    if (k <= len.min) {
+      counters.clip_pruned = true;
+      counters.pruned += 2 * k;
+      return false;
+    }
+    double clip_lb = kInf;
+    windows.build(k, width, [&](std::size_t f) { return scratch.lb[f]; });
+    for (std::size_t f = 0; f + len.min < k; ++f) {
+      const double x = scratch.la[f] + windows.from(f + len.min);
       clip_lb = std::min(clip_lb, x);
       scratch.skip_a[f] = safe(x) > tau;
-      suffix = std::min(suffix, scratch.lb[f]);
     }
+    std::fill(scratch.skip_a.begin() + static_cast<std::ptrdiff_t>(k - len.min),
+              scratch.skip_a.end(), std::uint8_t{1});
     if (safe(clip_lb) > tau) {
       counters.clip_pruned = true;
       counters.pruned += 2 * k;
       return false;
     }
-    double prefix_min = kInf;
-    for (std::size_t f = 0; f < k; ++f) {
-      scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
-      prefix_min = std::min(prefix_min, scratch.la[f]);
-    }
+    windows.build(k, width, [&](std::size_t f) { return scratch.la[f]; });
+    std::fill(scratch.skip_b.begin(), scratch.skip_b.begin() + static_cast<std::ptrdiff_t>(len.min),
+              std::uint8_t{1});
+    for (std::size_t f = len.min; f < k; ++f)
+      scratch.skip_b[f] = safe(scratch.lb[f] + windows.until(f - len.min)) > tau;
   }
   // Full and root-only query frames are scanned in whole 16-frame chunks
   // (the same chunks in every mode: bit-identical values); partial ones per frame.
@@ -211,25 +235,24 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
     };
     if (blocks_needed(scratch.skip_a) <= blocks_needed(scratch.skip_b)) {
       side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
-      double prefix_min = kInf;
-      for (std::size_t f = 0; f < k; ++f) {
-        if (scratch.skip_b[f] == 0) scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
-        prefix_min = std::min(prefix_min, scratch.a[f]);
-      }
+      windows.build(k, width, [&](std::size_t f) { return scratch.a[f]; });
+      for (std::size_t f = len.min; f < k; ++f)
+        if (scratch.skip_b[f] == 0)
+          scratch.skip_b[f] = safe(scratch.lb[f] + windows.until(f - len.min)) > tau;
       side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
     } else {
       side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
-      double suffix = kInf;
-      for (std::size_t f = k; f-- > 0;) {
-        if (scratch.skip_a[f] == 0) scratch.skip_a[f] = safe(scratch.la[f] + suffix) > tau;
-        suffix = std::min(suffix, scratch.b[f]);
-      }
+      windows.build(k, width, [&](std::size_t f) { return scratch.b[f]; });
+      for (std::size_t f = 0; f + len.min < k; ++f)
+        if (scratch.skip_a[f] == 0)
+          scratch.skip_a[f] = safe(scratch.la[f] + windows.from(f + len.min)) > tau;
       side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
     }
   }
   const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
   ClipBest best;
-  if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda, best))
+  if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda,
+                           len.min, len.max, best))
     return false;
   out = {best.score,
          ci.clip,
