@@ -2,7 +2,9 @@
 // then eval_clip_blocks.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <span>
+#include <utility>
 
 #include "clip_scans.hpp"
 #include "window_minima.hpp"
@@ -30,20 +32,23 @@ struct BlockPartners {
 
 // emit(bl, m) for every block, m = the least x[g] over the blocks g holding
 // the block's partners: the ends of its starts (`ends`) or the starts of its
-// ends; +inf when it has none.
+// ends; +inf when it has none. For a whole block those are the blocks
+// [bl + lo / 16, bl + ceil(hi / 16)] and [bl - ceil(hi / 16), bl - lo / 16],
+// windows of one width at fixed offsets (for the clip's last, shorter block
+// they hold its partners' blocks and maybe one more: a lower bound still).
 template <class Emit>
 void partner_block_minima(const BlockPartners& bp, std::size_t nb, bool ends, const double* x,
                           Emit emit) {
-  window_minima(
-      nb, nb,
-      [&](std::size_t bl) { return (ends ? bp.ends_first(bl) : bp.starts_first(bl)) / kBlock; },
-      [&](std::size_t bl) {
-        return ((ends ? bp.ends_end(bl) : bp.starts_end(bl)) + kBlock - 1) / kBlock;
-      },
-      [&](std::size_t g) { return x[g]; },
-      [&](std::size_t bl, double m) {
-        emit(bl, (ends ? bp.has_ends(bl) : bp.has_starts(bl)) ? m : kInf);
-      });
+  thread_local FixedWindowMinima windows;
+  const auto lo_blocks = static_cast<std::ptrdiff_t>(bp.lo / kBlock);
+  const auto hi_blocks = static_cast<std::ptrdiff_t>((bp.hi + kBlock - 1) / kBlock);
+  windows.build(0, nb, static_cast<std::size_t>(hi_blocks - lo_blocks + 1),
+                [&](std::size_t g) { return x[g]; });
+  for (std::size_t bl = 0; bl < nb; ++bl) {
+    const auto b = static_cast<std::ptrdiff_t>(bl);
+    const bool has = ends ? bp.has_ends(bl) : bp.has_starts(bl);
+    emit(bl, has ? windows.window(ends ? b + lo_blocks : b - hi_blocks) : kInf);
+  }
 }
 
 BlockPartners block_partners(const PairContext& pair, const ClipInfo& ci) {
@@ -266,44 +271,61 @@ bool eval_clip_blocks(const PairContext& pair, const ClipInfo& ci, double tau, c
   // The partners of s: e in [s + min, s + max]; of e: s in [e - max, e - min].
   thread_local FixedWindowMinima windows;
   const std::size_t width = hi - lo + 1;
+  // The frames of the first to the last block a side needs.
+  auto needed_span = [&](const std::vector<std::uint8_t>& need) {
+    std::size_t b0 = 0, b1 = nb;
+    while (b0 < nb && !need[b0]) ++b0;
+    while (b1 > b0 && !need[b1 - 1]) --b1;
+    return std::pair<std::size_t, std::size_t>(
+        first(b0), b1 > b0 ? first(b1 - 1) + frames(b1 - 1) : first(b0));
+  };
   // The side with fewer blocks first; then the other side decided again with
   // the true values (+inf where not computed) of its frames' partners in
-  // place of their bounds (docs/search.md "Frame pruning").
+  // place of their bounds (docs/search.md "Frame pruning"). Only the blocks
+  // the second side needs read run and key.
   std::vector<double>& key = scratch.key;
   key.resize(nb);
   if (count_a <= count_b) {
     side(*pair.qa, need_a, scratch.done_a, a, pair.cache_a);
     // run[e] = min over its starts s of the computed a(s) - lambda P[s]
-    windows.build(k, width, [&](std::size_t s) {
+    const auto [a0, a1] = needed_span(need_a);
+    windows.build(a0, a1, width, [&](std::size_t s) {
       const double v = a_of(s);
       return std::isfinite(v) ? v - lp(s) : kInf;
     });
-    for (std::size_t e = 0; e < k; ++e) scratch.run[e] = e >= lo ? windows.until(e - lo) : kInf;
-    // pm: the least a(s) + lambda (P[e] - P[s]) over the pairs with e in the
-    // block (computed a), <= every such pair's score less b(e).
     for (std::size_t bl = 0; bl < nb; ++bl) {
+      if (!need_b[bl]) continue;
+      // pm: the least a(s) + lambda (P[e] - P[s]) over the pairs with e in
+      // the block (computed a), <= every such pair's score less b(e).
       double pm = kInf;
-      for (std::size_t e = first(bl); e < first(bl) + frames(bl); ++e)
+      for (std::size_t e = first(bl); e < first(bl) + frames(bl); ++e) {
+        scratch.run[e] =
+            windows.window(static_cast<std::ptrdiff_t>(e) - static_cast<std::ptrdiff_t>(hi));
+        if (e < lo) scratch.run[e] = kInf;
         pm = std::min(pm, lp(e) + scratch.run[e]);
-      need_b[bl] = need_b[bl] && !(safe(lbb[bl] + pm) > tau);
+      }
+      need_b[bl] = !(safe(lbb[bl] + pm) > tau);
       key[bl] = std::max(pa[bl], pm);
     }
     second_side(*pair.qb, need_b, scratch.done_b, lbb, key, b, pair.cache_b, 1.0);
   } else {
     side(*pair.qb, need_b, scratch.done_b, b, pair.cache_b);
     // run[s] = min over its ends e of the computed b(e) + lambda P[e]
-    windows.build(k, width, [&](std::size_t e) {
+    const auto [b0, b1] = needed_span(need_b);
+    windows.build(b0, b1, width, [&](std::size_t e) {
       const double v = b_of(e);
       return std::isfinite(v) ? v + lp(e) : kInf;
     });
-    for (std::size_t f = 0; f < k; ++f) scratch.run[f] = windows.from(f + lo);
-    // sm: the least b(e) + lambda (P[e] - P[s]) over the pairs with s in the
-    // block (computed b), <= every such pair's score less a(s).
     for (std::size_t bl = 0; bl < nb; ++bl) {
+      if (!need_a[bl]) continue;
+      // sm: the least b(e) + lambda (P[e] - P[s]) over the pairs with s in
+      // the block (computed b), <= every such pair's score less a(s).
       double sm = kInf;
-      for (std::size_t f = first(bl); f < first(bl) + frames(bl); ++f)
+      for (std::size_t f = first(bl); f < first(bl) + frames(bl); ++f) {
+        scratch.run[f] = windows.window(static_cast<std::ptrdiff_t>(f + lo));
         sm = std::min(sm, scratch.run[f] - lp(f));
-      need_a[bl] = need_a[bl] && !(safe(lba[bl] + sm) > tau);
+      }
+      need_a[bl] = !(safe(lba[bl] + sm) > tau);
       key[bl] = std::max(sb[bl], sm);
     }
     second_side(*pair.qa, need_a, scratch.done_a, lba, key, a, pair.cache_a, -1.0);
