@@ -2,10 +2,15 @@
 // running minimum that finds a clip's best pair (search.hpp).
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <span>
+#include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "clip_scans.hpp"
 #include "frame_energy.hpp"
+#include "window_minima.hpp"
 
 namespace mocap {
 
@@ -13,37 +18,106 @@ using search_detail::kInf;
 
 using search_detail::better;
 
+namespace {
+
+void check_gaps(std::size_t min_gap, std::size_t max_gap) {
+  if (min_gap < 1 || min_gap > max_gap)
+    throw std::invalid_argument("best_partial_motion: need 1 <= min_gap <= max_gap");
+}
+
+}  // namespace
+
 bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
-                         double lambda, ClipBest& out) {
+                         double lambda, std::size_t min_gap, std::size_t max_gap, ClipBest& out) {
+  check_gaps(min_gap, max_gap);
+  if (k <= min_gap) return false;
+  // v(s) = a(s) - lambda P[s] (+inf where a(s) is not finite); the starts of
+  // end e are s in [e - max_gap, e - min_gap]: per e their least v, the
+  // earliest s among equal values.
+  auto v = [&](std::size_t s) { return std::isfinite(a[s]) ? a[s] - lambda * prefix[s] : kInf; };
   bool have = false;
-  double run_min = kInf;  // min_{s<e} (a(s) - lambda P[s])
-  std::size_t run_s = 0;
-  for (std::size_t e = 1; e < k; ++e) {
-    const std::size_t s = e - 1;
-    if (std::isfinite(a[s])) {
-      const double v = a[s] - lambda * prefix[s];
-      if (v < run_min) {  // strict: the earliest s wins ties
-        run_min = v;
-        run_s = s;
-      }
-    }
-    if (!std::isfinite(b[e]) || !std::isfinite(run_min)) continue;
-    const double score = (b[e] + lambda * prefix[e]) + run_min;
+  auto offer = [&](std::size_t e, double m, std::size_t s) {
+    if (!std::isfinite(b[e]) || !std::isfinite(m)) return;
+    const double score = (b[e] + lambda * prefix[e]) + m;
     if (score < out.score || !have) {  // strict: the earliest e wins ties
-      out = {score, run_s, e};
+      out = {score, s, e};
       have = true;
     }
+  };
+  if (max_gap + 1 >= k) {  // no start leaves the window: a running minimum
+    double m = kInf;
+    std::size_t ms = 0;
+    for (std::size_t e = min_gap; e < k; ++e) {
+      const std::size_t s = e - min_gap;
+      const double x = v(s);
+      if (x < m) {  // strict: the earliest s wins ties
+        m = x;
+        ms = s;
+      }
+      offer(e, m, ms);
+    }
+    return have;
+  }
+  // Windows of w starts, van Herk / Gil-Werman (window_minima.hpp) with the
+  // argmin: per run of w starts, the running minimum from its start (the
+  // earliest s on ties) and to its end (likewise); a window joins the suffix
+  // at its first start and the prefix at its last, the suffix winning ties.
+  const std::size_t n = k - min_gap, w = max_gap - min_gap + 1;
+  thread_local std::vector<double> prefix_v, suffix_v;
+  thread_local std::vector<std::size_t> prefix_s, suffix_s;
+  prefix_v.resize(n);
+  suffix_v.resize(n);
+  prefix_s.resize(n);
+  suffix_s.resize(n);
+  for (std::size_t r0 = 0; r0 < n; r0 += w) {
+    const std::size_t r1 = std::min(n, r0 + w);
+    double m = kInf;
+    std::size_t ms = r0;
+    for (std::size_t i = r0; i < r1; ++i) {
+      const double x = v(i);
+      suffix_v[i] = x;
+      if (x < m) {
+        m = x;
+        ms = i;
+      }
+      prefix_v[i] = m;
+      prefix_s[i] = ms;
+    }
+    m = kInf;
+    ms = r1 - 1;
+    for (std::size_t i = r1; i-- > r0;) {
+      if (suffix_v[i] <= m) {
+        m = suffix_v[i];
+        ms = i;
+      }
+      suffix_v[i] = m;
+      suffix_s[i] = ms;
+    }
+  }
+  for (std::size_t e = min_gap; e < k; ++e) {
+    const std::size_t last = e - min_gap;
+    if (last + 1 < w) {  // the window is cut at frame 0: within the first run
+      offer(e, prefix_v[last], prefix_s[last]);
+      continue;
+    }
+    const std::size_t first = last + 1 - w;
+    if (suffix_v[first] <= prefix_v[last])
+      offer(e, suffix_v[first], suffix_s[first]);
+    else
+      offer(e, prefix_v[last], prefix_s[last]);
   }
   return have;
 }
 
 bool best_partial_motion_quadratic(const double* a, const double* b, const double* prefix,
-                                   std::size_t k, double lambda, ClipBest& out) {
+                                   std::size_t k, double lambda, std::size_t min_gap,
+                                   std::size_t max_gap, ClipBest& out) {
+  check_gaps(min_gap, max_gap);
   bool have = false;
   for (std::size_t e = 1; e < k; ++e) {
     if (!std::isfinite(b[e])) continue;
     for (std::size_t s = 0; s < e; ++s) {
-      if (!std::isfinite(a[s])) continue;
+      if (!std::isfinite(a[s]) || e - s < min_gap || e - s > max_gap) continue;
       const double score = (b[e] + lambda * prefix[e]) + (a[s] - lambda * prefix[s]);
       if (better(score, e, s, out, have)) {
         out = {score, s, e};
@@ -95,7 +169,8 @@ void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const Resolve
 }
 
 // World mode: per-frame lower bounds (block boxes, partial-frame bounds),
-// a(s) and b(e) where they can matter, then the running minimum.
+// a(s) and b(e) where they can matter, then the sliding-window minimum
+// (best_partial_motion) over the pairs within the length limits.
 bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                      ClipCounters& counters, ClipMatch& out) {
   const SkeletonData& skeleton = *pair.skeleton;
@@ -107,6 +182,21 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
   scratch.skip_a.assign(k, 0);
   scratch.skip_b.assign(k, 0);
   const bool prune = pair.mode != SearchMode::brute;
+  const LengthFrames len = length_frames(pair, pair.index->clips()[ci.clip].frame_time_s);
+  // The partners of s: e in [s + min, s + max]; of e: s in [e - max, e - min].
+  const std::size_t width = len.max - len.min + 1;
+  thread_local FixedWindowMinima windows;
+  auto ends_of = [&](std::size_t s) { return static_cast<std::ptrdiff_t>(s + len.min); };
+  auto starts_of = [&](std::size_t e) {
+    return static_cast<std::ptrdiff_t>(e) - static_cast<std::ptrdiff_t>(len.max);
+  };
+  // The frames from the first to the last one a side needs (skip != 1).
+  auto needed_span = [k](const std::vector<std::uint8_t>& skip) {
+    std::size_t first = 0, end = k;
+    while (first < k && skip[first] == 1) ++first;
+    while (end > first && skip[end - 1] == 1) --end;
+    return std::pair<std::size_t, std::size_t>(first, end);
+  };
   if (prune) {
     scratch.la.resize(k);
     scratch.lb.resize(k);
@@ -130,25 +220,33 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
     if (pair.frame_lb_b != nullptr)
       for (std::size_t f = 0; f < k; ++f)
         scratch.lb[f] = std::max(scratch.lb[f], pair.frame_lb_b[ci.frame_start + f]);
-    // s is needed only if la(s) + min_{e>s} lb(e) can reach tau; e only if
-    // lb(e) + min_{s<e} la(s) can.
-    double clip_lb = kInf, suffix = kInf;
-    for (std::size_t f = k; f-- > 0;) {
-      const double x = scratch.la[f] + suffix;
+    // s is needed only if la(s) + min lb(e) over its ends e in [s + min,
+    // s + max] can reach tau; e only if lb(e) + min la(s) over its starts s
+    // in [e - max, e - min] can. A frame with no partner in the clip is not needed.
+    if (k <= len.min) {
+      counters.clip_pruned = true;
+      counters.pruned += 2 * k;
+      return false;
+    }
+    double clip_lb = kInf;
+    windows.build(0, k, width, [&](std::size_t f) { return scratch.lb[f]; });
+    for (std::size_t f = 0; f + len.min < k; ++f) {
+      const double x = scratch.la[f] + windows.window(ends_of(f));
       clip_lb = std::min(clip_lb, x);
       scratch.skip_a[f] = safe(x) > tau;
-      suffix = std::min(suffix, scratch.lb[f]);
     }
+    std::fill(scratch.skip_a.begin() + static_cast<std::ptrdiff_t>(k - len.min),
+              scratch.skip_a.end(), std::uint8_t{1});
     if (safe(clip_lb) > tau) {
       counters.clip_pruned = true;
       counters.pruned += 2 * k;
       return false;
     }
-    double prefix_min = kInf;
-    for (std::size_t f = 0; f < k; ++f) {
-      scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
-      prefix_min = std::min(prefix_min, scratch.la[f]);
-    }
+    windows.build(0, k, width, [&](std::size_t f) { return scratch.la[f]; });
+    std::fill(scratch.skip_b.begin(), scratch.skip_b.begin() + static_cast<std::ptrdiff_t>(len.min),
+              std::uint8_t{1});
+    for (std::size_t f = len.min; f < k; ++f)
+      scratch.skip_b[f] = safe(scratch.lb[f] + windows.window(starts_of(f))) > tau;
   }
   // Full and root-only query frames are scanned in whole 16-frame chunks
   // (the same chunks in every mode: bit-identical values); partial ones per frame.
@@ -211,25 +309,26 @@ bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Sc
     };
     if (blocks_needed(scratch.skip_a) <= blocks_needed(scratch.skip_b)) {
       side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
-      double prefix_min = kInf;
-      for (std::size_t f = 0; f < k; ++f) {
-        if (scratch.skip_b[f] == 0) scratch.skip_b[f] = safe(scratch.lb[f] + prefix_min) > tau;
-        prefix_min = std::min(prefix_min, scratch.a[f]);
-      }
+      const auto [a0, a1] = needed_span(scratch.skip_a);
+      windows.build(a0, a1, width, [&](std::size_t f) { return scratch.a[f]; });
+      for (std::size_t f = len.min; f < k; ++f)
+        if (scratch.skip_b[f] == 0)
+          scratch.skip_b[f] = safe(scratch.lb[f] + windows.window(starts_of(f))) > tau;
       side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
     } else {
       side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
-      double suffix = kInf;
-      for (std::size_t f = k; f-- > 0;) {
-        if (scratch.skip_a[f] == 0) scratch.skip_a[f] = safe(scratch.la[f] + suffix) > tau;
-        suffix = std::min(suffix, scratch.b[f]);
-      }
+      const auto [b0, b1] = needed_span(scratch.skip_b);
+      windows.build(b0, b1, width, [&](std::size_t f) { return scratch.b[f]; });
+      for (std::size_t f = 0; f + len.min < k; ++f)
+        if (scratch.skip_a[f] == 0)
+          scratch.skip_a[f] = safe(scratch.la[f] + windows.window(ends_of(f))) > tau;
       side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
     }
   }
   const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
   ClipBest best;
-  if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda, best))
+  if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda,
+                           len.min, len.max, best))
     return false;
   out = {best.score,
          ci.clip,

@@ -10,8 +10,8 @@ T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 "$INDEXER" build -q --out "$T/i.h5" "$DATA/bandai-namco-1/data" "$DATA/cmu" >/dev/null
 W=$DATA/bandai-namco-1/data/dataset-1_walk_normal_001.bvh
 cat > "$T/ok.jsonl" <<Q
-{"id": "walk", "frames": [{"bvh": "$W", "frame": 10}, {"bvh": "$W", "frame": 40}, {"bvh": "$W", "frame": 70}], "top": 5}
-{"id": "arm", "frames": [{"joints": {"RightArm": {"euler_deg": [0, 0, 80], "order": "ZXY"}}}, {"root_position": [0, null, 0]}], "top": 3, "filter": {"content": ["bow", "bye"]}}
+{"id": "walk", "relative": false, "frames": [{"bvh": "$W", "frame": 10}, {"bvh": "$W", "frame": 40}, {"bvh": "$W", "frame": 70}], "top": 5}
+{"id": "arm", "relative": false, "frames": [{"joints": {"RightArm": {"euler_deg": [0, 0, 80], "order": "ZXY"}}}, {"root_position": [0, null, 0]}], "top": 3, "filter": {"content": ["bow", "bye"]}}
 Q
 # All good: exit 0, one line per query, the contract's fields.
 "$SEARCH" --index "$T/i.h5" --queries "$T/ok.jsonl" --out "$T/r1.jsonl" --threads 1 -q
@@ -43,7 +43,7 @@ assert strip(one) == strip(two), "threads 1 != 2"
 PY
 # Bad lines: error objects on their lines, the batch goes on, exit 1.
 cat > "$T/bad.jsonl" <<Q
-{"id": "good", "frames": [{"root_position": [0, null, 0]}, {"root_position": [1, null, 0]}]}
+{"id": "good", "relative": false, "frames": [{"root_position": [0, null, 0]}, {"root_position": [1, null, 0]}]}
 {"id": "joint", "frames": [{"joints": {"Tail": {"quat": [1, 0, 0, 0]}}}, {"root_position": [0, null, 0]}]}
 {"id": "file", "frames": [{"bvh": "missing.bvh", "frame": 0}, {"root_position": [0, null, 0]}]}
 this is not json
@@ -67,7 +67,7 @@ PY
 # CMU skeletons): answered; the query's own frames still come first and
 # score about 0 (the database side is recomputed from the float32 poses).
 C=$(cd "$(dirname "$0")/../.." && pwd)/docs/examples/character-heavy-arms.json
-printf '{"id": "heavy", "character": "%s", "frames": [{"bvh": "%s", "frame": 10}, {"bvh": "%s", "frame": 40}], "top": 3}\n' "$C" "$W" "$W" > "$T/char.jsonl"
+printf '{"id": "heavy", "relative": false, "character": "%s", "frames": [{"bvh": "%s", "frame": 10}, {"bvh": "%s", "frame": 40}], "top": 3}\n' "$C" "$W" "$W" > "$T/char.jsonl"
 "$SEARCH" --index "$T/i.h5" --queries "$T/char.jsonl" --threads 2 -q | python3 -c '
 import json, sys
 o = json.loads(sys.stdin.readline()); assert "error" not in o, o
@@ -76,7 +76,7 @@ assert top["clip"].endswith("dataset-1_walk_normal_001.bvh") and (top["start_fra
 assert abs(top["h_in_J"]) < 1e-2 and abs(top["h_out_J"]) < 1e-2, top'
 
 # --query, modes, stdout.
-printf '{"id": "one", "frames": [{"bvh": "%s", "frame": 5}, {"bvh": "%s", "frame": 25}], "top": 3}\n' "$W" "$W" > "$T/one.json"
+printf '{"id": "one", "relative": false, "frames": [{"bvh": "%s", "frame": 5}, {"bvh": "%s", "frame": 25}], "top": 3}\n' "$W" "$W" > "$T/one.json"
 "$SEARCH" --index "$T/i.h5" --query "$T/one.json" --mode approx -q | python3 -c '
 import json, sys
 o = json.loads(sys.stdin.readline()); assert o["id"] == "one" and 0 <= o["stats"]["recall"] <= 1, o'

@@ -119,10 +119,11 @@ std::string random_bvh_frame(const Index& index, std::mt19937& rng) {
 std::string random_deg(std::mt19937& rng) {
   return std::to_string(static_cast<int>(rng() % 360) - 180);
 }
-// Test query i: query frame `frame`, then the origin; T = 0.25, 0.5, 1 s by i % 3.
+// Test query i (world placement): query frame `frame`, then the origin;
+// T = 0.25, 0.5, 1 s by i % 3.
 Query frame_to_origin_query(const std::string& frame, std::size_t i) {
   const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
-  return parse("{\"frames\": [" + frame +
+  return parse("{\"relative\": false, \"frames\": [" + frame +
                ", {\"root_position\": [0, null, 0]}], \"transition_time\": " + std::to_string(t) +
                "}");
 }
@@ -167,8 +168,9 @@ TEST(RunningMinimum, EqualsQuadraticReference) {
     }
     const double lambda = trial % 3 == 0 ? 0.0 : 0.25 * (trial % 5);
     ClipBest x, y;
-    const bool hx = best_partial_motion(a.data(), b.data(), p.data(), k, lambda, x);
-    const bool hy = best_partial_motion_quadratic(a.data(), b.data(), p.data(), k, lambda, y);
+    // No length limits: 1 <= e - s <= k (tests/search/lengths_test.cpp draws limits).
+    const bool hx = best_partial_motion(a.data(), b.data(), p.data(), k, lambda, 1, k, x);
+    const bool hy = best_partial_motion_quadratic(a.data(), b.data(), p.data(), k, lambda, 1, k, y);
     ASSERT_EQ(hx, hy) << trial;
     if (!hx) continue;
     EXPECT_EQ(x.score, y.score) << trial;
@@ -404,7 +406,7 @@ TEST(Search, TinyIndexRankingIsSane) {
     opt.min_length_s = 0.05;  // the golden clips are 3 frames of 0.05 s
     const auto r = engine.run(
         parse(
-            R"({"frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}], "top": 2})"),
+            R"({"relative": false, "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}], "top": 2})"),
         opt);
     ASSERT_FALSE(r.error);
     ASSERT_FALSE(r.pairs[0].results.empty());
@@ -462,7 +464,10 @@ std::vector<Query> random_queries(const Index& index, std::size_t count) {
       extra +=
           ", \"filter\": {\"content\": [\"" + std::string(contents[rng() % 5]) + "\", \"walk\"]}";
     if (i % 7 == 0) extra += ", \"path_weight\": 0.01";
-    if (i % 11 == 5 && kind != 6 && kind != 9) extra += ", \"relative\": true";
+    if (i % 11 == 5 && kind != 6 && kind != 9)
+      extra += ", \"relative\": true";
+    else
+      extra += ", \"relative\": false";
     extra += ", \"top\": " + std::to_string(1 + rng() % 8);
     out.push_back(parse("{\"id\": \"r" + std::to_string(i) + "\", \"frames\": [" + frames + "]" +
                         extra + "}"));
@@ -791,8 +796,13 @@ TEST(Search, DamagedFrameArrayFailsOnlyTheQueriesReadingIt) {
   const std::string a = random_bvh_frame(index, rng), b = random_bvh_frame(index, rng);
   const std::string arm = ", \"only\": [\"RightUpperArm\", \"RightForeArm\"]";
   const std::vector<BatchEntry> batch = {
-      {"full", parse("{\"id\": \"full\", \"frames\": [{" + a + "}, {" + b + "}]}"), ""},
-      {"arm", parse("{\"id\": \"arm\", \"frames\": [{" + a + arm + "}, {" + b + arm + "}]}"), ""}};
+      {"full",
+       parse("{\"id\": \"full\", \"relative\": false, \"frames\": [{" + a + "}, {" + b + "}]}"),
+       ""},
+      {"arm",
+       parse("{\"id\": \"arm\", \"relative\": false, \"frames\": [{" + a + arm + "}, {" + b + arm +
+             "}]}"),
+       ""}};
   SearchOptions opt;
   // Three rounds: a kept half-made column would let a later round through.
   for (int round = 0; round < 3; ++round) {
@@ -881,7 +891,7 @@ TEST(Search, QueryCharacterErrorsAndDefault) {
       R"("frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}])";
   std::vector<BatchEntry> batch;
   auto add = [&](const std::string& id, const std::string& character) {
-    std::string text = "{\"id\": \"" + id + "\", " + frames;
+    std::string text = "{\"id\": \"" + id + "\", \"relative\": false, " + frames;
     if (!character.empty()) text += ", \"character\": \"" + character + "\"";
     batch.push_back({id, parse(text + "}"), ""});
   };
@@ -940,7 +950,7 @@ TEST(Search, FrameBoundsFillsEveryField) {
   const Index index = Index::open(golden_index());
   const SearchEngine engine(index);
   const Query q = parse(
-      R"({"id": "q", "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
+      R"({"id": "q", "relative": false, "frames": [{"bvh": "golden_walk_normal_001.bvh", "frame": 0}, {"bvh": "golden_walk_normal_001.bvh", "frame": 3}]})");
   const FrameBounds b = engine.frame_bounds(q, 1, 0);
   const std::size_t n = index.skeletons()[0].frame_count;
   ASSERT_GT(n, 0u);
@@ -977,8 +987,8 @@ TEST(Search, WorldQueryAfterARelativeOneOnTheSameThread) {
   const std::size_t n = clips[longest].frame_count;
   const Query relative = parse("{\"id\": \"rel\", \"relative\": true, \"frames\": [" +
                                frame(longest, n / 5) + ", " + frame(longest, n / 5 + 30) + "]}");
-  const Query world = parse("{\"id\": \"world\", \"frames\": [" + frame(longest, n / 2) + ", " +
-                            frame(longest, n / 2 + 40) + "]}");
+  const Query world = parse("{\"id\": \"world\", \"relative\": false, \"frames\": [" +
+                            frame(longest, n / 2) + ", " + frame(longest, n / 2 + 40) + "]}");
   tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   const SearchEngine fresh(index);
   const QueryOutcome alone = fresh.run(world, {});

@@ -22,7 +22,7 @@ def res(rank, name, s, e, score, folder=bn):
             "start_frame": s, "end_frame": e, "score_J": score, "h_in_J": score / 2,
             "h_out_J": score / 2, "path_cost_J": 0.0}
 
-query = {"id": "walk-run-turn", "top": 5, "frames": [
+query = {"id": "walk-run-turn", "relative": False, "top": 5, "frames": [
     {"bvh": bn + "/dataset-1_walk_normal_001.bvh", "frame": 10},
     {"bvh": bn + "/dataset-1_run_active_001.bvh", "frame": 40},
     {"root_heading_deg": 90, "joints": {"LeftArm": {"euler_deg": [0, 0, -60], "order": "XYZ"}}}]}

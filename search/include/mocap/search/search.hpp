@@ -225,19 +225,23 @@ std::string query_outcome_json(const QueryOutcome& outcome);
 // ---------------------------------------------------------------------------
 // Building blocks (exposed for tests and the benchmark)
 
-/// Best pair of one clip by the running minimum (world mode):
-///   score(e) = (b(e) + lambda P[e]) + min_{s<e} (a(s) - lambda P[s]),
-/// over frames whose a / b are finite (+inf = excluded). Ties: smallest
-/// score, then smallest e, then smallest s. Returns false when no pair (s < e)
-/// has both values finite. O(K).
+/// Best pair of one clip by a sliding-window minimum (world mode):
+///   score(e) = (b(e) + lambda P[e]) + min_{e - max_gap <= s <= e - min_gap} (a(s) - lambda P[s]),
+/// over frames whose a / b are finite (+inf = excluded), so that
+/// min_gap <= e - s <= max_gap (frames: the search passes the length limits
+/// of SearchOptions / Query, round(seconds / frame time)). Ties: smallest score, then
+/// smallest e, then smallest s. Returns false when no pair within the limits
+/// has both values finite. O(K). Throws std::invalid_argument unless
+/// 1 <= min_gap <= max_gap.
 struct ClipBest {
   double score = 0.0;
   std::size_t s = 0, e = 0;
 };
 bool best_partial_motion(const double* a, const double* b, const double* prefix, std::size_t k,
-                         double lambda, ClipBest& out);
+                         double lambda, std::size_t min_gap, std::size_t max_gap, ClipBest& out);
 /// The O(K^2) reference of best_partial_motion (same arithmetic, same ties).
 bool best_partial_motion_quadratic(const double* a, const double* b, const double* prefix,
-                                   std::size_t k, double lambda, ClipBest& out);
+                                   std::size_t k, double lambda, std::size_t min_gap,
+                                   std::size_t max_gap, ClipBest& out);
 
 }  // namespace mocap
