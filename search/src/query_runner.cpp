@@ -59,7 +59,8 @@ void QueryRunner::prepare() {
       }
   }
   prepare_caches();
-  if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) && !q_.relative())
+  if ((options_.mode == SearchMode::exact || options_.mode == SearchMode::approx) &&
+      !all_relative())
     compute_frame_bounds();
 }
 
@@ -76,6 +77,27 @@ void QueryRunner::prepare_caches() {
       cache_[k][i].values.reset(new double[n]);
       cache_[k][i].done.assign(n, 0);
     }
+}
+
+namespace {
+// A frame whose h does not depend on where it is placed: joint rotations only.
+bool placement_free(const ResolvedFrame& f) {
+  return f.kind == FrameKind::partial && !f.given[0] && !f.given[1] && !f.given[2] &&
+         !f.partial.spec.root_heading_rad;
+}
+}  // namespace
+
+bool QueryRunner::relative_pair(std::size_t h) const {
+  if (!q_.relative()) return false;
+  for (const auto& frames : resolved_)
+    if (!placement_free(frames[h]) || !placement_free(frames[h + 1])) return true;
+  return false;
+}
+
+bool QueryRunner::all_relative() const {
+  for (std::size_t h = 0; h + 1 < q_.frames.size(); ++h)
+    if (!relative_pair(h)) return false;
+  return true;
 }
 
 FrameCache* QueryRunner::cache_of(std::size_t k, std::size_t i) {
@@ -165,11 +187,11 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
                    &bounds_[k][h + 1],
                    cache_of(k, h),
                    cache_of(k, h + 1)};
-  if (mode == SearchMode::exact && !q_.relative()) {
+  if (mode == SearchMode::exact && !relative_pair(h)) {
     pair.frame_lb_a = frame_bounds_of(k, h);
     pair.frame_lb_b = frame_bounds_of(k, h + 1);
   }
-  if (q_.relative()) {
+  if (relative_pair(h)) {
     pair.qa = &body_[k][h][0];
     pair.qb = &body_[k][h][1];
     if (mode == SearchMode::exact && bound_[k][h][0]) pair.in_bound = &*bound_[k][h][0];
@@ -220,7 +242,8 @@ class PairSearch {
         q_(runner.q_),
         h_(h),
         eval_mode_(mode == SearchMode::approx ? SearchMode::exact : mode),
-        bounded_(eval_mode_ == SearchMode::exact && !q_.relative()),
+        relative_(runner.relative_pair(h)),
+        bounded_(eval_mode_ == SearchMode::exact && !relative_),
         top_(q_.top) {
     const std::size_t skeletons = runner_.skeletons_.size();
     for (std::size_t k = 0; k < skeletons; ++k)
@@ -429,7 +452,7 @@ class PairSearch {
     ClipCounters counters;
     ClipMatch match{};
     bool found = false;
-    if (q_.relative()) {
+    if (relative_) {
       found = eval_clip_relative(pair, ci, tau, scratch, counters, match);
     } else if (blocks_only_[w.k]) {
       clip_block_bounds(pair, ci, tau, scratch);
@@ -471,8 +494,7 @@ class PairSearch {
     auto prune_all = [&](std::size_t from) {
       for (std::size_t j = from; j < work.size(); ++j) {
         totals.pruned +=
-            q_.relative() ? 0
-                          : 2 * runner_.skeletons_[work[j].k]->tables.clips[work[j].r].frame_count;
+            relative_ ? 0 : 2 * runner_.skeletons_[work[j].k]->tables.clips[work[j].r].frame_count;
         ++totals.clips_pruned;
       }
     };
@@ -500,6 +522,7 @@ class PairSearch {
   const Query& q_;
   const std::size_t h_;
   const SearchMode eval_mode_;
+  const bool relative_;  // QueryRunner::relative_pair
   const bool bounded_;
   std::vector<std::pair<std::size_t, std::size_t>> candidates_;  // (skeleton, clip row)
   std::vector<std::uint8_t> seeded_;  // per candidate: evaluated by the seeding
@@ -516,7 +539,8 @@ PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
   search.collect_candidates(mode);
   search.form_groups();
   if (search.bounded()) search.seed();
-  if (q_.placement == FramePlacement::relative && mode != SearchMode::brute) search.seed_relative();
+  if (q_.placement == FramePlacement::relative && relative_pair(h) && mode != SearchMode::brute)
+    search.seed_relative();
   search.sweep(options_.parallel_clips);
   return search.finish();
 }

@@ -61,6 +61,13 @@ class QueryRunner {
     std::vector<std::uint8_t> clips_done;  // [group]
   };
 
+  // Whether pair h is placed relatively: a relative placement and a query
+  // frame whose h depends on where it is placed (not joint rotations alone;
+  // a pair of joint-rotation frames scores the same placed anywhere, and is
+  // searched as in world mode, with its bounds).
+  bool relative_pair(std::size_t h) const;
+  // Whether every pair is placed relatively (no per-frame world bounds needed).
+  bool all_relative() const;
   void prepare_caches();
   void compute_frame_bounds();
   FrameCache* cache_of(std::size_t k, std::size_t i);
