@@ -29,7 +29,6 @@ struct Scratch {
   std::vector<std::size_t> order;
   // Bounds of a clip's blocks (clip_block_bounds).
   std::vector<double> blk_a, blk_b;
-  std::vector<double> blk_pa;              // prefix minima of the a-side sketch bounds
   std::vector<std::uint8_t> blk_need;      // and the boxes needed (bit 0: a, bit 1: b)
   std::vector<Eigen::Quaterniond> mq, mf;  // partial bound: composite rotations
   std::vector<double> nq, nf;              // and their squared norms

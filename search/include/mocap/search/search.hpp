@@ -4,7 +4,8 @@
 // A SearchEngine is built once from an opened Index and answers queries
 // (query.hpp) concurrently: `run` is const and thread-safe; every call uses
 // its own scratch. For each consecutive pair of query frames {Q^h, Q^h+1}
-// and each clip F^1..F^K it finds the partial motion F^s..F^e (s < e) that
+// and each clip F^1..F^K it finds the partial motion F^s..F^e (s < e, within
+// the length limits) that
 // minimises
 //
 //   score = h(Q^h -> F^s) + h(F^e -> Q^h+1) + lambda * (P[e] - P[s])      (joules)
@@ -27,12 +28,13 @@
 //    recall of the top r against exact is computed per query (exact is run
 //    too, which doubles the cost; SearchOptions::compute_recall).
 //
-// Relative mode (Query::relative): the x and z of every given root position
-// are offsets from the root of the partial motion's first frame F^s (y stays
-// absolute: the ground is where it is); for frames taken from a BVH file the
-// offsets are measured from the pair's first query frame. h(F^e -> Q^h+1)
-// then depends on s, so a clip costs O(K L) with L = max_length_s / frame
-// time (SearchOptions::max_length_s bounds e - s in relative mode only).
+// Relative placements (Query::placement, docs/queries.md "Placement"): the
+// pair's query frames are put in the body frame of Q^h and placed with F^s's
+// root ground pose (its heading too under "relative": true), so
+// h(F^e -> Q^h+1) depends on s and a clip costs O(K L) with
+// L = max_length_s / frame time; exact mode bounds both terms by what does
+// not depend on placement (docs/search.md "Relative placements").
+// Every placement keeps min_length_s <= e - s <= max_length_s (in frames).
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
