@@ -20,6 +20,7 @@
 #include "mocap/common/index.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
+#include "search_fixtures.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -27,23 +28,10 @@ using namespace mocap;
 
 namespace {
 
-Query parse(const std::string& text) {
-  return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q");
-}
+using test::parse;
 
-// A set-1 index built once per test run with the mocap-index binary; empty
-// path on failure.
 const fs::path& set1_index() {
-  static const fs::path path = [] {
-    const char* bin = std::getenv("MOCAP_BIN_DIR");
-    const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-    const fs::path out = test::temp_dir("lengths-set1") / "set1.h5";
-    const std::string cmd = "'" + exe.string() + "' build -q --out '" + out.string() + "' '" +
-                            (test::data_dir() / "bandai-namco-1/data").string() + "' > /dev/null";
-    if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
-    return out;
-  }();
-  return path;
+  return test::set1_index("lengths-set1");
 }
 
 // A partial motion's length limits in frames, as the search turns seconds
@@ -107,23 +95,6 @@ std::vector<Query> random_world_queries(const Index& index, std::size_t count, u
                         "\", \"relative\": false, \"frames\": [" + frames + "]" + extra + "}"));
   }
   return out;
-}
-
-void expect_same_results(const QueryOutcome& x, const QueryOutcome& y, const std::string& what) {
-  ASSERT_FALSE(x.error) << what << ": " << *x.error;
-  ASSERT_FALSE(y.error) << what << ": " << *y.error;
-  ASSERT_EQ(x.pairs.size(), y.pairs.size()) << what;
-  for (std::size_t p = 0; p < x.pairs.size(); ++p) {
-    const auto& a = x.pairs[p].results;
-    const auto& b = y.pairs[p].results;
-    ASSERT_EQ(a.size(), b.size()) << what << " pair " << p;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      EXPECT_EQ(a[i].clip_index, b[i].clip_index) << what << " pair " << p << " rank " << i + 1;
-      EXPECT_EQ(a[i].start_frame, b[i].start_frame) << what << " rank " << i + 1;
-      EXPECT_EQ(a[i].end_frame, b[i].end_frame) << what << " rank " << i + 1;
-      EXPECT_EQ(a[i].score_J, b[i].score_J) << what << " rank " << i + 1;
-    }
-  }
 }
 
 }  // namespace
@@ -209,7 +180,7 @@ TEST(LengthLimits, WorldExactEqualsBruteSet1) {
     brute.mode = SearchMode::brute;
     const auto e = engine.run(q, exact);
     const auto b = engine.run(q, brute);
-    expect_same_results(e, b, q.id);
+    test::expect_same_results(e, b, q.id, 0.0);  // scores equal
     pruned_somewhere += e.stats.frames_pruned > 0;
     EXPECT_EQ(b.stats.frames_pruned, 0u);
     EXPECT_LE(e.stats.frames_evaluated, b.stats.frames_evaluated) << q.id;

@@ -41,14 +41,22 @@ inline std::filesystem::path build_index_with_binary(const std::filesystem::path
   return out;
 }
 
+// A set-1 index (with `character` when not empty) in a folder named by
+// `tag`; empty path on failure.
+inline std::filesystem::path build_set1_index(const std::string& tag,
+                                              const std::filesystem::path& character) {
+  return build_index_with_binary(data_dir() / "bandai-namco-1/data", temp_dir(tag) / "set1.h5",
+                                 character);
+}
+
 // A set-1 index built once per test executable run, in a folder named by `tag`.
 inline const std::filesystem::path& set1_index(const std::string& tag) {
-  static const std::filesystem::path path =
-      build_index_with_binary(data_dir() / "bandai-namco-1/data", temp_dir(tag) / "set1.h5", {});
+  static const std::filesystem::path path = build_set1_index(tag, {});
   return path;
 }
 
-// Same clips, frames and (within `rel`) scores, pair by pair.
+// Same clips, frames and scores (within `rel` of max(1, |score|); 0: equal),
+// pair by pair.
 inline void expect_same_results(const QueryOutcome& x, const QueryOutcome& y,
                                 const std::string& what, double rel = 1e-6) {
   ASSERT_FALSE(x.error) << what << ": " << *x.error;

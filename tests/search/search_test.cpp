@@ -22,6 +22,7 @@
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_pose.hpp"
 #include "mocap/search/search.hpp"
+#include "search_fixtures.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -29,38 +30,14 @@ using namespace mocap;
 
 namespace {
 
-fs::path golden_index() {
-  return fs::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v1.h5";
-}
+using test::build_index_with_binary;
+using test::build_set1_index;
+using test::expect_same_results;
+using test::golden_index;
+using test::parse;
 
-Query parse(const std::string& text) {
-  return parse_query_text(text, "<test>", 0, fs::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q");
-}
-
-// `out`, an index of the BVH files in `dir` built with the mocap-index binary
-// (with `character` when not empty); empty path on failure.
-fs::path build_index_with_binary(const fs::path& dir, const fs::path& out,
-                                 const fs::path& character) {
-  const char* bin = std::getenv("MOCAP_BIN_DIR");
-  const fs::path exe = fs::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-  std::string cmd =
-      "'" + exe.string() + "' build -q --out '" + out.string() + "' '" + dir.string() + "'";
-  if (!character.empty()) cmd += " --character '" + character.string() + "'";
-  cmd += " > /dev/null";
-  if (!fs::exists(exe) || std::system(cmd.c_str()) != 0) return fs::path();
-  return out;
-}
-
-// A set-1 index (with `character` when not empty); empty path on failure.
-fs::path build_set1_index(const std::string& tag, const fs::path& character) {
-  return build_index_with_binary(test::data_dir() / "bandai-namco-1/data",
-                                 test::temp_dir(tag) / "set1.h5", character);
-}
-
-// A set-1 index built once per test run.
 const fs::path& set1_index() {
-  static const fs::path path = build_set1_index("search-set1", {});
-  return path;
+  return test::set1_index("search-set1");
 }
 
 // A character that changes masses (total, sex, a class, a joint) and bone
@@ -88,23 +65,6 @@ std::size_t random_query_count() {
 }
 std::size_t small_query_count() {
   return std::max<std::size_t>(10, random_query_count() / 5);
-}
-
-void expect_same_results(const QueryOutcome& x, const QueryOutcome& y, const std::string& what) {
-  ASSERT_FALSE(x.error) << what << ": " << *x.error;
-  ASSERT_FALSE(y.error) << what << ": " << *y.error;
-  ASSERT_EQ(x.pairs.size(), y.pairs.size()) << what;
-  for (std::size_t p = 0; p < x.pairs.size(); ++p) {
-    const auto& a = x.pairs[p].results;
-    const auto& b = y.pairs[p].results;
-    ASSERT_EQ(a.size(), b.size()) << what << " pair " << p;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      EXPECT_EQ(a[i].clip_index, b[i].clip_index) << what << " pair " << p << " rank " << i + 1;
-      EXPECT_EQ(a[i].start_frame, b[i].start_frame) << what << " rank " << i + 1;
-      EXPECT_EQ(a[i].end_frame, b[i].end_frame) << what << " rank " << i + 1;
-      EXPECT_NEAR(a[i].score_J, b[i].score_J, 1e-6 * std::max(1.0, std::abs(a[i].score_J))) << what;
-    }
-  }
 }
 
 // Helpers of the per-frame tests over a set-1 index (bounds, subtree kernel).
