@@ -1,35 +1,14 @@
 // The clip scan of the relative placements (clip_scans.hpp).
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <span>
 
 #include "clip_scans.hpp"
 #include "frame_energy.hpp"
 #include "relative_frames.hpp"
+#include "window_minima.hpp"
 
 namespace mocap::search_detail {
-
-namespace {
-
-// The least of lower[e] over each window [s + lo, min(k - 1, s + hi)], s < s_end.
-void window_minima(const OutBoundFrames& fr, std::size_t k, std::size_t s_end, LengthFrames len,
-                   std::vector<double>& out) {
-  out.assign(s_end, kInf);
-  std::deque<std::size_t> window;  // frames of increasing lower(), in frame order
-  std::size_t next = 0;            // next frame to enter
-  for (std::size_t s = 0; s < s_end; ++s) {
-    const std::size_t e0 = s + len.min, e1 = std::min(k - 1, s + len.max);
-    for (next = std::max(next, e0); next <= e1; ++next) {
-      while (!window.empty() && fr.lower(window.back()) >= fr.lower(next)) window.pop_back();
-      window.push_back(next);
-    }
-    while (!window.empty() && window.front() < e0) window.pop_front();
-    if (!window.empty()) out[s] = fr.lower(window.front());
-  }
-}
-
-}  // namespace
 
 // a(s) with Q^h placed on F^s, b(s, e) with Q^h+1 placed by F^s's ground
 // pose (relative_frames.hpp); O(K L) with L = max_length_s / frame time.
@@ -54,33 +33,39 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   // The clip's box bounds of both terms (their parts that hold wherever the
   // query frames are placed).
   if (prune && pair.in_bound != nullptr && pair.out_bound != nullptr &&
-      safe(clip_out_bound(*pair.in_bound, skeleton.tables, ci.row) +
-           clip_out_bound(*pair.out_bound, skeleton.tables, ci.row)) > tau) {
+      safe(clip_relative_bound(*pair.in_bound, skeleton.tables, ci.row) +
+           clip_relative_bound(*pair.out_bound, skeleton.tables, ci.row)) > tau) {
     counters.clip_pruned = true;
     counters.pruned += total;
     return false;
   }
-  // a(s), or where Q^h is a full frame first its lower bound (the b bound's
-  // form, relative_bounds.hpp, with Q^h placed on F^s).
+  // a(s), or where Q^h is a full frame first its lower bound
+  // (relative_bounds.hpp, Q^h placed on F^s).
   scratch.a.assign(k, kInf);
   const bool bounded_a = prune && pair.in_bound != nullptr;
   if (bounded_a) {
-    out_bound_frames(*pair.in_bound, skeleton.tables, ci.frame_start, k, scratch.in_frames);
+    relative_bound_frames(*pair.in_bound, skeleton.tables, ci.frame_start, k, scratch.in_frames);
     for (std::size_t s = 0; s < s_end; ++s)
-      scratch.a[s] =
-          out_bound(*pair.in_bound, scratch.in_frames, s, place(s).apply(pair.in_bound->com_body));
+      scratch.a[s] = relative_bound(*pair.in_bound, scratch.in_frames, s,
+                                    place(s).apply(pair.in_bound->com_body));
   } else {
     for (std::size_t s = 0; s < s_end; ++s)
       evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
                  ci.frame_start + s + 1, scratch.a.data() + s, scratch, place(s));
     counters.evaluated += s_end;
   }
-  // a_known[s]: a(s) itself, not its bound.
-  scratch.skip_a.assign(k, bounded_a ? 0 : 1);
+  // a_exact[s]: scratch.a[s] is a(s) itself, not its bound.
+  scratch.a_exact.assign(k, bounded_a ? 0 : 1);
   const bool bounded = prune && pair.out_bound != nullptr;
   if (bounded) {
-    out_bound_frames(*pair.out_bound, skeleton.tables, ci.frame_start, k, scratch.out_frames);
-    window_minima(scratch.out_frames, k, s_end, len, scratch.la);
+    // la[s]: the least placement-free bound of b over s's window [s + min, s + max].
+    const RelativeBoundFrames& fr = scratch.out_frames;
+    relative_bound_frames(*pair.out_bound, skeleton.tables, ci.frame_start, k, scratch.out_frames);
+    thread_local FixedWindowMinima windows;
+    windows.build(0, k, len.max - len.min + 1, [&](std::size_t e) { return fr.lower(e); });
+    scratch.la.resize(s_end);
+    for (std::size_t s = 0; s < s_end; ++s)
+      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
   } else {
     scratch.la.assign(s_end, 0.0);
   }
@@ -95,19 +80,18 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   ClipBest best;
   bool have = false;
   scratch.b.resize(l);
-  scratch.need_e.resize(l + 1);
   double best_out = 0.0;
   for (std::size_t s = 0; s < s_end; ++s) {
     const std::size_t e0 = s + len.min, e1 = std::min(k - 1, s + l);
     const double thr = have ? std::min(tau, best.score) : tau;
     if (prune && safe(scratch.a[s] + scratch.la[s]) > thr) {
-      counters.pruned += e1 - e0 + 1 + (scratch.skip_a[s] ? 0 : 1);
+      counters.pruned += e1 - e0 + 1 + (scratch.a_exact[s] ? 0 : 1);
       continue;
     }
-    if (!scratch.skip_a[s]) {
+    if (!scratch.a_exact[s]) {
       evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
                  ci.frame_start + s + 1, scratch.a.data() + s, scratch, place(s));
-      scratch.skip_a[s] = 1;
+      scratch.a_exact[s] = 1;
       ++counters.evaluated;
       if (safe(scratch.a[s] + scratch.la[s]) > thr) {
         counters.pruned += e1 - e0 + 1;
@@ -120,11 +104,9 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
       const Eigen::Vector3d com = at.apply(pair.out_bound->com_body);
       const double base = scratch.a[s] - pair.lambda * prefix[s];
       for (std::size_t e = e0; e <= e1; ++e) {
-        const double lb =
-            base + pair.lambda * prefix[e] + out_bound(*pair.out_bound, scratch.out_frames, e, com);
-        const bool need = safe(lb) <= thr;
-        scratch.need_e[e - e0] = need;
-        if (need) {
+        const double lb = base + pair.lambda * prefix[e] +
+                          relative_bound(*pair.out_bound, scratch.out_frames, e, com);
+        if (safe(lb) <= thr) {
           first = std::min(first, e);
           last = e;
         }
@@ -136,7 +118,6 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     } else {
       first = e0;
       last = e1;
-      std::fill(scratch.need_e.begin(), scratch.need_e.begin() + (e1 - e0 + 1), 1);
     }
     evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + first,
                ci.frame_start + last + 1, scratch.b.data(), scratch, at);

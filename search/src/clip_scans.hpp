@@ -65,9 +65,9 @@ struct PairContext {
   FrameCache* cache_a = nullptr;
   FrameCache* cache_b = nullptr;
   // Relative placements, a full Q^h+1: what bounds b(s, e) (relative_bounds.hpp), or null.
-  const OutBoundQuery* out_bound = nullptr;
+  const RelativeBoundQuery* out_bound = nullptr;
   // The same for a full Q^h (a(s) is h(F^s -> Q^h placed at F^s)), or null.
-  const OutBoundQuery* in_bound = nullptr;
+  const RelativeBoundQuery* in_bound = nullptr;
 };
 
 // (score, e, s) lexicographic: true when the candidate beats the incumbent.

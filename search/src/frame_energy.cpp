@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "relative_frames.hpp"
 #include "subtree_kernel.hpp"
 
 namespace mocap::search_detail {
@@ -93,9 +94,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
       const HScanRootQuery* rq = &q.root_scan;
       if (place) {
         scratch.shifted_root = q.root_scan;
-        const Eigen::Vector3d p = place->apply(q.root_m);
-        if (q.given[0]) scratch.shifted_root.position[0] = static_cast<float>(p.x());
-        if (q.given[2]) scratch.shifted_root.position[2] = static_cast<float>(p.z());
+        move_given_root(*place, q, nullptr, &scratch.shifted_root);
         rq = &scratch.shifted_root;
       }
       scan_root_translation_energy(table, *rq, b0, b0 + n, scratch.fbuf.data());
@@ -107,11 +106,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   const PartialPoseSpec& spec = q.partial.spec;
   if (place && (q.given[0] || q.given[2] || spec.root_heading_rad)) {
     scratch.shifted_partial = q.partial;
-    PartialPoseSpec& moved = scratch.shifted_partial.spec;
-    const Eigen::Vector3d p = place->apply(q.root_m);
-    if (q.given[0]) moved.root_position_m[0] = p.x();
-    if (q.given[2]) moved.root_position_m[2] = p.z();
-    if (spec.root_heading_rad) moved.root_heading_rad = *spec.root_heading_rad + place->heading_rad;
+    move_given_root(*place, q, &scratch.shifted_partial.spec, nullptr);
     pq = &scratch.shifted_partial;
   }
   if (!q.subtree.empty()) {  // joint rotations only: no root component to shift

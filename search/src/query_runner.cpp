@@ -48,14 +48,14 @@ void QueryRunner::prepare() {
         pair_body_frames(q_, h, resolved_[k][h], resolved_[k][h + 1], skeletons_[k]->tables,
                          q_.transition_time_s, pair[0], pair[1]);
       }
-    bound_.assign(skeletons_.size(), {});
+    relative_bounds_.assign(skeletons_.size(), {});
     for (std::size_t k = 0; k < skeletons_.size(); ++k)
       for (const auto& pair : body_[k]) {
-        auto& ob = bound_[k].emplace_back();
+        auto& ob = relative_bounds_[k].emplace_back();
         for (std::size_t side = 0; side < 2; ++side)
           if (q_.placement == FramePlacement::relative && pair[side].kind == FrameKind::full)
             ob[side] =
-                make_out_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
+                make_relative_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
       }
   }
   prepare_caches();
@@ -194,8 +194,10 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
   if (relative_pair(h)) {
     pair.qa = &body_[k][h][0];
     pair.qb = &body_[k][h][1];
-    if (mode == SearchMode::exact && bound_[k][h][0]) pair.in_bound = &*bound_[k][h][0];
-    if (mode == SearchMode::exact && bound_[k][h][1]) pair.out_bound = &*bound_[k][h][1];
+    if (mode == SearchMode::exact && relative_bounds_[k][h][0])
+      pair.in_bound = &*relative_bounds_[k][h][0];
+    if (mode == SearchMode::exact && relative_bounds_[k][h][1])
+      pair.out_bound = &*relative_bounds_[k][h][1];
   }
   return pair;
 }
@@ -373,9 +375,9 @@ class PairSearch {
       const PairContext& pair = contexts_[k];
       if (pair.in_bound == nullptr || pair.out_bound == nullptr) return;
       const SkeletonTables& tables = runner_.skeletons_[k]->tables;
-      work.push_back(
-          {clip_out_bound(*pair.in_bound, tables, r) + clip_out_bound(*pair.out_bound, tables, r),
-           tables.clips[r].clip, k, r, i});
+      work.push_back({clip_relative_bound(*pair.in_bound, tables, r) +
+                          clip_relative_bound(*pair.out_bound, tables, r),
+                      tables.clips[r].clip, k, r, i});
     }
     const std::size_t n = std::min(work.size(), 2 * q_.top);
     std::partial_sort(work.begin(), work.begin() + static_cast<std::ptrdiff_t>(n), work.end(),

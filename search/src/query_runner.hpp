@@ -105,9 +105,9 @@ class QueryRunner {
   // body_[k][h]: pair h's query frames in body-frame coordinates on skeleton
   // k (relative placements; pair_body_frames); empty in world mode.
   std::vector<std::vector<std::array<ResolvedFrame, 2>>> body_;
-  // bound_[k][h][side]: the bound forms of pair h's body-frame Q^h (side 0)
+  // relative_bounds_[k][h][side]: the bound forms of pair h's body-frame Q^h (side 0)
   // and Q^h+1 (side 1) when full frames under "relative": true (exact mode).
-  std::vector<std::vector<std::array<std::optional<OutBoundQuery>, 2>>> bound_;
+  std::vector<std::vector<std::array<std::optional<RelativeBoundQuery>, 2>>> relative_bounds_;
 };
 
 }  // namespace mocap::search_detail

@@ -6,8 +6,9 @@
 
 namespace mocap::search_detail {
 
-OutBoundQuery make_out_bound_query(const ResolvedFrame& q, const SkeletonTables& tables, double t) {
-  OutBoundQuery out;
+RelativeBoundQuery make_relative_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
+                                             double t) {
+  RelativeBoundQuery out;
   const DynamicsModel& model = tables.model;
   out.g = model.params.gravity_mps2;
   out.inv_t2 = 1.0 / (t * t);
@@ -27,7 +28,8 @@ OutBoundQuery make_out_bound_query(const ResolvedFrame& q, const SkeletonTables&
   return out;
 }
 
-double clip_out_bound(const OutBoundQuery& q, const SkeletonTables& tables, std::size_t row) {
+double clip_relative_bound(const RelativeBoundQuery& q, const SkeletonTables& tables,
+                           std::size_t row) {
   const std::size_t segments = q.mass.size();
   const std::size_t tw = kBoundFields * segments * kLanes;
   const float* tile = tables.clip_soa.data() + (row / kLanes) * tw + row % kLanes;
@@ -46,8 +48,8 @@ double clip_out_bound(const OutBoundQuery& q, const SkeletonTables& tables, std:
   return sum;
 }
 
-void out_bound_frames(const OutBoundQuery& q, const SkeletonTables& tables, std::size_t g0,
-                      std::size_t n, OutBoundFrames& out) {
+void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& tables,
+                           std::size_t g0, std::size_t n, RelativeBoundFrames& out) {
   for (auto* v : {&out.fixed, &out.height, &out.ke, &out.cx, &out.cy, &out.cz}) v->assign(n, 0.0);
   for (std::size_t f = 0; f < n; ++f) out.ke[f] = q.ke_total;
   const HScanTable& table = tables.table;

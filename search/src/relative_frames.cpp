@@ -18,6 +18,22 @@ GroundPose frame_ground_pose(const ResolvedFrame& f) {
   return g;
 }
 
+Eigen::Vector3d move_given_root(const GroundPose& g, const ResolvedFrame& f, PartialPoseSpec* spec,
+                                HScanRootQuery* root_scan) {
+  const Eigen::Vector3d p = g.apply(f.root_m);
+  Eigen::Vector3d moved = f.root_m;
+  for (std::size_t a : {0u, 2u}) {
+    if (!f.given[a]) continue;
+    const double v = p[static_cast<Eigen::Index>(a)];
+    moved[static_cast<Eigen::Index>(a)] = v;
+    if (spec != nullptr) spec->root_position_m[a] = v;
+    if (root_scan != nullptr) root_scan->position[a] = static_cast<float>(v);
+  }
+  if (spec != nullptr && f.partial.spec.root_heading_rad)
+    spec->root_heading_rad = *f.partial.spec.root_heading_rad + g.heading_rad;
+  return moved;
+}
+
 namespace {
 
 // Moves a BVH frame by `g` (world -> body): its state and scan query, or its
@@ -29,15 +45,7 @@ void move_frame(ResolvedFrame& f, const GroundPose& g, const SkeletonTables& tab
     f.root_m = f.state.joint_positions_m[static_cast<std::size_t>(tables.model.root())];
     return;
   }
-  const Eigen::Vector3d p = g.apply(f.root_m);
-  PartialPoseSpec& spec = f.partial.spec;
-  for (std::size_t a : {0u, 2u})
-    if (f.given[a]) {
-      f.root_m[static_cast<Eigen::Index>(a)] = p[static_cast<Eigen::Index>(a)];
-      spec.root_position_m[a] = p[static_cast<Eigen::Index>(a)];
-      f.root_scan.position[a] = static_cast<float>(p[static_cast<Eigen::Index>(a)]);
-    }
-  if (spec.root_heading_rad) spec.root_heading_rad = *spec.root_heading_rad + g.heading_rad;
+  f.root_m = move_given_root(g, f, &f.partial.spec, &f.root_scan);
 }
 
 }  // namespace

@@ -19,6 +19,13 @@ namespace mocap::search_detail {
 // given root x/z (0 where not given) and heading (0 when not given).
 GroundPose frame_ground_pose(const ResolvedFrame& f);
 
+// The given root x/z (f.root_m, f.given) and given heading of a frame that
+// is not full, moved by g (ground_pose.hpp): written into `spec` and
+// `root_scan` where not null (only the given components); returns f.root_m
+// with its given x/z moved.
+Eigen::Vector3d move_given_root(const GroundPose& g, const ResolvedFrame& f, PartialPoseSpec* spec,
+                                HScanRootQuery* root_scan);
+
 // Query frames qa (Q^h) and qb (Q^h+1) of one pair in body-frame coordinates
 // for `placement` (position or relative), into a / b. Frames from BVH files
 // are moved from the world into the body frame of qa when qa is a BVH frame,

@@ -39,9 +39,10 @@ struct Scratch {
   std::vector<Eigen::Quaterniond> rot, lrot;
   BodyState state;
   HScanQuery shifted_scan;
-  // Relative clip scan: per-frame bounds of b (relative_bounds.hpp), frames to evaluate.
-  OutBoundFrames out_frames, in_frames;
-  std::vector<std::uint8_t> need_e;
+  // Relative clip scan: per-frame bounds of a and b (relative_bounds.hpp),
+  // and which a values are exact (not bounds).
+  RelativeBoundFrames out_frames, in_frames;
+  std::vector<std::uint8_t> a_exact;
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;
 };
