@@ -10,14 +10,6 @@
 
 namespace mocap::search_detail {
 
-GroundPose frame_ground_pose(const ResolvedFrame& f) {
-  if (f.from_bvh) return f.file_pose;
-  GroundPose g;
-  g.heading_rad = f.partial.spec.root_heading_rad.value_or(0.0);
-  g.position_m = Eigen::Vector2d(f.given[0] ? f.root_m.x() : 0.0, f.given[2] ? f.root_m.z() : 0.0);
-  return g;
-}
-
 Eigen::Vector3d move_given_root(const GroundPose& g, const ResolvedFrame& f, PartialPoseSpec* spec,
                                 HScanRootQuery* root_scan) {
   const Eigen::Vector3d p = g.apply(f.root_m);
@@ -36,8 +28,8 @@ Eigen::Vector3d move_given_root(const GroundPose& g, const ResolvedFrame& f, Par
 
 namespace {
 
-// Moves a BVH frame by `g` (world -> body): its state and scan query, or its
-// given root components and heading.
+// Moves a frame by `g` (own coordinates -> body): a full frame's state and
+// scan query, or the given root components and heading of any other.
 void move_frame(ResolvedFrame& f, const GroundPose& g, const SkeletonTables& tables, double t) {
   if (f.kind == FrameKind::full) {
     place_state(g, f.state);
@@ -56,7 +48,7 @@ void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,
   const bool turn = q.placement == FramePlacement::relative;
   std::size_t i = h;
   for (const ResolvedFrame* f : {&qa, &qb}) {
-    if (turn && !f->from_bvh && f->given[0] != f->given[2])
+    if (turn && !f->root.from_bvh && f->given[0] != f->given[2])
       throw InputError("query " + q.id, 0,
                        fmt::format("frames[{}].root_position: \"relative\": true needs root x and "
                                    "z together (or neither): a turn mixes them; for one axis use "
@@ -64,15 +56,13 @@ void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,
                                    i));
     ++i;
   }
-  auto reference = [&](const ResolvedFrame& own) {
-    GroundPose g = frame_ground_pose(qa.from_bvh ? qa : own);
-    if (!turn) g.heading_rad = 0.0;
-    return g.inverse();
-  };
   a = qa;
   b = qb;
-  if (a.from_bvh) move_frame(a, reference(qa), tables, t);
-  if (b.from_bvh) move_frame(b, reference(qb), tables, t);
+  for (ResolvedFrame* f : {&a, &b}) {
+    const GroundPose g = pair_body_move(q.placement, qa.root, f->root);
+    if (g.heading_rad != 0.0 || g.position_m != Eigen::Vector2d::Zero())
+      move_frame(*f, g, tables, t);
+  }
 }
 
 const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
@@ -99,11 +89,11 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
 
 GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g) {
   const HScanTable& table = skeleton.tables.table;
-  GroundPose p;
-  p.position_m =
+  GroundPose start;
+  start.position_m =
       Eigen::Vector2d(table.root_positions[g], table.root_positions[2 * table.stride + g]);
-  if (placement == FramePlacement::relative) p.heading_rad = frame_headings(skeleton)[g];
-  return p;
+  if (placement == FramePlacement::relative) start.heading_rad = frame_headings(skeleton)[g];
+  return partial_motion_placement(placement, start);
 }
 
 }  // namespace mocap::search_detail

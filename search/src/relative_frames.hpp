@@ -14,11 +14,6 @@
 
 namespace mocap::search_detail {
 
-// The ground pose of a resolved frame (ground_pose.hpp): a BVH frame's root
-// ground pose in its file (whatever "only" keeps); a hand-written frame's
-// given root x/z (0 where not given) and heading (0 when not given).
-GroundPose frame_ground_pose(const ResolvedFrame& f);
-
 // The given root x/z (f.root_m, f.given) and given heading of a frame that
 // is not full, moved by g (ground_pose.hpp): written into `spec` and
 // `root_scan` where not null (only the given components); returns f.root_m
@@ -27,11 +22,8 @@ Eigen::Vector3d move_given_root(const GroundPose& g, const ResolvedFrame& f, Par
                                 HScanRootQuery* root_scan);
 
 // Query frames qa (Q^h) and qb (Q^h+1) of one pair in body-frame coordinates
-// for `placement` (position or relative), into a / b. Frames from BVH files
-// are moved from the world into the body frame of qa when qa is a BVH frame,
-// else into their own (root at the origin, facing +z); with "position" only
-// the x/z move applies (headings stay world). Hand-written frames already
-// are in body-frame coordinates. Throws InputError ("query ID",
+// for `placement` (position or relative), into a / b: each moved by
+// pair_body_move (mocap/search/placement.hpp). Throws InputError ("query ID",
 // "frames[i].root_position: ...") for a hand-written frame giving only one
 // of root x and z under "relative": true (a turn would mix them).
 void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,

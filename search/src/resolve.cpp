@@ -365,8 +365,7 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
                             std::shared_ptr<const QueryBvhFile>* file) {
   ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option, file);
   ResolvedFrame out;
-  out.from_bvh = pose.from_bvh;
-  out.file_pose = pose.file_pose;
+  out.root = frame_root(pose);
   if (pose.full) {
     out.kind = FrameKind::full;
     out.state = std::move(pose.state);

@@ -17,6 +17,7 @@
 #include "mocap/common/energy.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/kinematics.hpp"
+#include "mocap/search/placement.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_pose.hpp"
 
@@ -46,9 +47,8 @@ struct ResolvedFrame {
   /// the given components), metres; `given` says which axes constrain.
   Eigen::Vector3d root_m = Eigen::Vector3d::Zero();
   std::array<bool, 3> given{false, false, false};
-  /// From a BVH file, and its root's ground pose there (ResolvedQueryPose::file_pose).
-  bool from_bvh = false;
-  GroundPose file_pose;
+  /// What placements read from the frame (mocap/search/placement.hpp).
+  FrameRoot root;
   /// partial: the joints of a database frame that partial_approximate_energy
   /// reads (empty = all: whole-body queries) and those whose local
   /// translation it needs (the given subtrees); set by the engine.

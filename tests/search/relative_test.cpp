@@ -172,6 +172,32 @@ TEST(RelativeQuery, HandWrittenOffsetsAreInTheBodyFrame) {
   }
 }
 
+TEST(RelativeQuery, HandWrittenPairIsMeasuredFromItsFirstFrame) {
+  // A path 0 -> 1.2 m -> 2.4 m forward: its second pair is the first one
+  // moved 1.2 m (the same offsets from the pair's first frame), so it ranks
+  // the same partial motions with the same scores; and a pair turned by 90
+  // degrees with its offset turned along gives them too.
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(index_path().empty());
+  const Index index = Index::open(index_path());
+  const SearchEngine engine(index);
+  const QueryOutcome path = engine.run(
+      parse(
+          R"({"frames": [{"root_position": [0, null, 0], "root_heading_deg": 0}, {"root_position": [0, null, 1.2], "root_heading_deg": 0}, {"root_position": [0, null, 2.4], "root_heading_deg": 0}], "top": 5})"),
+      SearchOptions{});
+  const QueryOutcome turned = engine.run(
+      parse(
+          R"({"frames": [{"root_position": [3, null, -1], "root_heading_deg": 90}, {"root_position": [4.2, null, -1], "root_heading_deg": 90}], "top": 5})"),
+      SearchOptions{});
+  ASSERT_FALSE(path.error) << *path.error;
+  ASSERT_EQ(path.pairs.size(), 2u);
+  QueryOutcome first, second;
+  first.pairs = {path.pairs[0]};
+  second.pairs = {path.pairs[1]};
+  test::expect_same_results(first, second, "second pair", 1e-9);
+  test::expect_same_results(first, turned, "turned pair", 1e-5);
+}
+
 namespace {
 
 // Held-out relative queries over set 1 ("relative": true; the query's clip
