@@ -27,17 +27,19 @@ set -euo pipefail
 JSON=${SEARCH_BENCH_JSON:-}
 BRUTE_REL=${SEARCH_BENCH_BRUTE_RELATIVE:-12}
 BRUTE_WORLD=${SEARCH_BENCH_BRUTE_WORLD:-60}
+EXTRA=()  # --max-length S: passed to mocap-search (default: the engine's)
 while [[ ${1:-} == --* ]]; do
   case $1 in
     --json) JSON=$2 ;;
     --brute-relative) BRUTE_REL=$2 ;;
     --brute-world) BRUTE_WORLD=$2 ;;
+    --max-length) EXTRA=(--max-length "$2") ;;
     *) echo "search_bench: unknown option $1" >&2; exit 2 ;;
   esac
   shift 2
 done
 if [[ $# -lt 3 ]]; then
-  echo "usage: $0 [--json FILE] [--brute-relative N] [--brute-world N] BUILD_DIR INDEX.h5 DATA_DIR [COUNT]" >&2
+  echo "usage: $0 [--json FILE] [--brute-relative N] [--brute-world N] [--max-length S] BUILD_DIR INDEX.h5 DATA_DIR [COUNT]" >&2
   exit 2
 fi
 BUILD=$1; INDEX=$2; DATA=$3; COUNT=${4:-1000}
@@ -45,10 +47,11 @@ S=$BUILD/search/mocap-search
 [[ -x $S ]] || { echo "search_bench: $S not found (build first)" >&2; exit 2; }
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 python3 "$(dirname "$0")/search_queries.py" "$DATA" "$COUNT" 1 > "$T/all.jsonl"
-python3 - "$S" "$INDEX" "$T" "$JSON" "$BRUTE_REL" "$BRUTE_WORLD" <<'PY'
+python3 - "$S" "$INDEX" "$T" "$JSON" "$BRUTE_REL" "$BRUTE_WORLD" "${EXTRA[@]}" <<'PY'
 import json, math, os, resource, subprocess, sys, time
 
 exe, index, tmp, json_out = sys.argv[1:5]
+extra_args = sys.argv[7:]  # e.g. --max-length S
 brute_per_kind = {"relative": int(sys.argv[5]), "world": int(sys.argv[6])}
 load = lambda p: [json.loads(l) for l in open(p)]
 queries = load(f"{tmp}/all.jsonl")
@@ -87,7 +90,7 @@ def run(name, batch, mode_, threads):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.monotonic()
         p = subprocess.run([exe, "--index", index, "-q", "--queries", src, "--mode", mode_,
-                            "--threads", str(threads), "--out", out])
+                            "--threads", str(threads), "--out", out] + extra_args)
         wall += time.monotonic() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu += (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)

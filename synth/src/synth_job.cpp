@@ -19,6 +19,7 @@
 #include "mocap/common/skeleton.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/query_pose.hpp"
+#include "motion_layout.hpp"
 
 namespace mocap {
 namespace {
@@ -33,43 +34,32 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // Query frame i on the target skeleton: the DOFs it gives (the search
-// library's resolver, mocap/search/query_pose.hpp; joint rotations normalised),
+// library's resolver, mocap/search/query_pose.hpp), and for a BVH frame its
+// file's previous and next frames (the frame itself at the file's ends);
 // errors naming the query file.
-PartialPoseSpec resolve_query_frame(const Query& q, std::size_t i, const Index& index,
-                                    const SynthSkeleton& sk, QueryBvhCache& cache,
-                                    const std::string& source) {
-  ResolvedQueryPose pose;
+synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i, const Index& index,
+                                                  const SynthSkeleton& sk, QueryBvhCache& cache,
+                                                  const std::string& source) {
+  const IndexSkeleton& isk = index.skeletons()[sk.index_skeleton];
+  synth_detail::QueryFrameInput out;
   try {
-    pose = resolve_query_pose(q, i, index.skeletons()[sk.index_skeleton], sk.model, cache);
+    out.pose = resolve_query_pose(q, i, isk, sk.model, cache);
   } catch (const InputError& e) {
     throw InputError(source, 0, e.detail());
   }
-  PartialPoseSpec out = std::move(pose.given);
-  for (auto& [j, rot] : out.joint_rotations) rot = rot.normalized();
-  return out;
-}
-
-// Q_F: F with the given DOFs replaced. `shift` is added to the horizontal
-// root position when the query does not give it.
-SynthFrame complete_query(const SynthSkeleton& sk, const PartialPoseSpec& q, const SynthFrame& f,
-                          bool relative, const Eigen::Vector3d& shift) {
-  SynthFrame out = f;
-  for (const auto& [j, rot] : q.joint_rotations)
-    out.local_rotations[static_cast<std::size_t>(j)] = rot;
-  if (q.root_heading_rad) {
-    Placement p;
-    p.yaw_rad = *q.root_heading_rad - root_heading(sk, out);
-    const Eigen::Vector3d keep = out.root_position_m;
-    out = place_frame(sk, out, p);
-    out.root_position_m = keep;
-  }
-  const bool xz_given = q.root_position_m[0] && q.root_position_m[2];
-  if (!xz_given) out.root_position_m += Eigen::Vector3d(shift.x(), 0.0, shift.z());
-  for (std::size_t k = 0; k < 3; ++k)
-    if (q.root_position_m[k])
-      out.root_position_m[static_cast<Eigen::Index>(k)] =
-          (relative && k != 1 ? f.root_position_m[static_cast<Eigen::Index>(k)] : 0.0) +
-          *q.root_position_m[k];
+  if (!out.pose.from_bvh) return out;
+  auto neighbour = [&](std::size_t frame) -> std::optional<ResolvedQueryPose> {
+    Query qn = q;
+    qn.frames[i].bvh_frame = frame;
+    try {
+      return resolve_query_pose(qn, i, isk, sk.model, cache);
+    } catch (const InputError&) {
+      return std::nullopt;  // past the file's end: the frame itself
+    }
+  };
+  const std::size_t f = q.frames[i].bvh_frame;
+  if (f > 0) out.prev = neighbour(f - 1);
+  out.next = neighbour(f + 1);
   return out;
 }
 
@@ -164,77 +154,46 @@ class TargetPieces {
   std::map<std::uint32_t, std::vector<int>> joint_maps_;
 };
 
-// The partial motions R_h, placed (synth_job.hpp "Root placement").
-std::vector<std::vector<SynthFrame>> place_pieces(
-    const SynthSkeleton& sk, const TargetPieces& source, const std::vector<SearchResult>& chosen,
-    const Query& query, const std::vector<PartialPoseSpec>& qf, double dt) {
-  const double T = query.transition_time_s;
-  std::vector<std::vector<SynthFrame>> pieces(chosen.size());
-  for (std::size_t h = 0; h < chosen.size(); ++h) {
-    const SearchResult& m = chosen[h];
-    std::vector<SynthFrame> raw;
-    for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
-      raw.push_back(source.frame(m.clip_index, f));
-    Placement p;
-    const bool world_xz = !query.relative() && qf[h].root_position_m[0] && qf[h].root_position_m[2];
-    if (h > 0 && !world_xz) {
-      const auto& prev = pieces[h - 1];
-      const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
-      const Eigen::Vector3d vs = horizontal_root_velocity(raw[0], raw[1], dt);
-      const double* heading = qf[h].root_heading_rad ? &*qf[h].root_heading_rad : nullptr;
-      p = continuation_placement(sk, prev.back(), ve, raw[0], vs, T, heading);
-    }
-    for (SynthFrame& f : raw) f = place_frame(sk, f, p);
-    pieces[h] = std::move(raw);
-  }
-  return pieces;
-}
-
-// The completed query frames Q_F: Q^h from R_h's first frame, Q^H from
-// R_H-1's last (synth_job.hpp).
-std::vector<SynthFrame> complete_query_frames(const SynthSkeleton& sk, const Query& query,
-                                              const std::vector<PartialPoseSpec>& qf,
-                                              const std::vector<std::vector<SynthFrame>>& pieces,
-                                              double dt) {
-  const double T = query.transition_time_s;
-  const std::size_t H = qf.size();
-  std::vector<SynthFrame> out;
-  for (std::size_t h = 0; h < H; ++h) {
-    if (h + 1 < H) {
-      const auto& pc = pieces[h];
-      const Eigen::Vector3d vs = horizontal_root_velocity(pc[0], pc[1], dt);
-      out.push_back(complete_query(sk, qf[h], pc[0], query.relative(), -0.5 * T * vs));
-    } else {
-      const auto& pc = pieces[h - 1];
-      const Eigen::Vector3d ve = horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
-      out.push_back(complete_query(sk, qf[h], pc.back(), query.relative(), 0.5 * T * ve));
-    }
-  }
-  return out;
-}
-
-// One gap to supplement and, once done, its transition and report.
+// One gap to supplement and, once done, its transition and report. A
+// merged gap (its ends are one pose: a query frame that is the partial
+// motion's own frame) gets no transition; the duplicate frame is dropped
+// (the partial motion's) and `gap` is the step that then joins them.
 struct GapTask {
   std::size_t pair;
   const char* side;
   GapProblem gap;
+  bool merged = false;
   TransitionReport report;
   std::vector<SynthFrame> frames;
 };
 
 // The gaps, two per pair in order: into each partial motion from its query
-// frame ("in") and out of it to the next ("out").
+// frame ("in") and out of it to the next ("out"). Query frames bring their
+// neighbours (their velocities) to both.
 std::vector<GapTask> gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom,
-                               const std::vector<SynthFrame>& query_frames,
-                               const std::vector<std::vector<SynthFrame>>& pieces, double dt) {
+                               const synth_detail::MotionLayout& layout, double dt) {
   std::vector<GapTask> tasks;
-  for (std::size_t h = 0; h < pieces.size(); ++h) {
-    const SynthFrame& q = query_frames[h];
-    const SynthFrame& qn = query_frames[h + 1];
-    const auto& pc = pieces[h];
-    tasks.push_back({h + 1, "in", GapProblem{&sk, &rom, q, q, pc[0], pc[1], dt}, {}, {}});
-    tasks.push_back(
-        {h + 1, "out", GapProblem{&sk, &rom, pc[pc.size() - 2], pc.back(), qn, qn, dt}, {}, {}});
+  for (std::size_t h = 0; h < layout.pieces.size(); ++h) {
+    const synth_detail::PlacedQueryFrame& q = layout.queries[h];
+    const synth_detail::PlacedQueryFrame& qn = layout.queries[h + 1];
+    const auto& pc = layout.pieces[h];
+    const std::size_t n = pc.size();
+    GapTask in{h + 1, "in", GapProblem{&sk, &rom, q.before, q.frame, pc[0], pc[1], dt},
+               false, {},   {}};
+    if (layout.merged_in[h]) {
+      in.merged = true;
+      in.gap.goal = pc[1];
+      in.gap.after = pc[2];
+    }
+    GapTask out{h + 1, "out", GapProblem{&sk, &rom, pc[n - 2], pc[n - 1], qn.frame, qn.after, dt},
+                false, {},    {}};
+    if (layout.merged_out[h]) {
+      out.merged = true;
+      out.gap.before = pc[n - 3];
+      out.gap.start = pc[n - 2];
+    }
+    tasks.push_back(std::move(in));
+    tasks.push_back(std::move(out));
   }
   return tasks;
 }
@@ -246,6 +205,10 @@ void supplement_gap(GapTask& t, const SynthOptions& options) {
   tr.pair = t.pair;
   tr.side = t.side;
   tr.method = options.method;
+  if (t.merged) {
+    tr.measures = measure_transition(t.gap, {});
+    return;
+  }
   const auto ts = std::chrono::steady_clock::now();
   // Baselines get the length A* would plan with (choose_transition_frames),
   // so --transition slerp|inertialize compare like with like.
@@ -289,7 +252,12 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
     add_segment("query", h + 1, {res.query_frames[h]});
     for (std::size_t side = 0; side < 2; ++side) {
       GapTask& t = tasks[2 * h + side];
-      if (side == 1) add_segment("partial", h + 1, pieces[h]);
+      if (side == 1) {
+        const auto& pc = pieces[h];
+        const auto first = pc.begin() + (tasks[2 * h].merged ? 1 : 0);
+        const auto last = pc.end() - (t.merged ? 1 : 0);
+        add_segment("partial", h + 1, std::vector<SynthFrame>(first, last));
+      }
       add_segment("transition", h + 1, t.frames);
       res.transitions.push_back(std::move(t.report));
     }
@@ -419,19 +387,23 @@ SynthResult synthesize(const Index& index, const Query& query,
   res.frame_time_s = dt;
   // Range of motion: union over every clip of the target skeleton in the index.
   const RangeOfMotion rom = range_of_motion(index, sk, index.skeletons()[target].clips);
-  std::vector<PartialPoseSpec> qf;
+  std::vector<synth_detail::QueryFrameInput> qf;
   QueryBvhCache bvh_cache;
   for (std::size_t i = 0; i < H; ++i)
     qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
-  const std::vector<std::vector<SynthFrame>> pieces =
-      place_pieces(sk, source, res.chosen, query, qf, dt);
-  res.query_frames = complete_query_frames(sk, query, qf, pieces, dt);
-  std::vector<GapTask> tasks = gap_tasks(sk, rom, res.query_frames, pieces, dt);
+  std::vector<std::vector<SynthFrame>> raw(H - 1);
+  for (std::size_t h = 0; h + 1 < H; ++h)
+    for (std::size_t f = res.chosen[h].start_frame; f <= res.chosen[h].end_frame; ++f)
+      raw[h].push_back(source.frame(res.chosen[h].clip_index, f));
+  const synth_detail::MotionLayout layout =
+      synth_detail::lay_out_motion(sk, query.placement, qf, raw, dt, query.transition_time_s);
+  for (const auto& q : layout.queries) res.query_frames.push_back(q.frame);
+  std::vector<GapTask> tasks = gap_tasks(sk, rom, layout, dt);
   // Each gap is supplemented as its own task (independent: the result does
   // not depend on the thread count).
   tbb::parallel_for(std::size_t{0}, tasks.size(),
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
-  assemble(res, pieces, tasks);
+  assemble(res, layout.pieces, tasks);
   res.step_energies_J = motion_step_energies(sk, res.frames, dt);
   res.synth_ms = ms_since(t0);
   return res;
@@ -451,7 +423,10 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
     RawJoint rj;
     rj.name = s.names[j];
     rj.parent = s.parents[j];
-    rj.offset = sk.local_translations_m[j] / unit;
+    // The rest OFFSET (scaled like the joint's translation): a joint with
+    // position channels gets its translation from them (they replace it).
+    const double scale = s.translation_scales.empty() ? 1.0 : s.translation_scales[j];
+    rj.offset = s.offsets_m[j] * (s.parents[j] < 0 ? 1.0 : scale) / unit;
     chans[j] = parse_channels(j < sk.channels.size() ? sk.channels[j] : "");
     rj.channels = chans[j];
     rj.first_column = raw.channel_count;
@@ -488,7 +463,7 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       }
     }
   }
-  write_bvh_file(to_export_layout(raw), path);
+  write_bvh_file(raw, path);
 }
 
 }  // namespace mocap

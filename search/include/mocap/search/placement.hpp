@@ -35,7 +35,9 @@ struct FrameRoot {
 
   /// True when the frame says where it is or which way it faces: a BVH
   /// frame, or a hand-written one giving root x, z or heading.
-  bool anchored() const { return from_bvh || x_m || z_m || heading_rad; }
+  bool anchored() const {
+    return from_bvh || x_m.has_value() || z_m.has_value() || heading_rad.has_value();
+  }
   /// P(f): the file pose of a BVH frame; the given x/z (0 where not given)
   /// and heading (0 when not given) of a hand-written one.
   GroundPose ground_pose() const;

@@ -72,7 +72,7 @@ struct SearchOptions {
   /// time), the lower limit at least 1 frame (so s < e). A query's own
   /// min_length_s / max_length_s replace them. 0 < min_length_s <= max_length_s.
   double min_length_s = 0.2;
-  double max_length_s = 2.0;
+  double max_length_s = 4.0;
   /// Parallelise over clips inside one query (TBB); results do not depend on it.
   bool parallel_clips = true;
 };

@@ -3,16 +3,12 @@
 // (Q^1, M_c, R_1, M_c, Q^2, ..., Q^H), written as BVH, with a JSON and an
 // HTML report (docs/synthesis.md "Assembly").
 //
-// Root placement: R_1 keeps its clip coordinates. R_h (h >= 2) keeps them too
-// when Q^h gives a world root x and z (the search compared them in world
-// coordinates); otherwise it is turned about the vertical to Q^h's heading
-// (given) or R_h-1's last heading, and moved so that its first root lies
-// (v_e + v_s) / 2 * T past R_h-1's last root (v_e, v_s: horizontal root
-// velocities of R_h-1's end and R_h's start, T = the query's transition time).
-// Query frames are completed from the neighbouring database frame (Q_F:
-// Q^h from R_h's first frame, Q^H from R_H-1's last); an unspecified
-// horizontal root position is taken v T / 2 before that frame (after it, for
-// Q^H), so the character does not have to step back.
+// Placement (docs/synthesis.md "Placement"): the output starts at the first
+// query frame's own pose; partial motions and later query frames are placed
+// by the search's rule (mocap/search/placement.hpp), moved along by the
+// travel of the transitions; a query frame that is its partial motion's own
+// frame is merged with it. BVH query frames carry their file's velocities
+// into the transitions.
 #include <cstddef>
 #include <filesystem>
 #include <optional>
@@ -87,8 +83,14 @@ SynthResult synthesize(const Index& index, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out);
 
-/// The motion as BVH in the target skeleton (file units of the first clip,
-/// export layout that Blender and three.js load identically).
+/// The motion as BVH in the target skeleton, file units of the first clip:
+/// the skeleton's own joints and channels, OFFSETs its rest offsets. The
+/// pelvis (SynthSkeleton::root_joint) carries the root translation (position
+/// channels, which replace its OFFSET, as Blender reads them) and rotation;
+/// a static dummy root above it (Bandai Namco's joint_Root) keeps constant
+/// channels. A file whose pelvis has position channels and a non-zero
+/// OFFSET is not read right by loaders that add position channels to the
+/// OFFSET (three.js BVHLoader): docs/synthesis.md "Output".
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path);
 
 /// REPORT.json text.

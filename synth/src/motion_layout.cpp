@@ -1,0 +1,183 @@
+// Placement of the query frames and partial motions in the output
+// (motion_layout.hpp).
+#include "motion_layout.hpp"
+
+#include <stdexcept>
+
+namespace mocap::synth_detail {
+namespace {
+
+GroundPose frame_ground_pose(const SynthSkeleton& sk, const SynthFrame& f) {
+  GroundPose g;
+  g.heading_rad = root_heading(sk, f);
+  g.position_m = Eigen::Vector2d(f.root_position_m.x(), f.root_position_m.z());
+  return g;
+}
+
+Placement placement_of(const GroundPose& g) {
+  Placement p;
+  p.yaw_rad = g.heading_rad;
+  p.translation_m = Eigen::Vector3d(g.position_m.x(), 0.0, g.position_m.y());
+  return p;
+}
+
+GroundPose ground_pose_of_placement(const Placement& p) {
+  GroundPose g;
+  g.heading_rad = p.yaw_rad;
+  g.position_m = Eigen::Vector2d(p.translation_m.x(), p.translation_m.z());
+  return g;
+}
+
+// `base` with the DOFs `q` gives (all in the frame's own coordinates).
+SynthFrame complete(const SynthSkeleton& sk, const PartialPoseSpec& q, SynthFrame base) {
+  for (const auto& [j, rot] : q.joint_rotations)
+    base.local_rotations[static_cast<std::size_t>(j)] = rot.normalized();
+  if (q.root_heading_rad) {
+    const Eigen::Vector3d keep = base.root_position_m;
+    Placement turn;
+    turn.yaw_rad = *q.root_heading_rad - root_heading(sk, base);
+    base = place_frame(sk, base, turn);
+    base.root_position_m = keep;
+  }
+  for (std::size_t k = 0; k < 3; ++k)
+    if (q.root_position_m[k])
+      base.root_position_m[static_cast<Eigen::Index>(k)] = *q.root_position_m[k];
+  return base;
+}
+
+// The partial motions placed; `out_pose` receives the output ground pose of
+// every anchored query frame.
+std::vector<std::vector<SynthFrame>> place_pieces(
+    const SynthSkeleton& sk, FramePlacement placement, const std::vector<FrameRoot>& roots,
+    const std::vector<std::vector<SynthFrame>>& raw, double dt, double transition_time_s,
+    std::vector<std::optional<GroundPose>>& out_pose) {
+  const std::size_t H = roots.size();
+  out_pose = std::vector<std::optional<GroundPose>>(H);
+  if (roots.front().anchored()) out_pose.front() = roots.front().ground_pose();
+  std::vector<std::vector<SynthFrame>> pieces(H - 1);
+  for (std::size_t h = 0; h + 1 < H; ++h) {
+    const std::vector<SynthFrame>& r = raw[h];
+    const GroundPose to_clip =
+        partial_motion_placement(placement, frame_ground_pose(sk, r.front()));
+    GroundPose body;  // the pair's body frame -> output
+    if (roots[h].anchored()) {
+      body = out_pose[h].value_or(GroundPose{}) * roots[h].ground_pose().inverse() *
+             pair_body_move(placement, roots[h], roots[h]).inverse();
+    } else if (h > 0) {
+      const auto& prev = pieces[h - 1];
+      const Eigen::Vector3d ve = horizontal_root_velocity(prev[prev.size() - 2], prev.back(), dt);
+      const Eigen::Vector3d vs = horizontal_root_velocity(r[0], r[1], dt);
+      body = ground_pose_of_placement(
+                 continuation_placement(sk, prev.back(), ve, r[0], vs, transition_time_s)) *
+             to_clip;
+    }
+    const Placement clip_to_out = placement_of(body * to_clip.inverse());
+    for (const SynthFrame& f : r) pieces[h].push_back(place_frame(sk, f, clip_to_out));
+    if (roots[h + 1].anchored())
+      out_pose[h + 1] =
+          body * pair_body_move(placement, roots[h], roots[h + 1]) * roots[h + 1].ground_pose();
+  }
+  return pieces;
+}
+
+// Horizontal root velocity of a placed query frame from its neighbours, m/s
+// (0 for a frame at rest).
+Eigen::Vector3d query_velocity(const PlacedQueryFrame& q, bool has_prev, bool has_next,
+                               double dt) {
+  const int steps = (has_prev ? 1 : 0) + (has_next ? 1 : 0);
+  if (steps == 0) return Eigen::Vector3d::Zero();
+  return horizontal_root_velocity(q.before, q.after, steps * dt);
+}
+
+void translate(SynthFrame& f, const Eigen::Vector3d& d) { f.root_position_m += d; }
+
+// Moves R_h and everything after it by the travel of the transitions
+// (motion_layout.hpp), and sets the merge flags.
+void add_travel(const std::vector<QueryFrameInput>& query_frames, double dt,
+                double transition_time_s, MotionLayout& out) {
+  const std::size_t pairs = out.pieces.size();
+  out.merged_in.assign(pairs, 0);
+  out.merged_out.assign(pairs, 0);
+  auto gives_xz = [&](std::size_t h) {
+    const auto& p = query_frames[h].pose.given.root_position_m;
+    return p[0].has_value() && p[2].has_value();
+  };
+  auto velocity = [&](std::size_t h) {
+    return query_velocity(out.queries[h], query_frames[h].prev.has_value(),
+                          query_frames[h].next.has_value(), dt);
+  };
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  for (std::size_t h = 0; h < pairs; ++h) {
+    auto& pc = out.pieces[h];
+    const std::size_t n = pc.size();
+    // Unshifted relations decide the merges (the search's placement).
+    out.merged_in[h] = same_pose(out.queries[h].frame, pc[0]) && n >= 3;
+    out.merged_out[h] = same_pose(pc[n - 1], out.queries[h + 1].frame) &&
+                        n >= 3 + static_cast<std::size_t>(out.merged_in[h]);
+    const Eigen::Vector3d v_s = horizontal_root_velocity(pc[0], pc[1], dt);
+    const Eigen::Vector3d v_e = horizontal_root_velocity(pc[n - 2], pc[n - 1], dt);
+    if (!out.merged_in[h] && gives_xz(h))
+      shift += 0.5 * transition_time_s * (velocity(h) + v_s);
+    for (SynthFrame& f : pc) translate(f, shift);
+    if (!out.merged_out[h] && gives_xz(h + 1))
+      shift += 0.5 * transition_time_s * (v_e + velocity(h + 1));
+    PlacedQueryFrame& q = out.queries[h + 1];
+    for (SynthFrame* f : {&q.before, &q.frame, &q.after}) translate(*f, shift);
+  }
+}
+
+}  // namespace
+
+bool same_pose(const SynthFrame& a, const SynthFrame& b) {
+  if ((a.root_position_m - b.root_position_m).norm() > 1e-4) return false;
+  for (std::size_t j = 0; j < a.local_rotations.size(); ++j)
+    if (a.local_rotations[j].angularDistance(b.local_rotations[j]) > 1e-4) return false;
+  return true;
+}
+
+MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
+                            const std::vector<QueryFrameInput>& query_frames,
+                            const std::vector<std::vector<SynthFrame>>& raw, double dt,
+                            double transition_time_s) {
+  const std::size_t H = query_frames.size();
+  if (H < 2 || raw.size() + 1 != H)
+    throw std::invalid_argument("lay_out_motion: expected H >= 2 query frames and H - 1 pieces");
+  for (const auto& r : raw)
+    if (r.size() < 2) throw std::invalid_argument("lay_out_motion: a piece of fewer than 2 frames");
+  std::vector<FrameRoot> roots;
+  for (const QueryFrameInput& q : query_frames) roots.push_back(frame_root(q.pose));
+  std::vector<std::optional<GroundPose>> out_pose;
+  MotionLayout out;
+  out.pieces = place_pieces(sk, placement, roots, raw, dt, transition_time_s, out_pose);
+  for (std::size_t h = 0; h < H; ++h) {
+    // The neighbouring partial-motion frame, moved v T / 2 away from it when
+    // the frame gives no root x/z.
+    const bool first = h + 1 < H;
+    const auto& pc = out.pieces[first ? h : h - 1];
+    SynthFrame base = first ? pc[0] : pc.back();
+    const PartialPoseSpec& given = query_frames[h].pose.given;
+    if (!(given.root_position_m[0] && given.root_position_m[2])) {
+      const Eigen::Vector3d v = first ? horizontal_root_velocity(pc[0], pc[1], dt)
+                                      : horizontal_root_velocity(pc[pc.size() - 2], pc.back(), dt);
+      base.root_position_m += (first ? -0.5 : 0.5) * transition_time_s * v;
+    }
+    // Own coordinates -> output.
+    const GroundPose own_to_out =
+        out_pose[h] ? out_pose[h].value_or(GroundPose{}) * roots[h].ground_pose().inverse()
+                    : GroundPose{};
+    const Placement to_out = placement_of(own_to_out);
+    const SynthFrame own_base = place_frame(sk, base, placement_of(own_to_out.inverse()));
+    auto placed = [&](const PartialPoseSpec& spec) {
+      return place_frame(sk, complete(sk, spec, own_base), to_out);
+    };
+    PlacedQueryFrame p;
+    p.frame = placed(given);
+    p.before = query_frames[h].prev ? placed(query_frames[h].prev->given) : p.frame;
+    p.after = query_frames[h].next ? placed(query_frames[h].next->given) : p.frame;
+    out.queries.push_back(std::move(p));
+  }
+  add_travel(query_frames, dt, transition_time_s, out);
+  return out;
+}
+
+}  // namespace mocap::synth_detail

@@ -1,0 +1,165 @@
+// synth/src/motion_layout.cpp through synthesize(): where the output motion
+// goes. A relative query of two frames of an indexed clip reproduces that
+// clip; held-out queries start at the first query frame's world pose and keep
+// moving; the pelvis carries the translation in the written BVH.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "mocap/common/bvh.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/search.hpp"
+#include "mocap/synth/synth_job.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mocap;
+
+const Index* shared_index() {
+  static std::unique_ptr<Index> index;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    const auto out = test::temp_dir("motion-layout") / "set1-cmu.h5";
+    const std::string cmd = std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build -q --out '" +
+                            out.string() + "' '" + (test::data_dir() / "bandai-namco-1").string() +
+                            "' '" + (test::data_dir() / "cmu").string() + "' >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) == 0) index = std::make_unique<Index>(Index::open(out));
+  }
+  return index.get();
+}
+
+fs::path data_file(const std::string& rel) { return fs::absolute(test::data_dir() / rel); }
+
+std::string frames_json(const fs::path& bvh, std::size_t a, std::size_t b) {
+  return R"("frames": [{"bvh": ")" + bvh.string() + R"(", "frame": )" + std::to_string(a) +
+         R"(}, {"bvh": ")" + bvh.string() + R"(", "frame": )" + std::to_string(b) + "}]";
+}
+
+struct Synthesised {
+  SynthResult result;
+  std::optional<SynthSkeleton> skeleton;
+};
+
+std::unique_ptr<Synthesised> synthesise(const Index& index, const std::string& text) {
+  const Query q = parse_query_text(text, "<test>", 0, fs::current_path(), "q");
+  const SearchEngine engine(index);
+  const QueryOutcome found = engine.run(q, SearchOptions{});
+  if (found.error) {
+    ADD_FAILURE() << *found.error;
+    return nullptr;
+  }
+  auto out = std::make_unique<Synthesised>();
+  out->result = synthesize(index, q, found.pairs, SynthOptions{}, out->skeleton);
+  out->result.skeleton = &*out->skeleton;
+  return out;
+}
+
+Eigen::Vector3d clip_root(const Index& index, std::size_t clip, std::size_t f) {
+  const IndexClip& c = index.clips()[clip];
+  const IndexArray& roots = index.array(c.skeleton, "frames", "root_position_m");
+  const std::size_t g = c.frame_start + f;
+  return {roots.f32[3 * g], roots.f32[3 * g + 1], roots.f32[3 * g + 2]};
+}
+
+std::size_t clip_named(const Index& index, const std::string& name) {
+  for (std::size_t c = 0; c < index.clips().size(); ++c)
+    if (index.clips()[c].path.ends_with("/" + name)) return c;
+  ADD_FAILURE() << "no clip " << name;
+  return 0;
+}
+
+bool identical(const SynthFrame& a, const SynthFrame& b) {
+  if (a.root_position_m != b.root_position_m) return false;
+  for (std::size_t j = 0; j < a.local_rotations.size(); ++j)
+    if (!a.local_rotations[j].coeffs().isApprox(b.local_rotations[j].coeffs(), 0.0)) return false;
+  return true;
+}
+
+}  // namespace
+
+TEST(MotionLayout, RelativeQueryOfOneClipReproducesItsRootPath) {
+  // The clip itself ranks first at h = 0: the output is its frames a..b
+  // where they are in the file (set 1 and CMU).
+  if (!test::have_data()) GTEST_SKIP() << "no data";
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  for (const auto& [rel, a, b] :
+       {std::tuple<std::string, std::size_t, std::size_t>{
+            "bandai-namco-1/data/dataset-1_walk_normal_001.bvh", 10, 40},
+        {"cmu/131_02.bvh", 30, 90}}) {
+    const fs::path file = data_file(rel);
+    const auto s = synthesise(*index, "{" + frames_json(file, a, b) + R"(, "top": 1})");
+    ASSERT_TRUE(s);
+    const std::size_t clip = clip_named(*index, file.filename().string());
+    ASSERT_EQ(s->result.frames.size(), b - a + 1) << rel;
+    double worst = 0.0;
+    for (std::size_t k = 0; k < s->result.frames.size(); ++k)
+      worst = std::max(worst,
+                       (s->result.frames[k].root_position_m - clip_root(*index, clip, a + k)).norm());
+    EXPECT_LT(worst, 0.01) << rel;
+  }
+}
+
+TEST(MotionLayout, HeldOutQueryStartsAtItsFirstFrameAndKeepsMoving) {
+  // The query's clip excluded: the output starts at the first query frame's
+  // world root, no two consecutive frames are one pose (the query frames'
+  // velocities carry into the transitions), and the root keeps moving
+  // forward at walking speed (no step back, no standing still).
+  if (!test::have_data()) GTEST_SKIP() << "no data";
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
+  const auto s = synthesise(
+      *index, "{" + frames_json(file, 10, 40) +
+                  R"(, "top": 1, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+  ASSERT_TRUE(s);
+  const auto& fr = s->result.frames;
+  const std::size_t clip = clip_named(*index, file.filename().string());
+  EXPECT_LT((fr.front().root_position_m - clip_root(*index, clip, 10)).norm(), 1e-5);
+  const double dt = s->result.frame_time_s;
+  for (std::size_t k = 1; k < fr.size(); ++k) {
+    EXPECT_FALSE(identical(fr[k - 1], fr[k])) << "frames " << k - 1 << " and " << k;
+    Eigen::Vector3d v = (fr[k].root_position_m - fr[k - 1].root_position_m) / dt;
+    v.y() = 0.0;
+    EXPECT_GT(v.norm(), 0.5) << "frame " << k << ": root at " << v.norm() << " m/s";
+  }
+}
+
+TEST(MotionLayout, PelvisCarriesTheTranslationUnderAStaticDummyRoot) {
+  if (!test::have_data()) GTEST_SKIP() << "no data";
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
+  const auto s = synthesise(
+      *index, "{" + frames_json(file, 10, 40) +
+                  R"(, "top": 1, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+  ASSERT_TRUE(s);
+  const fs::path out = test::temp_dir("motion-layout-bvh") / "out.bvh";
+  write_motion_bvh(s->result, out);
+  const RawClip written = read_bvh_file(out);
+  const RawClip source = read_bvh_file(file);
+  ASSERT_EQ(written.joints.size(), source.joints.size());
+  ASSERT_EQ(written.joints[0].name, "joint_Root");
+  ASSERT_EQ(written.joints[1].name, "Hips");
+  for (std::size_t j = 0; j < written.joints.size(); ++j)
+    EXPECT_LT((written.joints[j].offset - source.joints[j].offset).norm(), 1e-4)
+        << written.joints[j].name << ": the OFFSET is the rest offset";
+  const RawJoint& dummy = written.joints[0];
+  for (std::size_t f = 1; f < written.frame_count; ++f)
+    for (std::size_t c = 0; c < dummy.channels.size(); ++c)
+      EXPECT_EQ(written.frame(f)[dummy.first_column + c], written.frame(0)[dummy.first_column + c])
+          << "joint_Root channel " << c << " frame " << f;
+  // Hips: position channels first (as in the source), in centimetres.
+  const RawJoint& hips = written.joints[1];
+  for (std::size_t f = 0; f < written.frame_count; f += 7)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(written.frame(f)[hips.first_column + static_cast<std::size_t>(a)] / 100.0,
+                  s->result.frames[f].root_position_m[a], 1e-5);
+}
