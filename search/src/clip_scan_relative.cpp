@@ -9,6 +9,75 @@
 #include "window_minima.hpp"
 
 namespace mocap::search_detail {
+namespace {
+
+// Root-only Q^h+1: per block of kBlock start frames, the box of where their
+// placements put Q^h+1's root against every block of end frames they reach;
+// a start block none of whose end blocks can beat tau gets la = inf (its
+// start frames are skipped). The path-cost term is left out (it is >= 0).
+template <class Placed>
+void root_block_pass(const PairContext& pair, const RootBoundQuery& q, std::size_t s_end,
+                     const LengthFrames& len, double tau, const Placed& placed, Scratch& scratch) {
+  constexpr std::size_t B = RootBlocks::kBlock;
+  const RootBlocks& blocks = scratch.root_blocks;
+  const std::size_t last_e = blocks.x0.size() * B;  // past the clip's last block
+  (void)pair;
+  for (std::size_t sa = 0; sa < s_end; sa += B) {
+    const std::size_t sb = std::min(s_end, sa + B);  // [sa, sb)
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
+    double amin = kInf;
+    for (std::size_t s = sa; s < sb; ++s) {
+      const Eigen::Vector3d p = placed(q, s);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+      amin = std::min(amin, scratch.a[s]);
+    }
+    const std::size_t e_lo = sa + len.min, e_hi = std::min(last_e - 1, sb - 1 + len.max);
+    bool open = false;
+    for (std::size_t j = e_lo / B; j <= e_hi / B && !open; ++j)
+      open = safe(amin + blocks.bound_box(q, j, lo, hi)) <= tau;
+    if (!open)
+      for (std::size_t s = sa; s < sb; ++s) scratch.la[s] = kInf;
+  }
+}
+
+// The root-only bound of a term over a whole clip (box = its clip_root_boxes
+// row): Q^h ("in") lands at F^s plus its body offset d exactly; Q^h+1
+// ("out") at F^s + d turned, at least |d| minus the clip's root extent
+// from any F^e (per axis under "position").
+double clip_root_bound(const PairContext& pair, const RootBoundQuery& q,
+                       const std::array<double, 9>& box, bool in) {
+  const double dx = q.root_body.x(), dz = q.root_body.z();
+  const double ex = in ? 0.0 : box[1] - box[0], ez = in ? 0.0 : box[5] - box[4];
+  const double yq = q.root_body.y();
+  const double dy = yq < box[2] ? box[2] - yq : (yq > box[3] ? yq - box[3] : 0.0);
+  double gx = 0.0, gz = 0.0;
+  if (pair.placement == FramePlacement::relative) {
+    gx = std::max(0.0, std::hypot(dx, dz) - std::hypot(ex, ez));
+  } else {
+    gx = std::max(0.0, std::abs(dx) - ex);
+    gz = std::max(0.0, std::abs(dz) - ez);
+  }
+  return root_bound(q, box[6], box[7], box[8], gx, dy, gz);
+}
+
+}  // namespace
+
+double relative_clip_bound(const PairContext& pair, std::size_t row) {
+  const SkeletonData& skeleton = *pair.skeleton;
+  const SkeletonTables& tables = skeleton.tables;
+  if (pair.root_in != nullptr || pair.root_out != nullptr) ensure_frame_kinetic(skeleton);
+  double a = 0.0, b = 0.0;
+  if (pair.in_bound != nullptr)
+    a = clip_relative_bound(*pair.in_bound, tables, row);
+  else if (pair.root_in != nullptr)
+    a = clip_root_bound(pair, *pair.root_in, skeleton.caches.clip_root_boxes[row], true);
+  if (pair.out_bound != nullptr)
+    b = clip_relative_bound(*pair.out_bound, tables, row);
+  else if (pair.root_out != nullptr)
+    b = clip_root_bound(pair, *pair.root_out, skeleton.caches.clip_root_boxes[row], false);
+  return a + b;
+}
 
 // a(s) with Q^h placed on F^s, b(s, e) with Q^h+1 placed by F^s's ground
 // pose (relative_frames.hpp); O(K L) with L = max_length_s / frame time.
@@ -32,9 +101,7 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   for (std::size_t s = 0; s < s_end; ++s) total += 1 + (std::min(k - 1, s + l) - (s + len.min) + 1);
   // The clip's box bounds of both terms (their parts that hold wherever the
   // query frames are placed).
-  if (prune && pair.in_bound != nullptr && pair.out_bound != nullptr &&
-      safe(clip_relative_bound(*pair.in_bound, skeleton.tables, ci.row) +
-           clip_relative_bound(*pair.out_bound, skeleton.tables, ci.row)) > tau) {
+  if (prune && has_relative_clip_bound(pair) && safe(relative_clip_bound(pair, ci.row)) > tau) {
     counters.clip_pruned = true;
     counters.pruned += total;
     return false;
@@ -43,11 +110,36 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   // (relative_bounds.hpp, Q^h placed on F^s).
   scratch.a.assign(k, kInf);
   const bool bounded_a = prune && pair.in_bound != nullptr;
+  const bool root_a = prune && !bounded_a && pair.root_in != nullptr;
+  const bool root_b = prune && pair.out_bound == nullptr && pair.root_out != nullptr;
+  if (root_a || root_b) {
+    ensure_frame_kinetic(skeleton);
+    if (pair.placement == FramePlacement::relative) frame_headings(skeleton);
+    scratch.root_blocks.build(skeleton, ci.frame_start, k);
+  }
+  auto placed = [&](const RootBoundQuery& q, std::size_t f) {
+    return place_point(skeleton, pair.placement, ci.frame_start + f, q.root_body);
+  };
+  const float* kin = skeleton.caches.kinetic.data() + ci.frame_start;
+  const float* kin_rot = skeleton.caches.kinetic_rot.data() + ci.frame_start;
+  auto root_at = [&](std::size_t f) {
+    const float* r = skeleton.tables.table.root_positions.data() + ci.frame_start + f;
+    const std::size_t st = skeleton.tables.table.stride;
+    return Eigen::Vector3d(r[0], r[st], r[2 * st]);
+  };
+  // A root-only frame's bound at frame f with its root placed at p (world).
+  auto root_frame_bound = [&](const RootBoundQuery& q, std::size_t f, const Eigen::Vector3d& p) {
+    const Eigen::Vector3d d = p - root_at(f);
+    return root_bound(q, kin[f], kin[f], kin_rot[f], d.x(), d.y(), d.z());
+  };
   if (bounded_a) {
     relative_bound_frames(*pair.in_bound, skeleton.tables, ci.frame_start, k, scratch.in_frames);
     for (std::size_t s = 0; s < s_end; ++s)
       scratch.a[s] = relative_bound(*pair.in_bound, scratch.in_frames, s,
                                     place(s).apply(pair.in_bound->com_body));
+  } else if (root_a) {
+    for (std::size_t s = 0; s < s_end; ++s)
+      scratch.a[s] = root_frame_bound(*pair.root_in, s, placed(*pair.root_in, s));
   } else {
     for (std::size_t s = 0; s < s_end; ++s)
       evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
@@ -55,7 +147,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     counters.evaluated += s_end;
   }
   // a_exact[s]: scratch.a[s] is a(s) itself, not its bound.
-  scratch.a_exact.assign(k, bounded_a ? 0 : 1);
+  const bool a_bounds = bounded_a || root_a;
+  scratch.a_exact.assign(k, a_bounds ? 0 : 1);
   const bool bounded = prune && pair.out_bound != nullptr;
   if (bounded) {
     // la[s]: the least placement-free bound of b over s's window [s + min, s + max].
@@ -66,14 +159,25 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     scratch.la.resize(s_end);
     for (std::size_t s = 0; s < s_end; ++s)
       scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
+  } else if (root_b) {
+    // la[s]: the least placement-free root bound (x and z distances 0) over the window.
+    const RootBoundQuery& q = *pair.root_out;
+    thread_local FixedWindowMinima windows;
+    windows.build(0, k, len.max - len.min + 1, [&](std::size_t e) {
+      return root_bound(q, kin[e], kin[e], kin_rot[e], 0.0, q.root_body.y() - root_at(e).y(), 0.0);
+    });
+    scratch.la.resize(s_end);
+    for (std::size_t s = 0; s < s_end; ++s)
+      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
   } else {
     scratch.la.assign(s_end, 0.0);
   }
+  if (root_b) root_block_pass(pair, *pair.root_out, s_end, len, tau, placed, scratch);
   double min_lb = kInf;
   for (std::size_t s = 0; s < s_end; ++s) min_lb = std::min(min_lb, scratch.a[s] + scratch.la[s]);
   if (prune && safe(min_lb) > tau) {
     counters.clip_pruned = true;
-    counters.pruned += total - (bounded_a ? 0 : s_end);
+    counters.pruned += total - (a_bounds ? 0 : s_end);
     return false;
   }
   const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
@@ -110,6 +214,28 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
           first = std::min(first, e);
           last = e;
         }
+      }
+      if (first > last) {
+        counters.pruned += e1 - e0 + 1;
+        continue;
+      }
+    } else if (root_b) {
+      // Per block of end frames: the box of its roots against the placed
+      // query root (relative_bounds.hpp RootBlocks); path costs only grow.
+      const RootBlocks& blocks = scratch.root_blocks;
+      const Eigen::Vector3d p = placed(*pair.root_out, s);
+      const double base = scratch.a[s] - pair.lambda * prefix[s];
+      constexpr std::size_t B = RootBlocks::kBlock;
+      for (std::size_t j = e0 / B; j <= e1 / B; ++j) {
+        const std::size_t lo = std::max(e0, j * B), hi = std::min(e1, j * B + B - 1);
+        const double lb = base + pair.lambda * prefix[lo] + blocks.bound(*pair.root_out, j, p);
+        if (safe(lb) > thr) continue;
+        for (std::size_t e = lo; e <= hi; ++e)  // then frame by frame
+          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(*pair.root_out, e, p)) <=
+              thr) {
+            first = std::min(first, e);
+            last = e;
+          }
       }
       if (first > last) {
         counters.pruned += e1 - e0 + 1;

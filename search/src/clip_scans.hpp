@@ -68,6 +68,9 @@ struct PairContext {
   const RelativeBoundQuery* out_bound = nullptr;
   // The same for a full Q^h (a(s) is h(F^s -> Q^h placed at F^s)), or null.
   const RelativeBoundQuery* in_bound = nullptr;
+  // Relative placements, a root-only Q^h / Q^h+1: what bounds a / b, or null.
+  const RootBoundQuery* root_in = nullptr;
+  const RootBoundQuery* root_out = nullptr;
 };
 
 // (score, e, s) lexicographic: true when the candidate beats the incumbent.
@@ -112,6 +115,16 @@ void clip_block_bounds(const PairContext& pair, const ClipInfo& ci, double tau, 
 // lba / lbb: the clip's block bounds (clip_block_bounds).
 bool eval_clip_blocks(const PairContext& pair, const ClipInfo& ci, double tau, const double* lba,
                       const double* lbb, Scratch& scratch, ClipCounters& counters, ClipMatch& out);
+
+// A lower bound of a(s) + b(s, e) over every s, e of clip row `row` for a
+// relative pair (the box bounds of full frames, the root boxes of root-only
+// ones; 0 for a term of another kind), without touching its frames.
+double relative_clip_bound(const PairContext& pair, std::size_t row);
+// True when relative_clip_bound knows something of either term.
+inline bool has_relative_clip_bound(const PairContext& pair) {
+  return pair.in_bound != nullptr || pair.out_bound != nullptr || pair.root_in != nullptr ||
+         pair.root_out != nullptr;
+}
 
 bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                         ClipCounters& counters, ClipMatch& out);

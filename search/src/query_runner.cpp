@@ -49,13 +49,19 @@ void QueryRunner::prepare() {
                          q_.transition_time_s, pair[0], pair[1]);
       }
     relative_bounds_.assign(skeletons_.size(), {});
+    root_bounds_.assign(skeletons_.size(), {});
     for (std::size_t k = 0; k < skeletons_.size(); ++k)
       for (const auto& pair : body_[k]) {
         auto& ob = relative_bounds_[k].emplace_back();
-        for (std::size_t side = 0; side < 2; ++side)
+        auto& rb = root_bounds_[k].emplace_back();
+        for (std::size_t side = 0; side < 2; ++side) {
           if (q_.placement == FramePlacement::relative && pair[side].kind == FrameKind::full)
             ob[side] =
                 make_relative_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
+          if (pair[side].kind == FrameKind::root_only)
+            rb[side] =
+                make_root_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
+        }
       }
   }
   prepare_caches();
@@ -198,6 +204,8 @@ PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) 
       pair.in_bound = &*relative_bounds_[k][h][0];
     if (mode == SearchMode::exact && relative_bounds_[k][h][1])
       pair.out_bound = &*relative_bounds_[k][h][1];
+    if (mode == SearchMode::exact && root_bounds_[k][h][0]) pair.root_in = &*root_bounds_[k][h][0];
+    if (mode == SearchMode::exact && root_bounds_[k][h][1]) pair.root_out = &*root_bounds_[k][h][1];
   }
   return pair;
 }
@@ -373,11 +381,9 @@ class PairSearch {
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
       const auto [k, r] = candidates_[i];
       const PairContext& pair = contexts_[k];
-      if (pair.in_bound == nullptr || pair.out_bound == nullptr) return;
+      if (!has_relative_clip_bound(pair)) return;
       const SkeletonTables& tables = runner_.skeletons_[k]->tables;
-      work.push_back({clip_relative_bound(*pair.in_bound, tables, r) +
-                          clip_relative_bound(*pair.out_bound, tables, r),
-                      tables.clips[r].clip, k, r, i});
+      work.push_back({relative_clip_bound(pair, r), tables.clips[r].clip, k, r, i});
     }
     const std::size_t n = std::min(work.size(), 2 * q_.top);
     std::partial_sort(work.begin(), work.begin() + static_cast<std::ptrdiff_t>(n), work.end(),
@@ -541,8 +547,7 @@ PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
   search.collect_candidates(mode);
   search.form_groups();
   if (search.bounded()) search.seed();
-  if (q_.placement == FramePlacement::relative && relative_pair(h) && mode != SearchMode::brute)
-    search.seed_relative();
+  if (q_.relative() && relative_pair(h) && mode != SearchMode::brute) search.seed_relative();
   search.sweep(options_.parallel_clips);
   return search.finish();
 }

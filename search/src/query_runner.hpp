@@ -108,6 +108,8 @@ class QueryRunner {
   // relative_bounds_[k][h][side]: the bound forms of pair h's body-frame Q^h (side 0)
   // and Q^h+1 (side 1) when full frames under "relative": true (exact mode).
   std::vector<std::vector<std::array<std::optional<RelativeBoundQuery>, 2>>> relative_bounds_;
+  // The same for root-only frames (either relative placement).
+  std::vector<std::vector<std::array<std::optional<RootBoundQuery>, 2>>> root_bounds_;
 };
 
 }  // namespace mocap::search_detail

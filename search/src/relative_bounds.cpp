@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace mocap::search_detail {
 
@@ -79,6 +80,71 @@ void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& ta
       out.cy[f] /= q.total_mass;
       out.cz[f] /= q.total_mass;
     }
+}
+
+RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
+                                     double t) {
+  RootBoundQuery out;
+  const DynamicsModel& model = tables.model;
+  out.g = model.params.gravity_mps2;
+  out.inv_t2 = 1.0 / (t * t);
+  for (int b : model.segments) out.mass += model.masses_kg[static_cast<std::size_t>(b)];
+  out.given = q.given;
+  for (std::size_t a = 0; a < 3; ++a)
+    if (q.given[a])
+      out.root_body[static_cast<Eigen::Index>(a)] = q.root_m[static_cast<Eigen::Index>(a)];
+  return out;
+}
+
+void ensure_frame_kinetic(const SkeletonData& skeleton) {
+  SkeletonCaches& caches = skeleton.caches;
+  std::call_once(caches.kinetic_once, [&] {
+    const HScanTable& table = skeleton.tables.table;
+    const std::size_t n = table.frame_count;
+    caches.kinetic.assign(n, 0.0f);
+    caches.kinetic_rot.assign(n, 0.0f);
+    for (std::size_t b = 0; b < table.segment_count; ++b) {
+      const float* ke = table.field(b, 3);
+      const float* kr = table.field(b, 8);
+      for (std::size_t f = 0; f < n; ++f) {
+        caches.kinetic[f] += ke[f];
+        caches.kinetic_rot[f] += kr[f];
+      }
+    }
+    RootBlocks whole;
+    for (const ClipInfo& ci : skeleton.tables.clips) {
+      whole.build(skeleton, ci.frame_start, ci.frame_count, ci.frame_count);
+      caches.clip_root_boxes.push_back({whole.x0[0], whole.x1[0], whole.y0[0], whole.y1[0],
+                                        whole.z0[0], whole.z1[0], whole.k0[0], whole.k1[0],
+                                        whole.r0[0]});
+    }
+  });
+}
+
+void RootBlocks::build(const SkeletonData& skeleton, std::size_t g0, std::size_t n,
+                       std::size_t block) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const std::size_t blocks = n == 0 ? 0 : (n + block - 1) / block;
+  for (auto* v : {&x0, &y0, &z0, &k0, &r0}) v->assign(blocks, kInf);
+  for (auto* v : {&x1, &y1, &z1, &k1}) v->assign(blocks, -kInf);
+  const HScanTable& table = skeleton.tables.table;
+  const float* k = skeleton.caches.kinetic.data() + g0;
+  const float* r = skeleton.caches.kinetic_rot.data() + g0;
+  const float* px = table.root_positions.data() + g0;
+  const float* py = px + table.stride;
+  const float* pz = py + table.stride;
+  for (std::size_t f = 0; f < n; ++f) {
+    const std::size_t j = f / block;
+    x0[j] = std::min(x0[j], static_cast<double>(px[f]));
+    x1[j] = std::max(x1[j], static_cast<double>(px[f]));
+    y0[j] = std::min(y0[j], static_cast<double>(py[f]));
+    y1[j] = std::max(y1[j], static_cast<double>(py[f]));
+    z0[j] = std::min(z0[j], static_cast<double>(pz[f]));
+    z1[j] = std::max(z1[j], static_cast<double>(pz[f]));
+    k0[j] = std::min(k0[j], static_cast<double>(k[f]));
+    k1[j] = std::max(k1[j], static_cast<double>(k[f]));
+    r0[j] = std::min(r0[j], static_cast<double>(r[f]));
+  }
 }
 
 }  // namespace mocap::search_detail

@@ -13,6 +13,8 @@
 // the last term depends on where the query is placed (on s), through where
 // its mean COM lands: the rest is a per-frame value of the database frame.
 #include <Eigen/Core>
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -57,5 +59,62 @@ inline double relative_bound(const RelativeBoundQuery& q, const RelativeBoundFra
   const double moved = q.total_mass * (dx * dx + dy * dy + dz * dz) * q.inv_t2 - fr.ke[f];
   return fr.fixed[f] + (moved > fr.height[f] ? moved : fr.height[f]);
 }
+
+// Root-only query frames (root position components only; energy.hpp
+// HScanRootQuery) in a relative placement. With d = the given components of
+// (placed query root - F's root), K and K^rot F's kinetic energies summed
+// over the segments and M the total mass,
+//   h = M g |d_y| + sum_b [max(K_b, m_b |d|^2 / T^2 - K_b) + K_b^rot]
+//     >= M g |d_y| + max(K, M |d|^2 / T^2 - K) + K^rot
+// (the sum of maxima is at least the maximum of the sums); over frames with
+// K in [K_lo, K_hi] and K^rot >= R_lo, max(K_lo, M |d|^2 / T^2 - K_hi) + R_lo.
+struct RootBoundQuery {
+  double mass = 0.0, g = 0.0, inv_t2 = 0.0;
+  std::array<bool, 3> given{false, false, false};
+  Eigen::Vector3d root_body = Eigen::Vector3d::Zero();  // given components, body frame
+};
+RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
+                                     double t);
+
+// The bound for root distances (dx, dy, dz) (components not given ignored).
+inline double root_bound(const RootBoundQuery& q, double k_lo, double k_hi, double krot_lo,
+                         double dx, double dy, double dz) {
+  const double d2 =
+      (q.given[0] ? dx * dx : 0.0) + (q.given[1] ? dy * dy : 0.0) + (q.given[2] ? dz * dz : 0.0);
+  const double moved = q.mass * d2 * q.inv_t2 - k_hi;
+  return (q.given[1] ? q.mass * q.g * std::abs(dy) : 0.0) + (moved > k_lo ? moved : k_lo) + krot_lo;
+}
+
+// Each skeleton frame's kinetic energies summed over the segments
+// (SkeletonCaches::kinetic, kinetic_rot) and each clip's root box
+// (clip_root_boxes), computed once per skeleton.
+void ensure_frame_kinetic(const SkeletonData& skeleton);
+
+// Boxes of kBlock consecutive frames of a clip (block j = clip frames
+// [j kBlock, (j + 1) kBlock)): root position ranges, K range, least K^rot.
+struct RootBlocks {
+  static constexpr std::size_t kBlock = 16;
+  std::vector<double> x0, x1, y0, y1, z0, z1, k0, k1, r0;
+  // Blocks of `block` frames (kBlock in the scans; n for one box of the clip).
+  void build(const SkeletonData& skeleton, std::size_t g0, std::size_t n,
+             std::size_t block = kBlock);
+  // The bound over block j for placed query roots anywhere in the box [lo, hi].
+  double bound_box(const RootBoundQuery& q, std::size_t j, const Eigen::Vector3d& lo,
+                   const Eigen::Vector3d& hi) const {
+    auto gap = [](double a0, double a1, double b0, double b1) {
+      return a1 < b0 ? b0 - a1 : (b1 < a0 ? a0 - b1 : 0.0);
+    };
+    return root_bound(q, k0[j], k1[j], r0[j], gap(lo.x(), hi.x(), x0[j], x1[j]),
+                      gap(lo.y(), hi.y(), y0[j], y1[j]), gap(lo.z(), hi.z(), z0[j], z1[j]));
+  }
+  // The bound over block j for a placed query root p.
+  double bound(const RootBoundQuery& q, std::size_t j, const Eigen::Vector3d& p) const {
+    auto gap = [](double v, double lo, double hi) {
+      return v < lo ? lo - v : (v > hi ? v - hi : 0.0);
+    };
+    return root_bound(q, k0[j], k1[j], r0[j], gap(p.x(), x0[j], x1[j]), gap(p.y(), y0[j], y1[j]),
+                      gap(p.z(), z0[j], z1[j]));
+  }
+};
 
 }  // namespace mocap::search_detail

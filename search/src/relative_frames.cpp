@@ -83,8 +83,23 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
     const float* z = tables.table.field(seg, 7);
     for (std::size_t f = 0; f < n; ++f)
       caches.headings[f] = heading_rad(Eigen::Quaterniond(w[f], x[f], y[f], z[f]) * back);
+    caches.heading_cos_sin.resize(2 * n);
+    for (std::size_t f = 0; f < n; ++f) {
+      caches.heading_cos_sin[2 * f] = std::cos(caches.headings[f]);
+      caches.heading_cos_sin[2 * f + 1] = std::sin(caches.headings[f]);
+    }
   });
   return caches.headings;
+}
+
+Eigen::Vector3d place_point(const SkeletonData& skeleton, FramePlacement placement, std::size_t g,
+                            const Eigen::Vector3d& p) {
+  const HScanTable& table = skeleton.tables.table;
+  const double x = table.root_positions[g], z = table.root_positions[2 * table.stride + g];
+  if (placement != FramePlacement::relative) return {p.x() + x, p.y(), p.z() + z};
+  const double* cs = skeleton.caches.heading_cos_sin.data() + 2 * g;
+  // R_y(theta) (x, z) = (c x + s z, -s x + c z) (ground_pose.hpp).
+  return {cs[0] * p.x() + cs[1] * p.z() + x, p.y(), -cs[1] * p.x() + cs[0] * p.z() + z};
 }
 
 GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g) {

@@ -34,6 +34,11 @@ void pair_body_frames(const Query& q, std::size_t h, const ResolvedFrame& qa,
 // the scan table's root-segment orientation; computed once per skeleton.
 const std::vector<double>& frame_headings(const SkeletonData& skeleton);
 
+// frame_placement(skeleton, placement, g).apply(p) from the cached cos and
+// sin of the headings (frame_headings must have run), up to rounding.
+Eigen::Vector3d place_point(const SkeletonData& skeleton, FramePlacement placement, std::size_t g,
+                            const Eigen::Vector3d& p);
+
 // Where a partial motion starting at skeleton frame g places body-frame
 // query frames: F^g's root x/z, and its heading for "relative": true.
 GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g);

@@ -42,6 +42,7 @@ struct Scratch {
   // Relative clip scan: per-frame bounds of a and b (relative_bounds.hpp),
   // and which a values are exact (not bounds).
   RelativeBoundFrames out_frames, in_frames;
+  RootBlocks root_blocks;
   std::vector<std::uint8_t> a_exact;
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;

@@ -176,6 +176,15 @@ struct SkeletonCaches {
   // Each frame's root heading (relative placements; relative_frames.hpp).
   std::once_flag headings_once;
   std::vector<double> headings;
+  // cos and sin of each heading (interleaved), for placing points quickly.
+  std::vector<double> heading_cos_sin;
+  // Each frame's translational and rotational kinetic energy summed over the
+  // segments, J (root-only bounds of relative placements; relative_bounds.hpp).
+  std::once_flag kinetic_once;
+  std::vector<float> kinetic, kinetic_rot;
+  // Per clip row: ranges of the root x, y, z and of the kinetic energy
+  // totals (RootBlocks's fields for the whole clip).
+  std::vector<std::array<double, 9>> clip_root_boxes;
   // The FLANN forest of the frames' kd features (approx mode).
   std::once_flag forest_once;
   std::unique_ptr<KnnIndex> forest;

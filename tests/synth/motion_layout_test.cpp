@@ -27,15 +27,18 @@ const Index* shared_index() {
   if (!tried) {
     tried = true;
     const auto out = test::temp_dir("motion-layout") / "set1-cmu.h5";
-    const std::string cmd = std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build -q --out '" +
-                            out.string() + "' '" + (test::data_dir() / "bandai-namco-1").string() +
-                            "' '" + (test::data_dir() / "cmu").string() + "' >/dev/null 2>&1";
+    const std::string cmd = std::string(MOCAP_BINARY_DIR) +
+                            "/indexer/mocap-index build -q --out '" + out.string() + "' '" +
+                            (test::data_dir() / "bandai-namco-1").string() + "' '" +
+                            (test::data_dir() / "cmu").string() + "' >/dev/null 2>&1";
     if (std::system(cmd.c_str()) == 0) index = std::make_unique<Index>(Index::open(out));
   }
   return index.get();
 }
 
-fs::path data_file(const std::string& rel) { return fs::absolute(test::data_dir() / rel); }
+fs::path data_file(const std::string& rel) {
+  return fs::absolute(test::data_dir() / rel);
+}
 
 std::string frames_json(const fs::path& bvh, std::size_t a, std::size_t b) {
   return R"("frames": [{"bvh": ")" + bvh.string() + R"(", "frame": )" + std::to_string(a) +
@@ -90,10 +93,9 @@ TEST(MotionLayout, RelativeQueryOfOneClipReproducesItsRootPath) {
   if (!test::have_data()) GTEST_SKIP() << "no data";
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
-  for (const auto& [rel, a, b] :
-       {std::tuple<std::string, std::size_t, std::size_t>{
-            "bandai-namco-1/data/dataset-1_walk_normal_001.bvh", 10, 40},
-        {"cmu/131_02.bvh", 30, 90}}) {
+  for (const auto& [rel, a, b] : {std::tuple<std::string, std::size_t, std::size_t>{
+                                      "bandai-namco-1/data/dataset-1_walk_normal_001.bvh", 10, 40},
+                                  {"cmu/131_02.bvh", 30, 90}}) {
     const fs::path file = data_file(rel);
     const auto s = synthesise(*index, "{" + frames_json(file, a, b) + R"(, "top": 1})");
     ASSERT_TRUE(s);
@@ -101,8 +103,8 @@ TEST(MotionLayout, RelativeQueryOfOneClipReproducesItsRootPath) {
     ASSERT_EQ(s->result.frames.size(), b - a + 1) << rel;
     double worst = 0.0;
     for (std::size_t k = 0; k < s->result.frames.size(); ++k)
-      worst = std::max(worst,
-                       (s->result.frames[k].root_position_m - clip_root(*index, clip, a + k)).norm());
+      worst = std::max(
+          worst, (s->result.frames[k].root_position_m - clip_root(*index, clip, a + k)).norm());
     EXPECT_LT(worst, 0.01) << rel;
   }
 }
