@@ -114,14 +114,17 @@ int main(int argc, char** argv) {
     std::vector<double> times_ms, cpu_times_ms;
     std::size_t lower = 0, slide_ok = 0;
     double sum_a = 0, sum_s = 0, sum_i = 0, slide_a = 0, slide_s = 0, slide_i = 0;
+    // Foot-skating ratios summed over gaps: A*, slerp, inertialize, the source clips.
+    double skate_a = 0, skate_s = 0, skate_i = 0, skate_src = 0;
+    std::size_t skate_ok = 0;
     std::size_t viol_a = 0, viol_s = 0, viol_i = 0;
     // Sums of the g terms over the gaps (A*, slerp).
     mocap::TransitionMeasures::EnergySplit split_a, split_s;
     std::printf(
         "| # | from (frame) | to (frame) | frames | g A* (J) | g slerp (J) | g inert. (J) | "
-        "A*/slerp | slide A* (m) | slide slerp (m) | viol. A*/slerp | peak ω A* (rad/s) | time A* "
-        "(ms) |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "A*/slerp | slide A* (m) | slide slerp (m) | skating A* / slerp / inert. / source | "
+        "viol. A*/slerp | peak ω A* (rad/s) | time A* (ms) |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (std::size_t gi = 0; gi < specs.size(); ++gi) {
       const auto [x, y] = specs[gi];
       const mocap::IndexClip& cx = index.clips()[x];
@@ -176,6 +179,26 @@ int main(int argc, char** argv) {
       const auto mi = mocap::measure_transition(gap, inert);
       if (ma.energy_J < ms_.energy_J) ++lower;
       if (ma.foot_sliding_m <= ms_.foot_sliding_m + 1e-9) ++slide_ok;
+      // The source clips' own skating around the gap: as many captured steps
+      // before frame a of X and from frame b of Y as the transition has.
+      const std::size_t steps = ma.frames + 1;
+      std::vector<mocap::SynthFrame> before_gap, after_gap;
+      for (std::size_t f = a > steps ? a - steps : 0; f <= a; ++f)
+        before_gap.push_back(mocap::clip_frame(index, x, f));
+      for (std::size_t f = b; f <= std::min(cy.frame_count - 1, b + steps); ++f)
+        after_gap.push_back(mocap::clip_frame(index, y, f));
+      const mocap::MotionMeasures src_x = mocap::measure_motion(sk, before_gap, dt);
+      const mocap::MotionMeasures src_y = mocap::measure_motion(sk, after_gap, dt);
+      const double n_x = static_cast<double>(before_gap.size() - 1);
+      const double n_y = static_cast<double>(after_gap.size() - 1);
+      const double src_ratio =
+          n_x + n_y > 0 ? (src_x.skating_ratio * n_x + src_y.skating_ratio * n_y) / (n_x + n_y)
+                        : 0.0;
+      skate_a += ma.skating_ratio;
+      skate_s += ms_.skating_ratio;
+      skate_i += mi.skating_ratio;
+      skate_src += src_ratio;
+      if (ma.skating_ratio <= ms_.skating_ratio + 1e-12) ++skate_ok;
       sum_a += ma.energy_J;
       sum_s += ms_.energy_J;
       sum_i += mi.energy_J;
@@ -188,12 +211,12 @@ int main(int argc, char** argv) {
       split_a += ma.energy_split;
       split_s += ms_.energy_split;
       std::printf(
-          "| %zu | %s (%zu) | %s (%zu) | %zu | %.1f | %.1f | %.1f | %.2f | %.3f | %.3f | %zu/%zu | "
-          "%.1f | %.1f |\n",
+          "| %zu | %s (%zu) | %s (%zu) | %zu | %.1f | %.1f | %.1f | %.2f | %.3f | %.3f | "
+          "%.2f / %.2f / %.2f / %.2f | %zu/%zu | %.1f | %.1f |\n",
           gi + 1, file_name(cx.path).c_str(), a, file_name(cy.path).c_str(), b, ma.frames,
           ma.energy_J, ms_.energy_J, mi.energy_J, ma.energy_J / ms_.energy_J, ma.foot_sliding_m,
-          ms_.foot_sliding_m, ma.range_violations, ms_.range_violations,
-          ma.peak_angular_speed_radps, ms);
+          ms_.foot_sliding_m, ma.skating_ratio, ms_.skating_ratio, mi.skating_ratio, src_ratio,
+          ma.range_violations, ms_.range_violations, ma.peak_angular_speed_radps, ms);
       rows.push_back({{"from", file_name(cx.path)},
                       {"from_frame", a},
                       {"to", file_name(cy.path)},
@@ -201,6 +224,7 @@ int main(int argc, char** argv) {
                       {"astar", mocap::measures_json(ma)},
                       {"slerp", mocap::measures_json(ms_)},
                       {"inertialize", mocap::measures_json(mi)},
+                      {"source_foot_skating_ratio", src_ratio},
                       {"astar_ms", ms},
                       {"astar_cpu_ms", cpu_ms},
                       {"stop_reason", stats.stop_reason},
@@ -230,6 +254,10 @@ int main(int argc, char** argv) {
         "gaps. "
         "Range violations: A* %zu, slerp %zu, inertialize %zu.\n",
         slide_a, slide_s, slide_i, slide_ok, viol_a, viol_s, viol_i);
+    std::printf(
+        "Foot-skating ratio (mean per gap): A* %.3f, slerp %.3f, inertialize %.3f, source clips "
+        "%.3f; A* <= slerp in %zu gaps.\n",
+        skate_a / n, skate_s / n, skate_i / n, skate_src / n, skate_ok);
     std::printf(
         "A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time "
         "median %.1f ms, "
@@ -266,6 +294,10 @@ int main(int argc, char** argv) {
                               {"foot_sliding_astar_m", slide_a},
                               {"foot_sliding_slerp_m", slide_s},
                               {"foot_sliding_inertialize_m", slide_i},
+                              {"skating_ratio_astar", skate_a / n},
+                              {"skating_ratio_slerp", skate_s / n},
+                              {"skating_ratio_inertialize", skate_i / n},
+                              {"skating_ratio_source", skate_src / n},
                               {"median_ms", median},
                               {"median_cpu_ms", cpu_median},
                               {"max_ms", sorted.back()}}},

@@ -34,9 +34,36 @@ double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const Worl
     const bool low = pa.y() - ep.ground_height_m <= ep.contact_height_m &&
                      pb.y() - ep.ground_height_m <= ep.contact_height_m;
     const Eigen::Vector3d d = pb - pa;
-    if (low && d.norm() / dt <= ep.contact_speed_mps) sum += std::hypot(d.x(), d.z());
+    if (low) sum += std::hypot(d.x(), d.z());
   }
+  (void)dt;
   return sum;
+}
+
+StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
+                         double dt) {
+  const double ground = sk.model.params.ground_height_m;
+  StepSkating out;
+  for (int j : sk.foot_joints) {
+    const auto ju = static_cast<std::size_t>(j);
+    const Eigen::Vector3d& pa = a.positions_m[ju];
+    const Eigen::Vector3d& pb = b.positions_m[ju];
+    if (pa.y() - ground >= kSkatingHeightM || pb.y() - ground >= kSkatingHeightM) continue;
+    const double v = std::hypot(pb.x() - pa.x(), pb.z() - pa.z()) / dt;
+    if (v <= kSkatingSpeedMps) continue;
+    ++out.joints;
+    out.speed_sum += v;
+  }
+  return out;
+}
+
+void SkatingTally::add(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b, double dt) {
+  const StepSkating s = step_skating(sk, a, b, dt);
+  ++steps;
+  skating_steps += s.joints > 0 ? 1 : 0;
+  joints += s.joints;
+  speed_sum += s.speed_sum;
+  sliding_m += step_foot_sliding(sk, a, b, dt);
 }
 
 std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f) {
@@ -111,6 +138,7 @@ TransitionMeasures measure_transition(const GapProblem& gap,
   NewtonEulerWorkspace ws;
   FullEnergyTerms terms;
   TransitionMeasures::EnergySplit& split = m.energy_split;
+  SkatingTally skating;
   for (std::size_t k = 1; k + 2 < L; ++k) {
     const double g = full_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
                                  ids[k + 1], ws, &terms);
@@ -126,11 +154,32 @@ TransitionMeasures measure_transition(const GapProblem& gap,
     split.residual_impulse_J += terms.residual_impulse_J;
     m.approximate_energy_J +=
         approximate_energy(sk.model, states[k].view(), states[k + 1].view(), dt);
-    m.foot_sliding_m += step_foot_sliding(sk, world[k], world[k + 1], dt);
+    skating.add(sk, world[k], world[k + 1], dt);
     m.peak_angular_speed_radps =
         std::max(m.peak_angular_speed_radps, step_peak_angular_speed(gap, *seq[k], *seq[k + 1]));
   }
   m.range_violations = count_range_violations(gap, frames);
+  m.foot_sliding_m = skating.sliding_m;
+  m.skating_ratio = skating.ratio();
+  m.skating_speed_mps = skating.mean_speed();
+  return m;
+}
+
+MotionMeasures measure_motion(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                              double frame_time_s) {
+  MotionMeasures m;
+  if (frames.size() < 2) return m;
+  WorldPose a, b;
+  synth_world_pose(sk, frames[0], a);
+  SkatingTally skating;
+  for (std::size_t k = 1; k < frames.size(); ++k) {
+    synth_world_pose(sk, frames[k], b);
+    skating.add(sk, a, b, frame_time_s);
+    std::swap(a, b);
+  }
+  m.foot_sliding_m = skating.sliding_m;
+  m.skating_ratio = skating.ratio();
+  m.skating_speed_mps = skating.mean_speed();
   return m;
 }
 

@@ -18,11 +18,33 @@ namespace mocap::synth_detail {
 Eigen::Vector3d contact_point(const SynthSkeleton& sk, const WorldPose& w, int j);
 
 /// Horizontal displacement (m) of the foot joints' contact points over the
-/// step a -> b, counting a joint only when both ends are within contact
-/// height of the ground and it moves no faster than the contact speed
-/// (EnergyParams); dt in seconds.
+/// step a -> b, counting a joint when both ends are within contact height of
+/// the ground (EnergyParams::contact_height_m), however fast it moves; dt in
+/// seconds (unused: kept for the step's signature).
 double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
                          double dt);
+
+/// The foot-skating test of one step (docs/synthesis.md "Measures"): foot
+/// and toe joint origins below kSkatingHeightM above the ground in both
+/// frames while moving horizontally faster than kSkatingSpeedMps.
+inline constexpr double kSkatingHeightM = 0.05;
+inline constexpr double kSkatingSpeedMps = 0.5;
+struct StepSkating {
+  std::size_t joints = 0;  // joints that skate in this step
+  double speed_sum = 0.0;  // their horizontal speeds summed, m/s
+};
+StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
+                         double dt);
+
+/// Skating over consecutive steps: steps that skate, steps, joints and their
+/// speeds, and the contact-based sliding (step_foot_sliding) summed.
+struct SkatingTally {
+  std::size_t skating_steps = 0, steps = 0, joints = 0;
+  double speed_sum = 0.0, sliding_m = 0.0;
+  void add(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b, double dt);
+  double ratio() const { return steps ? static_cast<double>(skating_steps) / steps : 0.0; }
+  double mean_speed() const { return joints ? speed_sum / static_cast<double>(joints) : 0.0; }
+};
 
 /// Joints of frame `f` outside the gap's range of motion (0 without a range).
 std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f);

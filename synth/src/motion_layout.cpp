@@ -82,14 +82,15 @@ std::vector<std::vector<SynthFrame>> place_pieces(
 
 // Horizontal root velocity of a placed query frame from its neighbours, m/s
 // (0 for a frame at rest).
-Eigen::Vector3d query_velocity(const PlacedQueryFrame& q, bool has_prev, bool has_next,
-                               double dt) {
+Eigen::Vector3d query_velocity(const PlacedQueryFrame& q, bool has_prev, bool has_next, double dt) {
   const int steps = (has_prev ? 1 : 0) + (has_next ? 1 : 0);
   if (steps == 0) return Eigen::Vector3d::Zero();
   return horizontal_root_velocity(q.before, q.after, steps * dt);
 }
 
-void translate(SynthFrame& f, const Eigen::Vector3d& d) { f.root_position_m += d; }
+void translate(SynthFrame& f, const Eigen::Vector3d& d) {
+  f.root_position_m += d;
+}
 
 // Moves R_h and everything after it by the travel of the transitions
 // (motion_layout.hpp), and sets the merge flags.
@@ -116,8 +117,7 @@ void add_travel(const std::vector<QueryFrameInput>& query_frames, double dt,
                         n >= 3 + static_cast<std::size_t>(out.merged_in[h]);
     const Eigen::Vector3d v_s = horizontal_root_velocity(pc[0], pc[1], dt);
     const Eigen::Vector3d v_e = horizontal_root_velocity(pc[n - 2], pc[n - 1], dt);
-    if (!out.merged_in[h] && gives_xz(h))
-      shift += 0.5 * transition_time_s * (velocity(h) + v_s);
+    if (!out.merged_in[h] && gives_xz(h)) shift += 0.5 * transition_time_s * (velocity(h) + v_s);
     for (SynthFrame& f : pc) translate(f, shift);
     if (!out.merged_out[h] && gives_xz(h + 1))
       shift += 0.5 * transition_time_s * (v_e + velocity(h + 1));

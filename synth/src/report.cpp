@@ -154,6 +154,9 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                  {"skeleton", result.skeleton->index_skeleton},
                  {"segments", segs},
                  {"g_total_J", total},
+                 {"foot_sliding_m", result.motion_measures.foot_sliding_m},
+                 {"foot_skating_ratio", result.motion_measures.skating_ratio},
+                 {"skating_speed_mps", result.motion_measures.skating_speed_mps},
                  {"step_energies_J", result.step_energies_J}};
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
@@ -216,6 +219,7 @@ std::string synth_report_html(const Index& index, const Query& query,
        "data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</"
        "th><th>side</th>"
        "<th>method</th><th>frames</th><th>g (J)</th><th>slerp g (J)</th><th>foot sliding (m)</th>"
+       "<th>skating ratio</th><th>skating speed (m/s)</th>"
        "<th>range violations</th><th>peak ang. speed (rad/s)</th></tr>";
   for (const TransitionReport& t : result.transitions) {
     double slerp_g = std::nan("");
@@ -225,9 +229,15 @@ std::string synth_report_html(const Index& index, const Query& query,
       << transition_method_name(t.method) << "</td><td>" << t.measures.frames << "</td><td>"
       << fmt(1, t.measures.energy_J) << "</td><td>"
       << (std::isnan(slerp_g) ? std::string("-") : fmt(1, slerp_g)) << "</td><td>"
-      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << t.measures.range_violations
-      << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps) << "</td></tr>";
+      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << fmt(2, t.measures.skating_ratio)
+      << "</td><td>" << fmt(2, t.measures.skating_speed_mps) << "</td><td>"
+      << t.measures.range_violations << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps)
+      << "</td></tr>";
   }
+  const MotionMeasures& mm = result.motion_measures;
+  o << "<tr><td colspan=\"6\">whole motion (" << result.frames.size() << " frames)</td><td>"
+    << fmt(3, mm.foot_sliding_m) << "</td><td>" << fmt(2, mm.skating_ratio) << "</td><td>"
+    << fmt(2, mm.skating_speed_mps) << "</td><td></td><td></td></tr>";
   o << "</table></figure>\n";
   // Energy along the motion.
   const auto& e = result.step_energies_J;

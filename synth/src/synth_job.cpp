@@ -405,6 +405,7 @@ SynthResult synthesize(const Index& index, const Query& query,
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
   assemble(res, layout.pieces, tasks);
   res.step_energies_J = motion_step_energies(sk, res.frames, dt);
+  res.motion_measures = measure_motion(sk, res.frames, dt);
   res.synth_ms = ms_since(t0);
   return res;
 }

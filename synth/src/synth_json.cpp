@@ -8,6 +8,8 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
           {"g_J", m.energy_J},
           {"h_J", m.approximate_energy_J},
           {"foot_sliding_m", m.foot_sliding_m},
+          {"foot_skating_ratio", m.skating_ratio},
+          {"skating_speed_mps", m.skating_speed_mps},
           {"range_violations", m.range_violations},
           {"peak_angular_speed_radps", m.peak_angular_speed_radps},
           {"step_energies_J", m.step_energies_J},

@@ -240,8 +240,15 @@ struct TransitionMeasures {
   /// Sum of h over the same steps, joules.
   double approximate_energy_J = 0.0;
   /// Horizontal displacement of foot / toe contact points while in contact
-  /// (low and slow, EnergyParams), metres, over the same steps.
+  /// (within EnergyParams::contact_height_m of the ground in both frames of
+  /// a step, however fast they move), metres, over the same steps.
   double foot_sliding_m = 0.0;
+  /// Foot-skating ratio (docs/synthesis.md "Measures"): the fraction of the
+  /// same steps in which a foot or toe joint is below 5 cm above the ground
+  /// in both frames while moving horizontally faster than 0.5 m/s.
+  double skating_ratio = 0.0;
+  /// Mean horizontal speed of those joints in those steps, m/s (0: none).
+  double skating_speed_mps = 0.0;
   /// (frame, joint) pairs of the inserted frames outside the range of motion.
   std::size_t range_violations = 0;
   /// max over steps and joints of |log(q_f+1 q_f^-1)| / dt, local rotations, rad/s.
@@ -274,6 +281,15 @@ struct TransitionMeasures {
   } energy_split;
 };
 TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<SynthFrame>& frames);
+
+/// The sliding measures of a whole motion (every step of `frames`).
+struct MotionMeasures {
+  double foot_sliding_m = 0.0;
+  double skating_ratio = 0.0;
+  double skating_speed_mps = 0.0;
+};
+MotionMeasures measure_motion(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                              double frame_time_s);
 
 /// Per-step g along a whole motion (frames.size() - 1 values; rates by
 /// central differences, one-sided at the ends), and the foot sliding of the

@@ -71,6 +71,8 @@ struct SynthResult {
   std::vector<SearchResult> chosen;  // per pair
   std::vector<TransitionReport> transitions;
   std::vector<double> step_energies_J;
+  /// Sliding over the whole motion (measure_motion).
+  MotionMeasures motion_measures;
   std::vector<SynthFrame> query_frames;  // completed Q^h, as placed
   double synth_ms = 0.0;
 };
