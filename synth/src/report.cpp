@@ -8,6 +8,7 @@
 
 #include "mocap/synth/synth_job.hpp"
 #include "mocap/synth/synth_json.hpp"
+#include "report_views.hpp"
 
 namespace mocap {
 namespace {
@@ -18,74 +19,10 @@ std::string base_name(const std::string& path) {
 }
 
 std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        o += "&amp;";
-        break;
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
+  return synth_detail::html_escape(s);
 }
-
-// Fixed-point text with `digits` decimals.
 std::string fmt(int digits, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
-
-// One stick figure (side view: screen x = world x turned by -heading0, y up),
-// drawn in a cell of width w and height h.
-void stick_figure(std::ostringstream& o, const SynthSkeleton& sk, const SynthFrame& f, double x0,
-                  double w, double h, const char* colour) {
-  WorldPose wp;
-  synth_world_pose(sk, f, wp);
-  const Eigen::Vector3d root = f.root_position_m;
-  const double scale = h / 2.0;  // 2 m tall cell
-  auto px = [&](const Eigen::Vector3d& p) {
-    return std::pair<double, double>{x0 + w / 2 + (p.x() - root.x()) * scale,
-                                     h - 4 - p.y() * scale};
-  };
-  for (std::size_t j = 0; j < sk.joint_count(); ++j) {
-    const int p = sk.skeleton.parents[j];
-    if (p < 0 || (sk.is_root_chain[static_cast<std::size_t>(p)] && p != sk.root_joint)) continue;
-    const auto a = px(wp.positions_m[static_cast<std::size_t>(p)]);
-    const auto b = px(wp.positions_m[j]);
-    o << "<line x1=\"" << fmt(1, a.first) << "\" y1=\"" << fmt(1, a.second) << "\" x2=\""
-      << fmt(1, b.first) << "\" y2=\"" << fmt(1, b.second) << "\" stroke=\"" << colour
-      << "\" stroke-width=\"2.5\" stroke-linecap=\"round\"/>";
-  }
-}
-
-void filmstrip(std::ostringstream& o, const std::string& id, const std::string& title,
-               const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
-               std::size_t max_figures, const char* colour) {
-  const std::size_t n = frames.size();
-  const std::size_t k = std::min(n, max_figures);
-  const double w = 70, h = 150;
-  o << "<figure data-figure=\"" << id << "\"><figcaption>" << esc(title) << "</figcaption>";
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w * static_cast<double>(k)
-    << "\" height=\"" << h << "\"><rect width=\"100%\" height=\"100%\" fill=\"#f7f7f2\"/>"
-    << "<line x1=\"0\" y1=\"" << h - 4 << "\" x2=\"" << w * static_cast<double>(k) << "\" y2=\""
-    << h - 4 << "\" stroke=\"#999\"/>";
-  for (std::size_t i = 0; i < k; ++i) {
-    const std::size_t f = k <= 1 ? 0 : i * (n - 1) / (k - 1);
-    stick_figure(o, sk, frames[f], w * static_cast<double>(i), w, h, colour);
-  }
-  o << "</svg></figure>\n";
+  return synth_detail::fixed(digits, v);
 }
 
 }  // namespace
@@ -180,6 +117,7 @@ std::string synth_report_html(const Index& index, const Query& query,
     << " query frames, " << result.frames.size() << " output frames at "
     << fmt(1, 1.0 / result.frame_time_s) << " fps, transitions by "
     << transition_method_name(options.method) << ".</p>\n";
+  using synth_detail::filmstrip;
   filmstrip(o, "filmstrip-query", "Query frames (completed, Q_F)", sk, result.query_frames, 12,
             "#1f5fbf");
   // Ranked partial motions (the paper's figures 6 to 10), same skeleton only.
@@ -199,9 +137,14 @@ std::string synth_report_html(const Index& index, const Query& query,
                 "Pair " + std::to_string(h + 1) + ", rank " + std::to_string(m.rank) + ": " +
                     base_name(m.clip) + " frames " + std::to_string(m.start_frame) + "-" +
                     std::to_string(m.end_frame),
-                own, fr, 8, m.rank == result.chosen[h].rank ? "#b8860b" : "#555");
+                own, fr, 8, m.rank == result.chosen[h].rank ? "#b8860b" : "#555",
+                synth_detail::View::front, m.start_frame);
     }
   filmstrip(o, "filmstrip-motion", "Synthesised motion", sk, result.frames, 16, "#c0392b");
+  filmstrip(o, "filmstrip-motion-side", "Synthesised motion", sk, result.frames, 16, "#c0392b",
+            synth_detail::View::side);
+  synth_detail::top_view(o, result);
+  synth_detail::contact_timeline(o, result);
   // Ranking table.
   o << "<figure data-figure=\"ranking\"><figcaption>Ranking (score = h_in + h_out + lambda path "
        "cost, J)</figcaption>"
@@ -239,28 +182,8 @@ std::string synth_report_html(const Index& index, const Query& query,
     << fmt(3, mm.foot_sliding_m) << "</td><td>" << fmt(2, mm.skating_ratio) << "</td><td>"
     << fmt(2, mm.skating_speed_mps) << "</td><td></td><td></td></tr>";
   o << "</table></figure>\n";
-  // Energy along the motion.
-  const auto& e = result.step_energies_J;
-  const double W = 1100, Hh = 220;
-  double emax = 1e-9;
-  for (double v : e) emax = std::max(emax, v);
-  o << "<figure data-figure=\"energy\"><figcaption>Full energy change g per step along the motion "
-       "(J; max "
-    << fmt(1, emax)
-    << "); shaded: transitions</figcaption><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W
-    << "\" height=\"" << Hh
-    << "\"><rect width=\"100%\" height=\"100%\" fill=\"#fbfbfb\" stroke=\"#ccc\"/>";
-  const double nsteps = std::max<double>(1.0, static_cast<double>(e.size()));
-  for (const MotionSegment& s : result.segments)
-    if (s.kind == "transition" && s.frame_count > 0)
-      o << "<rect x=\"" << fmt(1, W * static_cast<double>(s.first_frame) / nsteps)
-        << "\" y=\"0\" width=\"" << fmt(1, W * static_cast<double>(s.frame_count) / nsteps)
-        << "\" height=\"" << Hh << "\" fill=\"#ffe0d0\"/>";
-  o << "<polyline fill=\"none\" stroke=\"#c0392b\" stroke-width=\"2\" points=\"";
-  for (std::size_t i = 0; i < e.size(); ++i)
-    o << fmt(1, W * (static_cast<double>(i) + 0.5) / nsteps) << ","
-      << fmt(1, Hh - 10 - (Hh - 20) * e[i] / emax) << " ";
-  o << "\"/></svg></figure>\n</body></html>\n";
+  synth_detail::energy_plot(o, result);
+  o << "</body></html>\n";
   return o.str();
 }
 

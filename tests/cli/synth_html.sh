@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # REPORT.html renders in headless Chromium (Debian `chromium`, scripts/synth-setup):
 # the DOM has the filmstrips (query, ranked partial motions, synthesised
-# motion), the ranking table and the energy curve, and the screenshot is not
+# motion from the front and the side), the top view, the contact timeline,
+# the ranking table and the energy curve, and the screenshot is not
 # blank (many non-white pixels, several colours). The page must load with no
 # network (it has no external references; checked too).
 #   bash tests/cli/synth_html.sh BUILD_DIR DATA_DIR
@@ -28,7 +29,8 @@ if grep -Eq '(src|href)="(https?:)?//' "$tmp/report.html"; then echo "FAIL: exte
 flags=(--headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking
        --disable-component-update --disable-sync --user-data-dir="$tmp/profile" --window-size=1400,2000)
 timeout 120 "$chromium" "${flags[@]}" --dump-dom "file://$tmp/report.html" >"$tmp/dom.html" 2>/dev/null
-for fig in filmstrip-query filmstrip-pair1-rank1 filmstrip-pair2-rank1 filmstrip-motion ranking energy transitions; do
+for fig in filmstrip-query filmstrip-pair1-rank1 filmstrip-pair2-rank1 filmstrip-motion filmstrip-motion-side \
+    top-view contacts ranking energy transitions; do
   grep -q "data-figure=\"$fig\"" "$tmp/dom.html" || { echo "FAIL: figure $fig missing from the rendered DOM" >&2; exit 1; }
 done
 n_lines=$(grep -o '<line ' "$tmp/dom.html" | wc -l)
