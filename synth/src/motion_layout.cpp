@@ -94,12 +94,13 @@ void translate(SynthFrame& f, const Eigen::Vector3d& d) {
 
 // Moves R_h and everything after it by the travel of the transitions
 // (motion_layout.hpp), and sets the merge flags.
-void add_travel(const std::vector<QueryFrameInput>& query_frames, double dt,
-                double transition_time_s, MotionLayout& out) {
+void add_travel(FramePlacement placement, const std::vector<QueryFrameInput>& query_frames,
+                double dt, double transition_time_s, MotionLayout& out) {
   const std::size_t pairs = out.pieces.size();
   out.merged_in.assign(pairs, 0);
   out.merged_out.assign(pairs, 0);
   auto gives_xz = [&](std::size_t h) {
+    if (placement == FramePlacement::world) return false;  // clips keep their coordinates
     const auto& p = query_frames[h].pose.given.root_position_m;
     return p[0].has_value() && p[2].has_value();
   };
@@ -176,7 +177,7 @@ MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
     p.after = query_frames[h].next ? placed(query_frames[h].next->given) : p.frame;
     out.queries.push_back(std::move(p));
   }
-  add_travel(query_frames, dt, transition_time_s, out);
+  add_travel(placement, query_frames, dt, transition_time_s, out);
   return out;
 }
 

@@ -63,8 +63,8 @@ bool same_pose(const SynthFrame& a, const SynthFrame& b);
 ///    frame (after it for Q^H).
 ///  - Travel during the transitions: the search compares Q^h with F^s (and
 ///    F^e with Q^h+1) at one place, but a transition of about T seconds
-///    lies between them. Where the query frame gives root x/z and the two
-///    are not one pose, R_h and everything after it move by the mean of the
+///    lies between them. In a relative placement, where the query frame gives
+///    root x/z and the two are not one pose, R_h and everything after it move by the mean of the
 ///    two horizontal root velocities times T (for "in" and "out" alike), so
 ///    the character keeps moving instead of marking time.
 MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,

@@ -63,12 +63,24 @@ synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
   return out;
 }
 
-// The chosen result of each pair: rank 1 unless picked. InputError
-// ("--pick") for a pick of a pair out of range or of a rank the pair lacks.
-std::vector<SearchResult> chosen_results(const std::vector<PairResults>& ranked,
-                                         const std::vector<Pick>& picks) {
+// The chosen result of each pair: its best-ranked partial motion at least
+// the query's minimum length long (min_length_s, else the search's default:
+// results files of other settings may hold shorter ones), unless picked.
+// InputError ("--pick") for a pick of a pair out of range, of a rank the
+// pair lacks or of a partial motion shorter than the minimum; InputError
+// (`source`) for a pair with no result long enough.
+std::vector<SearchResult> chosen_results(const Index& index, const Query& query,
+                                         const std::vector<PairResults>& ranked,
+                                         const std::vector<Pick>& picks,
+                                         const std::string& source) {
   const std::size_t pairs = ranked.size();
-  std::vector<std::size_t> rank(pairs, 1);
+  const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
+  auto long_enough = [&](const SearchResult& m) {
+    const double dt = index.clips()[m.clip_index].frame_time_s;
+    const auto frames = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
+    return m.end_frame - m.start_frame >= frames;
+  };
+  std::vector<std::size_t> rank(pairs, 0);  // 0: the best long enough
   for (const Pick& p : picks) {
     if (p.pair > pairs)
       throw InputError("--pick", 0,
@@ -79,6 +91,16 @@ std::vector<SearchResult> chosen_results(const std::vector<PairResults>& ranked,
   std::vector<SearchResult> chosen;
   for (std::size_t h = 0; h < pairs; ++h) {
     const auto& rs = ranked[h].results;
+    if (rank[h] == 0) {
+      auto it = std::find_if(rs.begin(), rs.end(), long_enough);
+      if (it == rs.end())
+        throw InputError(source, 0,
+                         "pair " + std::to_string(h + 1) + " has no partial motion of at least " +
+                             std::to_string(min_s) + " s among its " + std::to_string(rs.size()) +
+                             " results");
+      chosen.push_back(*it);
+      continue;
+    }
     auto it = std::find_if(rs.begin(), rs.end(),
                            [&](const SearchResult& m) { return m.rank == rank[h]; });
     if (it == rs.end())
@@ -86,6 +108,11 @@ std::vector<SearchResult> chosen_results(const std::vector<PairResults>& ranked,
                        "pair " + std::to_string(h + 1) + " has no result of rank " +
                            std::to_string(rank[h]) + " (" + std::to_string(rs.size()) +
                            " results)");
+    if (!long_enough(*it))
+      throw InputError("--pick", 0,
+                       "pair " + std::to_string(h + 1) + ", rank " + std::to_string(rank[h]) +
+                           ": the partial motion is shorter than the minimum length (" +
+                           std::to_string(min_s) + " s)");
     chosen.push_back(*it);
   }
   return chosen;
@@ -375,7 +402,7 @@ SynthResult synthesize(const Index& index, const Query& query,
                      "the search results have " + std::to_string(ranked.size()) +
                          " pairs, the query " + std::to_string(H - 1));
   SynthResult res;
-  res.chosen = chosen_results(ranked, options.picks);
+  res.chosen = chosen_results(index, query, ranked, options.picks, src);
   // Target skeleton: the first chosen clip's.
   const std::size_t first_clip = res.chosen[0].clip_index;
   const std::uint32_t target = index.clips()[first_clip].skeleton;

@@ -4,6 +4,7 @@
 // moving; the pelvis carries the translation in the written BVH.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -164,4 +165,43 @@ TEST(MotionLayout, PelvisCarriesTheTranslationUnderAStaticDummyRoot) {
     for (int a = 0; a < 3; ++a)
       EXPECT_NEAR(written.frame(f)[hips.first_column + static_cast<std::size_t>(a)] / 100.0,
                   s->result.frames[f].root_position_m[a], 1e-5);
+}
+
+TEST(MotionLayout, PartialMotionsArePlacedByTheSearchRule) {
+  // The held-out walk's best match faces another way in its clip. Relative:
+  // the partial motion is turned to the first query frame's heading (the
+  // search put F^s's ground pose on Q^1's); "position": it keeps its clip's
+  // heading; false: it keeps its clip's coordinates. Every placement starts
+  // at the query frame's own pose.
+  if (!test::have_data()) GTEST_SKIP() << "no data";
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
+  const std::size_t query_clip = clip_named(*index, file.filename().string());
+  for (const char* placement : {"true", "\"position\"", "false"}) {
+    const auto s = synthesise(
+        *index, "{" + frames_json(file, 10, 40) + R"(, "top": 1, "relative": )" + placement +
+                    R"(, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+    ASSERT_TRUE(s);
+    const SynthResult& r = s->result;
+    const SynthSkeleton& sk = *r.skeleton;
+    const SearchResult& m = r.chosen[0];
+    std::size_t first = 0;
+    for (const MotionSegment& seg : r.segments)
+      if (seg.kind == "partial") first = seg.first_frame;
+    const SynthFrame& placed = r.frames[first];
+    const SynthFrame clip = clip_frame(*index, m.clip_index, m.start_frame);
+    const SynthFrame q1 = clip_frame(*index, query_clip, 10);
+    EXPECT_LT((r.frames[0].root_position_m - q1.root_position_m).norm(), 1e-5) << placement;
+    EXPECT_NEAR(std::remainder(root_heading(sk, r.frames[0]) - root_heading(sk, q1), 2 * M_PI),
+                0.0, 1e-6)
+        << placement;
+    const double want = std::string(placement) == "true" ? root_heading(sk, q1)
+                                                         : root_heading(sk, clip);
+    EXPECT_NEAR(std::remainder(root_heading(sk, placed) - want, 2 * M_PI), 0.0, 1e-6)
+        << placement << ": " << m.clip;
+    if (std::string(placement) == "false") {
+      EXPECT_LT((placed.root_position_m - clip.root_position_m).norm(), 1e-9);
+    }
+  }
 }

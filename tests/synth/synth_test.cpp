@@ -277,6 +277,39 @@ TEST(SynthValidity, SynthesizeRefusesBadPicksAndMixedRates) {
   EXPECT_THROW(mocap::synthesize(index, qj, {pair}, opt, sk), mocap::InputError);
 }
 
+TEST(SynthValidity, PartialMotionsShorterThanTheMinimumAreNeverPicked) {
+  // A results file of other settings may rank a 2-frame partial motion
+  // first: the default choice passes over it (0.2 s = 6 frames at 30 fps),
+  // an explicit pick of it is refused, and a pair with nothing long enough
+  // is an error.
+  REQUIRE_INDEX();
+  const std::size_t w1 = clip_named(index, "dataset-1_walk_normal_001.bvh");
+  const mocap::Query q = mocap::parse_query_text(
+      R"({"id": "q", "frames": [{"root_heading_deg": 0}, {"root_heading_deg": 90}]})", "q.json", 0,
+      ".", "q");
+  const auto result = [&](std::size_t rank, std::size_t s, std::size_t e) {
+    mocap::SearchResult r;
+    r.rank = rank;
+    r.clip_index = w1;
+    r.clip = index.clips()[w1].path;
+    r.start_frame = s;
+    r.end_frame = e;
+    return r;
+  };
+  mocap::PairResults pair;
+  pair.results = {result(1, 32, 33), result(2, 10, 40)};
+  std::optional<mocap::SynthSkeleton> sk;
+  mocap::SynthOptions opt;
+  const mocap::SynthResult r = mocap::synthesize(index, q, {pair}, opt, sk);
+  ASSERT_EQ(r.chosen.size(), 1u);
+  EXPECT_EQ(r.chosen[0].rank, 2u);
+  opt.picks = {{1, 1}};
+  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);
+  opt.picks.clear();
+  pair.results.pop_back();
+  EXPECT_THROW(mocap::synthesize(index, q, {pair}, opt, sk), mocap::InputError);
+}
+
 TEST(SynthKinematics, WorldPoseMatchesIndex) {
   REQUIRE_INDEX();
   for (const char* name : {"dataset-1_walk_normal_001.bvh", "131_01.bvh"}) {
