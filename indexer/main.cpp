@@ -414,6 +414,9 @@ int main(int argc, char** argv) {
                    "always compressed)")
       ->check(CLI::Range(0, 9));
   build->add_flag("--full", build_opt.full, "Ignore an existing index: parse every file");
+  build->add_flag("--force", build_opt.force,
+                  "Replace --out even when it is a file that is not an index (never a folder, "
+                  "device or FIFO; docs/cli.md \"Output paths\")");
   build->add_flag("--json", build_json, "Print the summary as one JSON object");
   build->add_flag("--quiet,-q", build_quiet, "No progress output");
 

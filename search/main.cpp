@@ -22,8 +22,10 @@
 #include <optional>
 #include <string>
 
+#include "mocap/common/atomic_file.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/output_path.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/energy_command.hpp"
 #include "mocap/search/search.hpp"
@@ -60,6 +62,7 @@ struct SearchArgs {
   int checks = 256;
   int trees = 4;
   bool no_recall = false;
+  bool force = false;
 };
 
 void add_search_options(CLI::App& app, SearchArgs& a) {
@@ -68,7 +71,12 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
                             "Query batch: one JSON query per line (docs/queries.md)");
   auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");
   qs->excludes(q1);
-  app.add_option("--out", a.out, "Write the results here (JSON lines) instead of stdout");
+  app.add_option("--out", a.out,
+                 "Write the results here (JSON lines) instead of stdout; replaced atomically "
+                 "once every query is answered");
+  app.add_flag("--force", a.force,
+               "Replace --out even when it holds something else (never a folder, device or FIFO; "
+               "docs/cli.md \"Output paths\")");
   app.add_option("--mode", a.mode,
                  "exact (default: identical to brute, pruned), approx (FLANN, with recall), brute")
       ->check(CLI::IsMember({"exact", "approx", "brute"}));
@@ -147,6 +155,13 @@ int run_search(const SearchArgs& a) {
   opt.approx_checks = a.checks;
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;
+  std::optional<mocap::AtomicFile> out_file;
+  if (!a.out.empty()) {
+    mocap::check_distinct_outputs({{"--index", a.index},
+                                   {"--queries", a.queries.empty() ? a.query : a.queries},
+                                   {"--out", a.out}});
+    out_file.emplace(mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
+  }
   const auto batch =
       a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
   const auto t0 = std::chrono::steady_clock::now();
@@ -155,8 +170,8 @@ int run_search(const SearchArgs& a) {
   const double load_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ofstream file;
-  if (!a.out.empty()) {
-    file.open(a.out);
+  if (out_file) {
+    file.open(out_file->temporary_path(), std::ios::binary);
     if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
   }
   const bool tty = isatty(fileno(stderr)) != 0;
@@ -189,6 +204,11 @@ int run_search(const SearchArgs& a) {
   }
   os.flush();
   if (!os) throw mocap::InputError(a.out.empty() ? "<stdout>" : a.out, 0, "write failed");
+  if (out_file) {
+    file.close();
+    if (!file) throw mocap::InputError(a.out, 0, "write failed");
+    out_file->commit();
+  }
   if (!a.quiet)
     fmt::print(stderr,
                "mocap-search: {} queries ({} failed), mode {}, index loaded in {:.2f} s, answered "

@@ -16,8 +16,10 @@
 #include <optional>
 #include <sstream>
 
+#include "mocap/common/atomic_file.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/output_path.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/synth_job.hpp"
@@ -25,9 +27,15 @@
 
 namespace {
 
+// Writes `text` to `path` atomically (a complete file or the old one).
 void write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out || !(out << text)) throw mocap::InputError(path.string(), 0, "cannot write");
+  mocap::AtomicFile file(path);
+  {
+    std::ofstream out(file.temporary_path(), std::ios::binary);
+    if (!out || !(out << text) || !out.flush())
+      throw mocap::InputError(path.string(), 0, "cannot write");
+  }
+  file.commit();
 }
 
 }  // namespace
@@ -48,6 +56,10 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_path, "output BVH")->required();
   app.add_option("--report", report_path, "REPORT.json");
   app.add_option("--html", html_path, "REPORT.html (self-contained)");
+  bool force = false;
+  app.add_flag("--force", force,
+               "Replace output files that hold something else (never a folder, device or FIFO; "
+               "docs/cli.md \"Output paths\")");
   app.add_option("--transition", method, "astar | slerp | inertialize")->capture_default_str();
   app.add_option("--max-states", options.params.max_states, "T_n: most frames inserted per gap")
       ->capture_default_str();
@@ -76,6 +88,24 @@ int main(int argc, char** argv) {
     if (options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
     mocap::check_supplement_options(options.params);
     for (const auto& p : picks) options.picks.push_back(mocap::parse_pick(p));
+    // Output paths first (docs/cli.md "Output paths"): nothing is computed
+    // for outputs that would be refused.
+    mocap::check_distinct_outputs({{"--out", out_path},
+                                   {"--report", report_path},
+                                   {"--html", html_path},
+                                   {"--index", index_path},
+                                   {"--query", query_path},
+                                   {"--results", results_path}});
+    const std::filesystem::path bvh_file =
+        mocap::checked_output_path(out_path, mocap::OutputKind::bvh, force, "--out");
+    const std::filesystem::path report_file =
+        report_path.empty()
+            ? std::filesystem::path()
+            : mocap::checked_output_path(report_path, mocap::OutputKind::json, force, "--report");
+    const std::filesystem::path html_file =
+        html_path.empty()
+            ? std::filesystem::path()
+            : mocap::checked_output_path(html_path, mocap::OutputKind::html, force, "--html");
 
     std::ifstream qin(query_path);
     if (!qin) throw mocap::InputError(query_path, 0, "cannot read the query");
@@ -101,14 +131,14 @@ int main(int argc, char** argv) {
     }
     std::optional<mocap::SynthSkeleton> skeleton;
     const mocap::SynthResult result = mocap::synthesize(index, query, ranked, options, skeleton);
-    mocap::write_motion_bvh(result, out_path);
+    mocap::write_motion_bvh(result, bvh_file);
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!report_path.empty())
-      write_text(report_path, mocap::synth_report_json(index, query, query_path, ranked, result,
+      write_text(report_file, mocap::synth_report_json(index, query, query_path, ranked, result,
                                                        options, search_ms, total_ms, out_path));
     if (!html_path.empty())
-      write_text(html_path, mocap::synth_report_html(index, query, ranked, result, options));
+      write_text(html_file, mocap::synth_report_html(index, query, ranked, result, options));
     std::size_t inserted = 0;
     for (const auto& t : result.transitions) inserted += t.measures.frames;
     std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " ("

@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
     std::size_t lower = 0, slide_ok = 0;
     double sum_a = 0, sum_s = 0, sum_i = 0, slide_a = 0, slide_s = 0, slide_i = 0;
     // Foot-skating ratios summed over gaps: A*, slerp, inertialize, the source clips.
-    double skate_a = 0, skate_s = 0, skate_i = 0, skate_src = 0;
+    double skate_a = 0, skate_s = 0, skate_i = 0, skate_src = 0, slide_src = 0;
     std::size_t skate_ok = 0;
     std::size_t viol_a = 0, viol_s = 0, viol_i = 0;
     // Sums of the g terms over the gaps (A*, slerp).
@@ -198,6 +198,10 @@ int main(int argc, char** argv) {
       skate_s += ms_.skating_ratio;
       skate_i += mi.skating_ratio;
       skate_src += src_ratio;
+      // Their contact-based sliding per as many steps as the transition has
+      // (the mean of the two windows).
+      const double src_slide = 0.5 * (src_x.foot_sliding_m + src_y.foot_sliding_m);
+      slide_src += src_slide;
       if (ma.skating_ratio <= ms_.skating_ratio + 1e-12) ++skate_ok;
       sum_a += ma.energy_J;
       sum_s += ms_.energy_J;
@@ -225,6 +229,7 @@ int main(int argc, char** argv) {
                       {"slerp", mocap::measures_json(ms_)},
                       {"inertialize", mocap::measures_json(mi)},
                       {"source_foot_skating_ratio", src_ratio},
+                      {"source_foot_sliding_m", src_slide},
                       {"astar_ms", ms},
                       {"astar_cpu_ms", cpu_ms},
                       {"stop_reason", stats.stop_reason},
@@ -256,8 +261,9 @@ int main(int argc, char** argv) {
         slide_a, slide_s, slide_i, slide_ok, viol_a, viol_s, viol_i);
     std::printf(
         "Foot-skating ratio (mean per gap): A* %.3f, slerp %.3f, inertialize %.3f, source clips "
-        "%.3f; A* <= slerp in %zu gaps.\n",
-        skate_a / n, skate_s / n, skate_i / n, skate_src / n, skate_ok);
+        "%.3f; A* <= slerp in %zu gaps. Source clips' foot sliding over as many steps: %.3f m "
+        "(total).\n",
+        skate_a / n, skate_s / n, skate_i / n, skate_src / n, skate_ok, slide_src);
     std::printf(
         "A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time "
         "median %.1f ms, "
@@ -298,6 +304,7 @@ int main(int argc, char** argv) {
                               {"skating_ratio_slerp", skate_s / n},
                               {"skating_ratio_inertialize", skate_i / n},
                               {"skating_ratio_source", skate_src / n},
+                              {"foot_sliding_source_m", slide_src},
                               {"median_ms", median},
                               {"median_cpu_ms", cpu_median},
                               {"max_ms", sorted.back()}}},

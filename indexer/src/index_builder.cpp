@@ -23,6 +23,7 @@
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/hdf5.hpp"
+#include "mocap/common/output_path.hpp"
 #include "mocap/common/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
 
@@ -288,7 +289,9 @@ void summarize_up_to_date(const Index& old, const fs::path& out, IndexBuildSumma
 IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   const BuildClock clock;
   check_options(opt);
-  const fs::path out = fs::absolute(opt.out).lexically_normal();
+  const fs::path out =
+      fs::absolute(checked_output_path(opt.out, OutputKind::index, opt.force, "--out"))
+          .lexically_normal();
   const std::size_t jobs = opt.jobs ? opt.jobs : std::max(1u, std::thread::hardware_concurrency());
   const Character character = opt.character ? read_character_file(*opt.character) : Character{};
   const EnergyParams energy{};

@@ -139,7 +139,8 @@ void top_view(std::ostringstream& o, const SynthResult& r) {
       << "\" font-size=\"10\" fill=\"#777\">x " << fixed(0, x) << "</text>";
   for (double z = std::ceil(z0); z <= z1; z += 1.0)
     o << "<line x1=\"" << fixed(1, sx(x0)) << "\" y1=\"" << fixed(1, sy(z)) << "\" x2=\""
-      << fixed(1, sx(x1)) << "\" y2=\"" << fixed(1, sy(z)) << "\" stroke=\"#e2e2e2\"/><text x=\"2\" "
+      << fixed(1, sx(x1)) << "\" y2=\"" << fixed(1, sy(z))
+      << "\" stroke=\"#e2e2e2\"/><text x=\"2\" "
       << "y=\"" << fixed(1, sy(z) - 2) << "\" font-size=\"10\" fill=\"#777\">z " << fixed(0, z)
       << "</text>";
   for (std::size_t f = 1; f < fr.size(); ++f)
@@ -199,13 +200,13 @@ void energy_plot(std::ostringstream& o, const SynthResult& r) {
       << fixed(1, sx(f)) << "\" y2=\"" << H - bottom + 4 << "\" stroke=\"#555\"/><text x=\""
       << fixed(1, sx(f)) << "\" y=\"" << H - bottom + 16
       << "\" font-size=\"11\" text-anchor=\"middle\">" << fixed(0, f) << "</text>";
-  o << "<line x1=\"" << left << "\" y1=\"" << top << "\" x2=\"" << left << "\" y2=\""
-    << H - bottom << "\" stroke=\"#555\"/><line x1=\"" << left << "\" y1=\"" << H - bottom
-    << "\" x2=\"" << W - right << "\" y2=\"" << H - bottom << "\" stroke=\"#555\"/>"
+  o << "<line x1=\"" << left << "\" y1=\"" << top << "\" x2=\"" << left << "\" y2=\"" << H - bottom
+    << "\" stroke=\"#555\"/><line x1=\"" << left << "\" y1=\"" << H - bottom << "\" x2=\""
+    << W - right << "\" y2=\"" << H - bottom << "\" stroke=\"#555\"/>"
     << "<text x=\"14\" y=\"" << fixed(1, (H - bottom) / 2)
     << "\" font-size=\"12\" transform=\"rotate(-90 14 " << fixed(1, (H - bottom) / 2)
-    << ")\" text-anchor=\"middle\">g (J)</text><text x=\"" << fixed(1, (W + left) / 2)
-    << "\" y=\"" << H - 2 << "\" font-size=\"12\" text-anchor=\"middle\">output frame</text>";
+    << ")\" text-anchor=\"middle\">g (J)</text><text x=\"" << fixed(1, (W + left) / 2) << "\" y=\""
+    << H - 2 << "\" font-size=\"12\" text-anchor=\"middle\">output frame</text>";
   o << "<polyline fill=\"none\" stroke=\"#c0392b\" stroke-width=\"2\" points=\"";
   for (std::size_t i = 0; i < e.size(); ++i)
     o << fixed(1, sx(static_cast<double>(i) + 0.5)) << "," << fixed(1, sy(e[i])) << " ";

@@ -77,7 +77,8 @@ std::vector<SearchResult> chosen_results(const Index& index, const Query& query,
   const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
   auto long_enough = [&](const SearchResult& m) {
     const double dt = index.clips()[m.clip_index].frame_time_s;
-    const auto frames = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
+    const auto frames =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
     return m.end_frame - m.start_frame >= frames;
   };
   std::vector<std::size_t> rank(pairs, 0);  // 0: the best long enough

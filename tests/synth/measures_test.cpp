@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mocap/synth/synth.hpp"
+#include "synth_fixtures.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -16,25 +17,9 @@ namespace {
 using namespace mocap;
 
 const Index* shared_index() {
-  static std::unique_ptr<Index> index;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    const auto out = test::temp_dir("synth-measures") / "set1.h5";
-    const std::string cmd = std::string(MOCAP_BINARY_DIR) +
-                            "/indexer/mocap-index build -q --out '" + out.string() + "' '" +
-                            (test::data_dir() / "bandai-namco-1").string() + "' >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) index = std::make_unique<Index>(Index::open(out));
-  }
-  return index.get();
+  return test::built_index({"bandai-namco-1"});
 }
-
-std::size_t clip_named(const Index& index, const std::string& name) {
-  for (std::size_t c = 0; c < index.clips().size(); ++c)
-    if (index.clips()[c].path.ends_with("/" + name)) return c;
-  ADD_FAILURE() << "no clip " << name;
-  return 0;
-}
+using test::clip_named;
 
 }  // namespace
 

@@ -15,6 +15,7 @@
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/synth_job.hpp"
+#include "synth_fixtures.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -23,18 +24,7 @@ namespace fs = std::filesystem;
 using namespace mocap;
 
 const Index* shared_index() {
-  static std::unique_ptr<Index> index;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    const auto out = test::temp_dir("motion-layout") / "set1-cmu.h5";
-    const std::string cmd = std::string(MOCAP_BINARY_DIR) +
-                            "/indexer/mocap-index build -q --out '" + out.string() + "' '" +
-                            (test::data_dir() / "bandai-namco-1").string() + "' '" +
-                            (test::data_dir() / "cmu").string() + "' >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) index = std::make_unique<Index>(Index::open(out));
-  }
-  return index.get();
+  return test::built_index({"bandai-namco-1", "cmu"});
 }
 
 fs::path data_file(const std::string& rel) {
@@ -72,11 +62,15 @@ Eigen::Vector3d clip_root(const Index& index, std::size_t clip, std::size_t f) {
   return {roots.f32[3 * g], roots.f32[3 * g + 1], roots.f32[3 * g + 2]};
 }
 
-std::size_t clip_named(const Index& index, const std::string& name) {
-  for (std::size_t c = 0; c < index.clips().size(); ++c)
-    if (index.clips()[c].path.ends_with("/" + name)) return c;
-  ADD_FAILURE() << "no clip " << name;
-  return 0;
+using test::clip_named;
+
+// The held-out walk query (frames 10 and 40 of walk_normal_001, the clip
+// excluded) with `placement` ("relative" JSON value), synthesised.
+std::unique_ptr<Synthesised> held_out_walk(const Index& index, const std::string& placement) {
+  const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
+  return synthesise(index, "{" + frames_json(file, 10, 40) + R"(, "top": 1, "relative": )" +
+                               placement +
+                               R"(, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
 }
 
 bool identical(const SynthFrame& a, const SynthFrame& b) {
@@ -119,9 +113,7 @@ TEST(MotionLayout, HeldOutQueryStartsAtItsFirstFrameAndKeepsMoving) {
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
   const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
-  const auto s = synthesise(
-      *index, "{" + frames_json(file, 10, 40) +
-                  R"(, "top": 1, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+  const auto s = held_out_walk(*index, "true");
   ASSERT_TRUE(s);
   const auto& fr = s->result.frames;
   const std::size_t clip = clip_named(*index, file.filename().string());
@@ -140,9 +132,7 @@ TEST(MotionLayout, PelvisCarriesTheTranslationUnderAStaticDummyRoot) {
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
   const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
-  const auto s = synthesise(
-      *index, "{" + frames_json(file, 10, 40) +
-                  R"(, "top": 1, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+  const auto s = held_out_walk(*index, "true");
   ASSERT_TRUE(s);
   const fs::path out = test::temp_dir("motion-layout-bvh") / "out.bvh";
   write_motion_bvh(s->result, out);
@@ -179,9 +169,7 @@ TEST(MotionLayout, PartialMotionsArePlacedByTheSearchRule) {
   const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
   const std::size_t query_clip = clip_named(*index, file.filename().string());
   for (const char* placement : {"true", "\"position\"", "false"}) {
-    const auto s = synthesise(
-        *index, "{" + frames_json(file, 10, 40) + R"(, "top": 1, "relative": )" + placement +
-                    R"(, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+    const auto s = held_out_walk(*index, placement);
     ASSERT_TRUE(s);
     const SynthResult& r = s->result;
     const SynthSkeleton& sk = *r.skeleton;
@@ -193,11 +181,11 @@ TEST(MotionLayout, PartialMotionsArePlacedByTheSearchRule) {
     const SynthFrame clip = clip_frame(*index, m.clip_index, m.start_frame);
     const SynthFrame q1 = clip_frame(*index, query_clip, 10);
     EXPECT_LT((r.frames[0].root_position_m - q1.root_position_m).norm(), 1e-5) << placement;
-    EXPECT_NEAR(std::remainder(root_heading(sk, r.frames[0]) - root_heading(sk, q1), 2 * M_PI),
-                0.0, 1e-6)
+    EXPECT_NEAR(std::remainder(root_heading(sk, r.frames[0]) - root_heading(sk, q1), 2 * M_PI), 0.0,
+                1e-6)
         << placement;
-    const double want = std::string(placement) == "true" ? root_heading(sk, q1)
-                                                         : root_heading(sk, clip);
+    const double want =
+        std::string(placement) == "true" ? root_heading(sk, q1) : root_heading(sk, clip);
     EXPECT_NEAR(std::remainder(root_heading(sk, placed) - want, 2 * M_PI), 0.0, 1e-6)
         << placement << ": " << m.clip;
     if (std::string(placement) == "false") {

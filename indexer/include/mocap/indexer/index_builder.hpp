@@ -137,6 +137,10 @@ struct IndexBuildOptions {
   int deflate_level = 0;
   /// Ignore an existing index (parse everything).
   bool full = false;
+  /// Replace `out` even when it is a regular file that is not an index
+  /// (docs/cli.md "Output paths"; directories, devices and FIFOs are refused
+  /// either way). A symbolic link at `out` is written through to its file.
+  bool force = false;
   /// Written to the build_tool root attribute.
   std::string tool_version = "mocap-index";
   /// Called from the writing thread after every file (and once at the start).
