@@ -22,6 +22,7 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/json_text.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
@@ -64,7 +65,7 @@ int run_inspect(const std::string& file, std::size_t frame, const std::string& u
   if (!character.empty()) opt.character = character;
   const nlohmann::json out = mocap::inspect_frame(opt);
   if (json) {
-    std::cout << out.dump() << '\n';
+    std::cout << mocap::json_text(out) << '\n';
     return kExitOk;
   }
   fmt::print("{}  frame {} of {}  ({:.4f} s/frame, unit {} = {} m, body {:.1f} kg)\n",
@@ -117,16 +118,15 @@ int run_summary(const std::vector<std::string>& inputs, const std::string& unit,
     nlohmann::json problems = nlohmann::json::array();
     for (const auto& p : col.problems)
       problems.push_back({{"input", p.input}, {"error", p.reason}});
-    std::cout << nlohmann::json{{"clips", std::move(clips)},
-                                {"input_problems", std::move(problems)},
-                                {"total",
-                                 {{"clips", sums.size()},
-                                  {"ok", ok},
-                                  {"failed", failed},
-                                  {"frames", frames},
-                                  {"duration_s", seconds},
-                                  {"bytes", bytes}}}}
-                     .dump()
+    std::cout << mocap::json_text(nlohmann::json{{"clips", std::move(clips)},
+                                                 {"input_problems", std::move(problems)},
+                                                 {"total",
+                                                  {{"clips", sums.size()},
+                                                   {"ok", ok},
+                                                   {"failed", failed},
+                                                   {"frames", frames},
+                                                   {"duration_s", seconds},
+                                                   {"bytes", bytes}}}})
               << '\n';
   } else {
     fmt::print("{:<48} {:>7} {:>5} {:>8} {:>6} {:>5} {:>8} {:>8}\n", "clip", "frames", "fps", "sec",
@@ -212,29 +212,28 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
   if (json) {
     nlohmann::json skipped = nlohmann::json::array();
     for (const auto& k : s.skipped) skipped.push_back({{"path", k.path}, {"reason", k.reason}});
-    std::cout << nlohmann::json{{"out", s.out.string()},
-                                {"up_to_date", s.up_to_date},
-                                {"clips", s.clips},
-                                {"frames", s.frames},
-                                {"skeletons", s.skeletons},
-                                {"new", s.parsed_new},
-                                {"changed", s.parsed_changed},
-                                {"reused", s.reused},
-                                {"removed", s.removed},
-                                {"skipped", skipped},
-                                {"previous_index_note", s.previous_index_note},
-                                {"seconds", s.seconds},
-                                {"stages",
-                                 {{"plan_s", s.stages.plan_s},
-                                  {"read_s", s.stages.read_s},
-                                  {"parse_s", s.stages.parse_s},
-                                  {"dynamics_s", s.stages.dynamics_s},
-                                  {"write_s", s.stages.write_s},
-                                  {"finalize_s", s.stages.finalize_s}}},
-                                {"frames_per_s", fps},
-                                {"index_bytes", s.index_bytes},
-                                {"source_bytes", s.source_bytes}}
-                     .dump()
+    std::cout << mocap::json_text(nlohmann::json{{"out", s.out.string()},
+                                                 {"up_to_date", s.up_to_date},
+                                                 {"clips", s.clips},
+                                                 {"frames", s.frames},
+                                                 {"skeletons", s.skeletons},
+                                                 {"new", s.parsed_new},
+                                                 {"changed", s.parsed_changed},
+                                                 {"reused", s.reused},
+                                                 {"removed", s.removed},
+                                                 {"skipped", skipped},
+                                                 {"previous_index_note", s.previous_index_note},
+                                                 {"seconds", s.seconds},
+                                                 {"stages",
+                                                  {{"plan_s", s.stages.plan_s},
+                                                   {"read_s", s.stages.read_s},
+                                                   {"parse_s", s.stages.parse_s},
+                                                   {"dynamics_s", s.stages.dynamics_s},
+                                                   {"write_s", s.stages.write_s},
+                                                   {"finalize_s", s.stages.finalize_s}}},
+                                                 {"frames_per_s", fps},
+                                                 {"index_bytes", s.index_bytes},
+                                                 {"source_bytes", s.source_bytes}})
               << '\n';
   } else {
     if (!s.previous_index_note.empty()) fmt::print("note: {}\n", s.previous_index_note);
@@ -253,12 +252,11 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
 int run_verify(const std::string& file, bool json) {
   const mocap::IndexVerifyReport r = mocap::verify_index(file);
   if (json) {
-    std::cout << nlohmann::json{{"file", file},
-                                {"ok", r.ok},
-                                {"problems", r.problems},
-                                {"datasets_checked", r.datasets_checked},
-                                {"bytes", r.bytes}}
-                     .dump()
+    std::cout << mocap::json_text(nlohmann::json{{"file", file},
+                                                 {"ok", r.ok},
+                                                 {"problems", r.problems},
+                                                 {"datasets_checked", r.datasets_checked},
+                                                 {"bytes", r.bytes}})
               << '\n';
   } else if (r.ok) {
     fmt::print("{}: ok ({} datasets, {}, schema version {})\n", file, r.datasets_checked,
@@ -321,7 +319,7 @@ int run_info(const std::string& file, bool json) {
         {"deflate_level", in.deflate_level},
         {"gravity_mps2", in.energy_params.gravity_mps2}}}};
   if (json) {
-    std::cout << out.dump() << '\n';
+    std::cout << mocap::json_text(out) << '\n';
     return kExitOk;
   }
   fmt::print("{}  ({}, {} schema version {}, built {} by {})\n", file,

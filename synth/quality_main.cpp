@@ -20,6 +20,7 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/json_text.hpp"
 #include "mocap/synth/synth.hpp"
 #include "mocap/synth/synth_json.hpp"
 #include "refine_options.hpp"
@@ -312,7 +313,7 @@ int main(int argc, char** argv) {
       out["params"]["exact_lookahead"] = params.exact_lookahead;
       out["params"]["from_fraction"] = from_fraction;
       out["params"]["to_fraction"] = to_fraction;
-      std::ofstream(json_path) << out.dump(2) << "\n";
+      std::ofstream(json_path) << mocap::json_text(out, 2) << "\n";
     }
     return 0;
   } catch (const std::exception& e) {

@@ -2,6 +2,7 @@
 // (docs/character.md). Every error is an InputError naming the source and the
 // dotted field path ("segments.upper_arm.mass_kg").
 #include "mocap/common/character.hpp"
+#include "mocap/common/json_text.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -51,7 +52,8 @@ struct JsonReader {
       fail(field, std::string("expected a positive number (") + unit + "), got " + v.type_name());
     const double x = v.get<double>();
     if (!std::isfinite(x) || !(x > 0.0))
-      fail(field, std::string("expected a positive finite number (") + unit + "), got " + v.dump());
+      fail(field,
+           std::string("expected a positive finite number (") + unit + "), got " + json_text(v));
     return x;
   }
   void unknown_key(const std::string& field, const std::string& expected) const {
@@ -85,10 +87,10 @@ Character parse_character_json(const std::string& text, const std::string& sourc
   for (const auto& [key, value] : doc.items()) {
     if (key == "version") {
       if (!value.is_number_integer() || value.get<long long>() != 1)
-        r.fail(key, "unsupported version " + value.dump() + " (this program reads version 1)");
+        r.fail(key, "unsupported version " + json_text(value) + " (this program reads version 1)");
     } else if (key == "name") {
       if (!value.is_string() || value.get<std::string>().empty())
-        r.fail(key, "expected a non-empty string, got " + value.dump());
+        r.fail(key, "expected a non-empty string, got " + json_text(value));
       ch.name = value.get<std::string>();
     } else if (key == "total_mass_kg") {
       ch.total_mass_kg = r.positive(value, key, "kg");
@@ -99,7 +101,7 @@ Character parse_character_json(const std::string& text, const std::string& sourc
       else if (s == "female")
         ch.sex = Sex::female;
       else
-        r.fail(key, "expected \"male\" or \"female\", got " + value.dump());
+        r.fail(key, "expected \"male\" or \"female\", got " + json_text(value));
     } else if (key == "segments") {
       r.object(value, key);
       for (const auto& [cname, entry] : value.items()) {

@@ -126,7 +126,8 @@ fs::path checked_output_path(const fs::path& path, OutputKind kind, bool force,
 void check_distinct_outputs(const std::vector<std::pair<std::string, fs::path>>& outputs) {
   std::vector<fs::path> resolved;
   for (const auto& [option, path] : outputs)
-    resolved.push_back(path.empty() ? fs::path() : fs::weakly_canonical(follow_links(path, option)));
+    resolved.push_back(path.empty() ? fs::path()
+                                    : fs::weakly_canonical(follow_links(path, option)));
   for (std::size_t i = 0; i < outputs.size(); ++i)
     for (std::size_t j = i + 1; j < outputs.size(); ++j)
       if (!resolved[i].empty() && resolved[i] == resolved[j])

@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "mocap/common/error.hpp"
+#include "mocap/common/json_text.hpp"
 
 namespace mocap {
 
@@ -38,7 +39,7 @@ std::string character_json(const Character& ch) {
   j["joint_mass_kg"] = joints(ch.joint_mass_kg);
   j["class_length_scale"] = classes(ch.class_length_scale);
   j["joint_length_scale"] = joints(ch.joint_length_scale);
-  return j.dump();  // nlohmann::json objects keep keys sorted
+  return json_text(j);  // nlohmann::json objects keep keys sorted
 }
 
 BuildParameters build_parameters(const IndexInfo& info) {

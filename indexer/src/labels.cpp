@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap/common/json_text.hpp"
 #include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {
@@ -83,7 +84,7 @@ ClipLabels resolve_clip_labels(const fs::path& bvh) {
         } else if (value.is_string()) {
           label = value.get<std::string>();
         } else {
-          label = value.dump();
+          label = json_text(value);
         }
         out.labels.emplace_back(key, label);
       }

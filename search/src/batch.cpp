@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "mocap/common/error.hpp"
+#include "mocap/common/json_text.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
@@ -125,7 +126,7 @@ std::string query_outcome_json(const QueryOutcome& o) {
   j["id"] = o.id;
   if (o.error) {
     j["error"] = *o.error;
-    return j.dump();
+    return json_text(j);
   }
   j["pairs"] = nlohmann::ordered_json::array();
   for (const PairResults& p : o.pairs) {
@@ -159,7 +160,7 @@ std::string query_outcome_json(const QueryOutcome& o) {
   s["time_ms"] = o.stats.time_ms;
   if (o.stats.recall) s["recall"] = *o.stats.recall;
   j["stats"] = s;
-  return j.dump();
+  return json_text(j);
 }
 
 }  // namespace mocap

@@ -1,4 +1,5 @@
 #include "mocap/search/energy_command.hpp"
+#include "mocap/common/json_text.hpp"
 
 #include <fmt/format.h>
 
@@ -135,7 +136,7 @@ std::string energy_report_json(const EnergyReport& r) {
   j["unit"] = {{"from", r.from_unit}, {"to", r.to_unit}};
   j["contacts"] = {{"from", r.from_contacts}, {"to", r.to_contacts}};
   j["residual"] = {{"work_J", r.residual_work_J}, {"impulse_J", r.residual_impulse_J}};
-  return j.dump();
+  return json_text(j);
 }
 
 std::string energy_report_text(const EnergyReport& r) {

@@ -1,4 +1,5 @@
 #include "mocap/search/query.hpp"
+#include "mocap/common/json_text.hpp"
 
 #include <fnmatch.h>
 
@@ -232,7 +233,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     else if (r.is_string() && r.get<std::string>() == "position")
       q.placement = FramePlacement::position;
     else
-      c.fail("relative", "expected true, false or \"position\", got " + r.dump());
+      c.fail("relative", "expected true, false or \"position\", got " + json_text(r));
   }
   for (const char* key : {"min_length_s", "max_length_s"})
     if (j.contains(key)) {

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "mocap/common/json_text.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "mocap/synth/synth_json.hpp"
 #include "report_views.hpp"
@@ -98,7 +99,7 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
-  return j.dump(2) + "\n";
+  return json_text(j, 2) + "\n";
 }
 
 std::string synth_report_html(const Index& index, const Query& query,

@@ -1,5 +1,6 @@
 // The synthesis job: results in, assembly, BVH out (synth_job.hpp).
 #include "mocap/synth/synth_job.hpp"
+#include "mocap/common/json_text.hpp"
 
 #include <tbb/parallel_for.h>
 #include <algorithm>
@@ -329,7 +330,8 @@ std::vector<PairResults> read_search_results(const std::filesystem::path& path,
     ids.push_back(id);
     if (id != query_id) continue;
     if (j.contains("error"))
-      throw InputError(path.string(), n, "the search failed for this query: " + j["error"].dump());
+      throw InputError(path.string(), n,
+                       "the search failed for this query: " + json_text(j["error"]));
     if (!j.contains("pairs") || !j["pairs"].is_array())
       throw InputError(path.string(), n, "pairs: expected an array");
     std::vector<PairResults> pairs;

@@ -15,7 +15,9 @@ namespace fs = std::filesystem;
 using mocap::OutputKind;
 
 namespace {
-void write(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
 }  // namespace
 
 TEST(OutputPath, RefusesWhatIsNotARegularFileOfItsKind) {
@@ -38,8 +40,9 @@ TEST(OutputPath, RefusesWhatIsNotARegularFileOfItsKind) {
   fs::create_symlink("loop-a", dir / "loop-b");
   EXPECT_THROW(mocap::checked_output_path(dir / "loop-a", OutputKind::bvh, false, "--out"),
                mocap::InputError);
-  EXPECT_THROW(mocap::check_distinct_outputs({{"--out", dir / "m.bvh"}, {"--report", dir / "m.bvh"}}),
-               mocap::InputError);
+  EXPECT_THROW(
+      mocap::check_distinct_outputs({{"--out", dir / "m.bvh"}, {"--report", dir / "m.bvh"}}),
+      mocap::InputError);
   fs::create_symlink("m.bvh", dir / "alias.bvh");
   EXPECT_THROW(
       mocap::check_distinct_outputs({{"--out", dir / "m.bvh"}, {"--report", dir / "alias.bvh"}}),
@@ -63,8 +66,8 @@ TEST(OutputPath, AcceptsAbsentEmptyAndOwnKindAndWritesThroughLinks) {
   EXPECT_NO_THROW(mocap::checked_output_path(dir / "i.h5", OutputKind::index, false, "--out"));
   EXPECT_THROW(mocap::checked_output_path(dir / "r.json", OutputKind::jsonl, false, "--out"),
                mocap::InputError);  // JSON lines start with an object
-  EXPECT_TRUE(mocap::looks_like(OutputKind::index, std::string(512, '\0') +
-                                                       std::string("\x89HDF\r\n\x1a\n", 8)));
+  EXPECT_TRUE(mocap::looks_like(OutputKind::index,
+                                std::string(512, '\0') + std::string("\x89HDF\r\n\x1a\n", 8)));
   fs::create_symlink("m.bvh", dir / "link.bvh");
   fs::create_symlink("link.bvh", dir / "link2.bvh");
   EXPECT_EQ(mocap::checked_output_path(dir / "link2.bvh", OutputKind::bvh, false, "--out"),
