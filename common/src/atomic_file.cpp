@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -77,6 +78,30 @@ void AtomicFile::commit() {
   committed_ = true;
   const fs::path dir = target_.parent_path();
   sync_to_disk(dir.empty() ? fs::path(".") : dir, true);
+}
+
+OutputLock::OutputLock(const fs::path& target) {
+  const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  path_ = folder / ("." + target.filename().string() + ".lock");
+  fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw InputError(target.string(), 0,
+                     "cannot open the lock file " + path_.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd_);
+    fd_ = -1;
+    if (err == EWOULDBLOCK)
+      throw InputError(target.string(), 0,
+                       "another process is writing this file (it holds " + path_.string() +
+                           "); wait for it to finish");
+    throw InputError(target.string(), 0,
+                     "cannot lock " + path_.string() + ": " + std::strerror(err));
+  }
+}
+
+OutputLock::~OutputLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock
 }
 
 }  // namespace mocap

@@ -292,6 +292,10 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   const fs::path out =
       fs::absolute(checked_output_path(opt.out, OutputKind::index, opt.force, "--out"))
           .lexically_normal();
+  // One build per index at a time: a second one fails here, before any work.
+  std::error_code folder_ec;
+  fs::create_directories(out.parent_path(), folder_ec);
+  const OutputLock lock(out);
   const std::size_t jobs = opt.jobs ? opt.jobs : std::max(1u, std::thread::hardware_concurrency());
   const Character character = opt.character ? read_character_file(*opt.character) : Character{};
   const EnergyParams energy{};

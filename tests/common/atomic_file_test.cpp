@@ -109,5 +109,22 @@ TEST(AtomicFile, SyncErrorsNameThePath) {
   EXPECT_EQ(read(dir / "index.h5"), "old");
 }
 
+TEST(OutputLock, ASecondLockOnOneTargetFailsUntilTheFirstIsGone) {
+  const fs::path dir = test::temp_dir("output-lock");
+  EXPECT_THROW(OutputLock(dir / "missing-folder" / "i.h5"), InputError);
+  {
+    const OutputLock first(dir / "i.h5");
+    EXPECT_EQ(first.lock_path(), dir / ".i.h5.lock");
+    try {
+      const OutputLock second(dir / "i.h5");
+      FAIL() << "two locks on one target";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("another process"), std::string::npos) << e.what();
+    }
+    EXPECT_NO_THROW(OutputLock(dir / "other.h5"));  // another target
+  }
+  EXPECT_NO_THROW(OutputLock(dir / "i.h5"));  // released
+}
+
 }  // namespace
 }  // namespace mocap

@@ -37,6 +37,25 @@ class AtomicFile {
   bool committed_ = false;
 };
 
+/// An exclusive lock on the output `target` between processes: flock(2) on
+/// ".NAME.lock" in the target's folder (created when missing, left there),
+/// held while the object lives. Two builds to one index: the second fails at
+/// once instead of racing the first. Throws InputError(target, 0, ...) when
+/// another process (or another OutputLock) holds it, or the lock file cannot
+/// be opened.
+class OutputLock {
+ public:
+  explicit OutputLock(const std::filesystem::path& target);
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+  ~OutputLock();
+  const std::filesystem::path& lock_path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+};
+
 /// Removes the temporary files ".NAME.tmp-PID" of `target` left by processes
 /// that no longer run (and by this process). Names with a non-numeric PID and
 /// other files are left alone; errors while listing or removing are ignored
