@@ -18,6 +18,12 @@ namespace mocap {
 
 namespace {
 
+// Ranges a BVH file's numbers must lie in (docs/cli.md "Value ranges"): finite values
+// beyond them are not motion capture, and would make the dynamics overflow
+// or lose all precision (an angle of 1e308 degrees).
+constexpr double kMaxBvhValue = 1e7;
+constexpr double kMinFrameTime = 1e-5, kMaxFrameTime = 60.0;
+
 using detail::after_blanks;
 using detail::is_binary;
 using detail::is_blank;
@@ -147,6 +153,9 @@ class BvhParser {
       fail(token_line_, std::string("expected a number (") + what + "), found " + show(tok));
     if (!std::isfinite(v))
       fail(token_line_, std::string("expected a finite number (") + what + ")");
+    if (std::abs(v) > kMaxBvhValue)
+      fail(token_line_, std::string("value out of range (") + what + "): " + show(tok) +
+                            "; |value| must be at most 1e7 (file units or degrees)");
     return v;
   }
 
@@ -389,6 +398,9 @@ class BvhParser {
                           (time_text.empty() ? std::string("end of file") : show(time_text)));
     if (!(frame_time > 0.0) || !std::isfinite(frame_time))
       fail(time_line, "frame time must be a positive number of seconds, found " + show(time_text));
+    if (frame_time < kMinFrameTime || frame_time > kMaxFrameTime)
+      fail(time_line, "frame time out of range: " + show(time_text) +
+                          " s; expected 1e-5 to 60 s (100 kHz to one frame a minute)");
     clip.frame_time_s = frame_time;
     clip.frame_count = declared;
     declared_ = declared;
@@ -466,9 +478,12 @@ class BvhParser {
                          std::to_string(f) + "), found " +
                          show(std::string_view(p, static_cast<std::size_t>(tok_end - p))));
         }
-        if (!std::isfinite(v))
-          fail(line, "expected a finite number (value " + std::to_string(c + 1) + " of frame " +
-                         std::to_string(f) + ")");
+        if (!std::isfinite(v) || std::abs(v) > kMaxBvhValue)
+          fail(line, std::string(std::isfinite(v) ? "value out of range: |value| must be at "
+                                                    "most 1e7 (file units or degrees)"
+                                                  : "expected a finite number") +
+                         " (value " + std::to_string(c + 1) + " of frame " + std::to_string(f) +
+                         ")");
         out[c] = v;
         p = stop;
       }

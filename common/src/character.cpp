@@ -47,6 +47,8 @@ struct JsonReader {
     if (!v.is_object()) fail(field, "expected an object, got " + std::string(v.type_name()));
     return v;
   }
+  // A positive finite number up to `max` (docs/cli.md "Value ranges":
+  // 10,000 kg for masses, 100 for scale factors).
   double positive(const json& v, const std::string& field, const char* unit) const {
     if (!v.is_number())
       fail(field, std::string("expected a positive number (") + unit + "), got " + v.type_name());
@@ -54,6 +56,10 @@ struct JsonReader {
     if (!std::isfinite(x) || !(x > 0.0))
       fail(field,
            std::string("expected a positive finite number (") + unit + "), got " + json_text(v));
+    const double max = std::string(unit) == "kg" ? 1e4 : 100.0;
+    if (x > max)
+      fail(field, std::string("out of range: ") + json_text(v) + " " + unit + "; at most " +
+                      json_text(json(max)));
     return x;
   }
   void unknown_key(const std::string& field, const std::string& expected) const {

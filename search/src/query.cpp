@@ -29,10 +29,15 @@ std::string type_name(const json& v) {
   return v.type_name();
 }
 
-double number(const Ctx& c, const json& v, const std::string& path) {
+// A finite number of magnitude at most max_abs (docs/cli.md "Value
+// ranges": finite values beyond a field's range are not a pose or a time).
+double number(const Ctx& c, const json& v, const std::string& path, double max_abs = 1e6) {
   if (!v.is_number()) c.fail(path, "expected a number, got " + type_name(v));
   const double d = v.get<double>();
   if (!std::isfinite(d)) c.fail(path, "expected a finite number");
+  if (std::abs(d) > max_abs)
+    c.fail(path, "out of range: " + json_text(v) + "; |value| must be at most " +
+                     json_text(json(max_abs)));
   return d;
 }
 
@@ -110,7 +115,8 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
       c.fail(path + ".root_position", "expected [x, y, z] in metres (null = not given)");
     for (std::size_t a = 0; a < 3; ++a)
       if (!p[a].is_null())
-        f.root_position_m[a] = number(c, p[a], path + ".root_position[" + std::to_string(a) + "]");
+        f.root_position_m[a] =
+            number(c, p[a], path + ".root_position[" + std::to_string(a) + "]", 1e4);
   }
   if (v.contains("root_heading_deg"))
     f.root_heading_deg = number(c, v["root_heading_deg"], path + ".root_heading_deg");
@@ -237,7 +243,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   }
   for (const char* key : {"min_length_s", "max_length_s"})
     if (j.contains(key)) {
-      const double v = number(c, j[key], key);
+      const double v = number(c, j[key], key, 3600.0);
       if (v <= 0.0) c.fail(key, "must be > 0 seconds");
       (std::string(key) == "min_length_s" ? q.min_length_s : q.max_length_s) = v;
     }
@@ -249,8 +255,8 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     q.character = resolve(base_dir, j["character"].get<std::string>());
   }
   if (j.contains("transition_time")) {
-    q.transition_time_s = number(c, j["transition_time"], "transition_time");
-    if (q.transition_time_s <= 0.0) c.fail("transition_time", "must be > 0 seconds");
+    q.transition_time_s = number(c, j["transition_time"], "transition_time", 60.0);
+    if (q.transition_time_s < 1e-3) c.fail("transition_time", "must be 0.001 to 60 seconds");
   }
   if (j.contains("top")) {
     const json& t = j["top"];

@@ -152,6 +152,22 @@ TEST(BvhValidity, NonNumericValue) {
   expect_input_error(offset, 8, "number");
 }
 
+TEST(BvhValidity, FiniteValuesOutOfRange) {
+  // Finite but not motion capture: the dynamics would overflow or lose all
+  // precision (an angle of 1e308 degrees, a frame time of 1e-300 s).
+  expect_input_error(two_joints("Frames: 1\nFrame Time: 0.1\n0 0 0 0 0 1e308 0 0 0\n"), 19,
+                     "out of range");
+  expect_input_error(two_joints("Frames: 1\nFrame Time: 0.1\n1e30 0 0 0 0 0 0 0 0\n"), 19,
+                     "out of range");
+  expect_input_error(two_joints("Frames: 1\nFrame Time: 1e-300\n0 0 0 0 0 0 0 0 0\n"), 18,
+                     "out of range");
+  expect_input_error(two_joints("Frames: 1\nFrame Time: 1e300\n0 0 0 0 0 0 0 0 0\n"), 18,
+                     "out of range");
+  std::string offset = two_joints("Frames: 0\nFrame Time: 0.1\n");
+  offset.replace(offset.find("OFFSET 0 10 0"), 13, "OFFSET 0 1e30 0");
+  expect_input_error(offset, 8, "out of range");
+}
+
 TEST(BvhValidity, TooFewValuesOnFrameLine) {
   expect_input_error(
       two_joints(
@@ -345,9 +361,29 @@ TEST(BvhParse, NumbersMatchFromChars) {
       s += (rng() % 2 ? "e" : "E") + std::to_string(static_cast<int>(rng() % 61) - 30);
     numbers.push_back(s);
   }
-  std::string text =
-      "HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\n}\nMOTION\nFrames: " +
-      std::to_string(numbers.size()) + "\nFrame Time: 0.01\n";
+  numbers.push_back("0.123456789012345678901234567890");
+  numbers.push_back("1234567.8901234567890123");
+  // Values beyond the reader's range (|v| > 1e7) are refused: checked on a
+  // few of them, the rest compared with std::from_chars.
+  auto value_of = [](const std::string& n) {
+    double v = 0.0;
+    std::from_chars(n.data() + (n[0] == '+' ? 1 : 0), n.data() + n.size(), v);
+    return v;
+  };
+  const auto header = [](std::size_t frames) {
+    return "HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 1 Xposition\n}\nMOTION\nFrames: " +
+           std::to_string(frames) + "\nFrame Time: 0.01\n";
+  };
+  std::size_t refused_checked = 0;
+  for (const std::string& n : numbers) {
+    if (std::abs(value_of(n)) > 1e7 && refused_checked++ < 20) {
+      EXPECT_THROW(parse_bvh(header(1) + n + "\n", "big"), InputError) << n;
+    }
+  }
+  numbers.erase(std::remove_if(numbers.begin(), numbers.end(),
+                               [&](const std::string& n) { return std::abs(value_of(n)) > 1e7; }),
+                numbers.end());
+  std::string text = header(numbers.size());
   for (const std::string& n : numbers) text += n + "\n";
   const RawClip clip = parse_bvh(text, "numbers");
   ASSERT_EQ(clip.values.size(), numbers.size());

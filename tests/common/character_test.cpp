@@ -85,6 +85,14 @@ TEST(CharacterJson, RejectsInfiniteNumbers) {
   expect_field_error(R"({"total_mass_kg": -1e999})", "total_mass_kg");
 }
 
+TEST(CharacterJson, RejectsFiniteNumbersOutOfRange) {
+  expect_field_error(R"({"total_mass_kg": 1e300})", "total_mass_kg");
+  expect_field_error(R"({"segments": {"thigh": {"mass_scale": 1e6}}})",
+                     "segments.thigh.mass_scale");
+  expect_field_error(R"({"joints": {"LeftArm": {"length_scale": 1000}}})",
+                     "joints.LeftArm.length_scale");
+}
+
 TEST(CharacterJson, RejectsBadSex) {
   expect_field_error(R"({"sex": "robot"})", "sex");
   expect_field_error(R"({"sex": 1})", "sex");

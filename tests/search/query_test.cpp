@@ -86,7 +86,15 @@ TEST(QueryValidityTest, BvhFrames) {
 
 TEST(QueryValidityTest, Options) {
   const std::string pre = std::string("{") + kTwo;
-  expect_error(pre + R"(, "transition_time": 0})", "transition_time: must be > 0");
+  expect_error(pre + R"(, "transition_time": 0})", "transition_time: must be 0.001 to 60");
+  expect_error(pre + R"(, "transition_time": 1e-300})", "transition_time: must be 0.001 to 60");
+  expect_error(pre + R"(, "transition_time": 1e300})", "transition_time: out of range");
+  expect_error(pre + R"(, "path_weight": 1e300})", "path_weight: out of range");
+  expect_error(pre + R"(, "max_length_s": 1e9})", "max_length_s: out of range");
+  expect_error(R"({"frames": [{"root_position": [1e30, null, 0]}, {"root_heading_deg": 0}]})",
+               "frames[0].root_position[0]: out of range");
+  expect_error(R"({"frames": [{"root_heading_deg": 1e308}, {"root_heading_deg": 0}]})",
+               "frames[0].root_heading_deg: out of range");
   expect_error(pre + R"(, "top": 0})", "top: expected an integer >= 1");
   expect_error(pre + R"(, "top": 2.5})", "top: expected an integer");
   expect_error(pre + R"(, "path_weight": -1})", "path_weight: must be >= 0");
