@@ -1,8 +1,11 @@
 #include "mocap/indexer/collection.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <set>
 #include <system_error>
 
 namespace mocap {
@@ -17,8 +20,15 @@ bool has_bvh_extension(const fs::path& p) {
   return ext == ".bvh";
 }
 
-void add_folder(const fs::path& dir, Collection& out) {
+// Every .bvh file under `dir`, following links to folders but entering each
+// folder once (by its canonical path: a link loop or a second link to a
+// folder adds nothing). Hidden entries are skipped; unreadable folders and
+// .bvh entries that are not regular files (FIFOs, dangling links) are
+// reported in out.problems.
+void add_folder(const fs::path& dir, Collection& out, std::set<fs::path>& visited) {
   std::error_code ec;
+  const fs::path top = fs::canonical(dir, ec);
+  if (!ec && !visited.insert(top).second) return;
   fs::recursive_directory_iterator it(dir,
                                       fs::directory_options::follow_directory_symlink |
                                           fs::directory_options::skip_permission_denied,
@@ -34,15 +44,33 @@ void add_folder(const fs::path& dir, Collection& out) {
     }
     const fs::path& p = it->path();
     const std::string name = p.filename().string();
+    const bool is_dir = it->is_directory(ec);
     if (!name.empty() && name[0] == '.') {
-      if (it->is_directory(ec)) it.disable_recursion_pending();
+      if (is_dir) it.disable_recursion_pending();
       continue;
     }
-    if (it->is_regular_file(ec) && has_bvh_extension(p)) out.files.push_back({p});
+    if (is_dir) {
+      std::error_code cec;
+      const fs::path real = fs::canonical(p, cec);
+      if (cec || !visited.insert(real).second) {
+        it.disable_recursion_pending();  // entered already (a link loop or a second link)
+        continue;
+      }
+      if (::access(p.c_str(), R_OK | X_OK) != 0)
+        out.problems.push_back({p.string(), "folder not readable: skipped"});
+      continue;
+    }
+    if (!has_bvh_extension(p)) continue;
+    if (it->is_regular_file(ec))
+      out.files.push_back({p});
+    else
+      out.problems.push_back({p.string(),
+                              "not a regular file (a FIFO, a device or a dangling "
+                              "link): skipped"});
   }
 }
 
-void add_list_file(const fs::path& list, Collection& out) {
+void add_list_file(const fs::path& list, Collection& out, std::set<fs::path>& visited) {
   std::ifstream in(list);
   if (!in) {
     out.problems.push_back({list.string(), "cannot open list file"});
@@ -57,7 +85,7 @@ void add_list_file(const fs::path& list, Collection& out) {
     if (p.is_relative()) p = list.parent_path() / p;
     std::error_code ec;
     if (fs::is_directory(p, ec))
-      add_folder(p, out);
+      add_folder(p, out, visited);
     else if (fs::is_regular_file(p, ec))
       out.files.push_back({p});
     else
@@ -69,16 +97,17 @@ void add_list_file(const fs::path& list, Collection& out) {
 
 Collection list_collection(const std::vector<std::string>& inputs) {
   Collection out;
+  std::set<fs::path> visited;  // canonical folders entered
   for (const std::string& input : inputs) {
     const fs::path p(input);
     std::error_code ec;
     if (fs::is_directory(p, ec))
-      add_folder(p, out);
+      add_folder(p, out, visited);
     else if (fs::is_regular_file(p, ec)) {
       if (has_bvh_extension(p))
         out.files.push_back({p});
       else
-        add_list_file(p, out);
+        add_list_file(p, out, visited);
     } else
       out.problems.push_back({input, "no such file or directory"});
   }

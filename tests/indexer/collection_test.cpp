@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <fstream>
 
 #include "test_support.hpp"
@@ -35,6 +37,23 @@ TEST(CollectionValidityTest, ListFileWithMissingEntries) {
   EXPECT_NE(c.problems[0].input.find("missing.bvh"), std::string::npos);
   EXPECT_NE(c.problems[0].reason.find("list.txt"), std::string::npos);
   fs::remove_all(dir);
+}
+
+TEST(CollectionValidityTest, LinkLoopsFifosAndDanglingLinks) {
+  // Two links back up the tree end neither in a hang nor in the same file
+  // listed many times; a FIFO or a dangling link named .bvh is reported.
+  const fs::path dir = test::temp_dir("collection-links");
+  touch(dir / "a" / "walk.bvh");
+  fs::create_directory_symlink("..", dir / "a" / "up");
+  fs::create_directory_symlink("../a", dir / "a" / "again");
+  ASSERT_EQ(mkfifo((dir / "a" / "fifo.bvh").c_str(), 0600), 0);
+  fs::create_symlink("nowhere.bvh", dir / "a" / "dangling.bvh");
+  const Collection c = list_collection({dir.string(), (dir / "a").string()});
+  ASSERT_EQ(c.files.size(), 1u);
+  EXPECT_EQ(c.files[0].path.filename(), "walk.bvh");
+  ASSERT_EQ(c.problems.size(), 2u);
+  for (const auto& p : c.problems)
+    EXPECT_NE(p.reason.find("not a regular file"), std::string::npos) << p.input;
 }
 
 TEST(CollectionTest, FoldersRecursiveSortedDeduplicatedHiddenSkipped) {

@@ -2,7 +2,10 @@
 // Capture collections: the inputs of the indexer.
 //
 // An input is a folder (searched recursively for *.bvh, case-insensitive,
-// symlinks followed, hidden folders skipped), a .bvh file, or a list file
+// symlinks followed but each folder entered once by its canonical path, so a
+// link loop ends; hidden entries skipped; unreadable folders and .bvh
+// entries that are not regular files reported as problems), a .bvh file, or
+// a list file
 // (any other extension, e.g. .txt/.lst: one path per line, '#' comments,
 // blank lines ignored, relative paths resolved against the list's folder).
 // The result is sorted by path and de-duplicated so that a build is
