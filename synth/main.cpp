@@ -18,6 +18,7 @@
 
 #include "mocap/common/atomic_file.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/output_path.hpp"
 #include "mocap/search/query.hpp"
@@ -107,6 +108,7 @@ int main(int argc, char** argv) {
             ? std::filesystem::path()
             : mocap::checked_output_path(html_path, mocap::OutputKind::html, force, "--html");
 
+    (void)mocap::check_input_file(query_path, mocap::kMaxJsonFileBytes);
     std::ifstream qin(query_path);
     if (!qin) throw mocap::InputError(query_path, 0, "cannot read the query");
     std::stringstream qs;

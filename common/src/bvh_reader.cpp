@@ -13,6 +13,7 @@
 #include "bvh_text.hpp"
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
 
 namespace mocap {
 
@@ -560,6 +561,7 @@ bool BvhHierarchy::heads(std::string_view text) const {
 }
 
 RawClip read_bvh_file(const std::filesystem::path& path) {
+  (void)check_input_file(path, kMaxBvhBytes);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
   std::error_code ec;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
 
 namespace mocap {
 
@@ -154,6 +155,7 @@ Character parse_character_json(const std::string& text, const std::string& sourc
 }
 
 Character read_character_file(const std::filesystem::path& path) {
+  (void)check_input_file(path, kMaxJsonFileBytes);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "cannot open character file");
   std::ostringstream text;

@@ -58,6 +58,23 @@ class ReadOnlyFile {
 
 }  // namespace
 
+FileStat check_input_file(const std::filesystem::path& path, std::uint64_t max_bytes) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    throw InputError(path.string(), 0, std::string("cannot read: ") + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) throw InputError(path.string(), 0, "is a folder, not a file");
+  if (!S_ISREG(st.st_mode))
+    throw InputError(path.string(), 0,
+                     "not a regular file (a FIFO, a device or a socket): not read as input");
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  if (size > max_bytes)
+    throw InputError(path.string(), 0,
+                     std::to_string(size) + " bytes: larger than this input's limit of " +
+                         std::to_string(max_bytes) + " bytes");
+  return FileStat{size,
+                  static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec};
+}
+
 FileStat stat_file(const std::filesystem::path& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) throw InputError(path.string(), 0, std::strerror(errno));

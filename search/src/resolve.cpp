@@ -101,7 +101,7 @@ std::shared_ptr<QueryBvhFile> whole_file(RawClip raw, const std::string& unit_op
 
 FileStat stat_or_throw(const std::filesystem::path& path) {
   try {
-    return stat_file(path);
+    return check_input_file(path, kMaxBvhBytes);
   } catch (const InputError& e) {
     throw InputError(path.string(), 0, "cannot read the BVH file: " + e.detail());
   }

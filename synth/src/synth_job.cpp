@@ -16,6 +16,7 @@
 
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/skeleton.hpp"
 #include "mocap/common/units.hpp"
@@ -310,6 +311,11 @@ std::vector<Channel> parse_channels(const std::string& s) {
 
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
                                              const std::string& query_id, const Index& index) {
+  try {
+    (void)check_input_file(path, kMaxBatchBytes);
+  } catch (const InputError& e) {
+    throw InputError(path.string(), 0, "cannot read the search results: " + e.detail());
+  }
   std::ifstream in(path);
   if (!in) throw InputError(path.string(), 0, "cannot read the search results");
   std::string line;

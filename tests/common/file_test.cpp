@@ -2,6 +2,7 @@
 #include "mocap/common/file.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <functional>
@@ -19,6 +20,23 @@ namespace fs = std::filesystem;
 void write(const fs::path& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
   out << bytes;
+}
+
+TEST(File, InputsMustBeRegularFilesWithinTheirLimit) {
+  const fs::path dir = test::temp_dir("file-inputs");
+  EXPECT_THROW((void)check_input_file(dir / "missing.json", 10), InputError);
+  EXPECT_THROW((void)check_input_file(dir, 10), InputError);
+  ASSERT_EQ(mkfifo((dir / "fifo.bvh").c_str(), 0600), 0);
+  try {
+    (void)check_input_file(dir / "fifo.bvh", 10);
+    FAIL() << "a FIFO accepted as input";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.detail().find("not a regular file"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)check_input_file("/dev/zero", 10), InputError);
+  write(dir / "eleven.txt", "01234567890");
+  EXPECT_THROW((void)check_input_file(dir / "eleven.txt", 10), InputError);
+  EXPECT_EQ(check_input_file(dir / "eleven.txt", 11).size, 11u);
 }
 
 TEST(File, MissingFileIsAnError) {

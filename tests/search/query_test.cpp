@@ -88,6 +88,9 @@ TEST(QueryValidityTest, Options) {
   const std::string pre = std::string("{") + kTwo;
   expect_error(pre + R"(, "transition_time": 0})", "transition_time: must be 0.001 to 60");
   expect_error(pre + R"(, "transition_time": 1e-300})", "transition_time: must be 0.001 to 60");
+  std::string many = R"({"frames": [)";
+  for (int i = 0; i < 257; ++i) many += std::string(i ? ", " : "") + R"({"root_heading_deg": 0})";
+  expect_error(many + "]}", "frames: at most 256 query frames");
   expect_error(pre + R"(, "transition_time": 1e300})", "transition_time: out of range");
   expect_error(pre + R"(, "path_weight": 1e300})", "path_weight: out of range");
   expect_error(pre + R"(, "max_length_s": 1e9})", "max_length_s: out of range");
