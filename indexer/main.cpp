@@ -18,9 +18,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <map>
 
 #include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/json_text.hpp"
 #include "mocap/common/units.hpp"
@@ -250,6 +252,8 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
 }
 
 int run_verify(const std::string& file, bool json) {
+  // A file that cannot be read at all is exit 2 (an InputError), not damage.
+  (void)mocap::check_input_file(file, std::numeric_limits<std::uint64_t>::max());
   const mocap::IndexVerifyReport r = mocap::verify_index(file);
   if (json) {
     std::cout << mocap::json_text(nlohmann::json{{"file", file},
@@ -437,12 +441,19 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*inspect) return run_inspect(file, frame, unit, up, character, json);
-    if (*summary) return run_summary(inputs, sum_unit, sum_up, sum_json);
+    int rc = kExitFatal;
+    if (*inspect) rc = run_inspect(file, frame, unit, up, character, json);
+    if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);
     if (*build)
-      return run_build(build_opt, build_unit, build_up, build_character, build_json, build_quiet);
-    if (*verify) return run_verify(verify_file, verify_json);
-    if (*info) return run_info(info_file, info_json);
+      rc = run_build(build_opt, build_unit, build_up, build_character, build_json, build_quiet);
+    if (*verify) rc = run_verify(verify_file, verify_json);
+    if (*info) rc = run_info(info_file, info_json);
+    // What the command printed must have been written (a full disk, a
+    // closed pipe, /dev/full): otherwise the run failed.
+    std::cout.flush();
+    if (!std::cout || std::fflush(stdout) != 0)
+      throw mocap::InputError("<stdout>", 0, "cannot write the output");
+    return rc;
   } catch (const CLI::ValidationError& e) {
     fmt::print(stderr, "mocap-index: error: {}\n", e.what());
     return kExitFatal;

@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <system_error>
+#include <unordered_map>
 #include <utility>
 
 #include "bvh_text.hpp"
@@ -206,7 +207,12 @@ class BvhParser {
                 std::size_t column) {
     bool opened = false;
     RawJoint j;
+    const std::size_t line = token_line_;
     j.name = joint_name(keyword, opened);
+    const auto [seen, fresh] = joint_lines_.emplace(j.name, line);
+    if (!fresh)
+      fail(line, "joint name " + show(j.name) + " defined twice (first on line " +
+                     std::to_string(seen->second) + "): joints are found by name");
     j.parent = parent;
     j.first_column = column;
     if (!opened) expect("{", brace);
@@ -511,6 +517,8 @@ class BvhParser {
   std::string source_;
   std::size_t line_ = 1;
   std::size_t token_line_ = 1;
+  // Line of each joint name seen (a name given twice is an error).
+  std::unordered_map<std::string, std::size_t> joint_lines_;
 };
 
 // What parse_bvh_window returns once `parser` has read `clip` (the frames

@@ -141,6 +141,16 @@ TEST(BvhValidity, DuplicateChannel) {
   expect_input_error(text, 9, "duplicate");
 }
 
+TEST(BvhValidity, DuplicateJointName) {
+  std::string text = two_joints("Frames: 0\nFrame Time: 0.1\n");
+  const std::string child = text.substr(text.find("JOINT ") + 6);
+  const std::string child_name = child.substr(0, child.find('\n'));
+  const std::string root = text.substr(text.find("ROOT ") + 5);
+  text.replace(text.find("JOINT " + child_name), 6 + child_name.size(),
+               "JOINT " + root.substr(0, root.find('\n')));
+  expect_input_error(text, 6, "defined twice");
+}
+
 TEST(BvhValidity, NonNumericValue) {
   expect_input_error(
       two_joints("Frames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n0 0 0 0 abc 0 0 0 0\n"), 20,

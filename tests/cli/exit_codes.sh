@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Exit statuses as docs/cli.md says: verify of a file that is not there is
+# 2 (cannot be read), not 1 (damaged); a command whose output cannot be
+# written (/dev/full) fails with 2 instead of exiting 0.
+#   bash tests/cli/exit_codes.sh BUILD_DIR DATA_DIR
+set -euo pipefail
+build="${1:?usage: exit_codes.sh BUILD_DIR DATA_DIR}"
+data="${2:?usage: exit_codes.sh BUILD_DIR DATA_DIR}"
+indexer="$build/indexer/mocap-index"
+[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+status() { local s=0; "$@" >/dev/null 2>&1 || s=$?; echo "$s"; }
+[ "$(status "$indexer" verify "$tmp/missing.h5")" = 2 ] || fail "verify of a missing file is not 2"
+mkdir "$tmp/in"
+cp "$data/bandai-namco-1/data/dataset-1_walk_normal_001.bvh" "$tmp/in/"
+"$indexer" build -q --out "$tmp/i.h5" "$tmp/in" >/dev/null 2>&1 || fail "build failed"
+[ "$(status "$indexer" verify "$tmp/i.h5")" = 0 ] || fail "verify of a sound index is not 0"
+if [ -w /dev/full ]; then
+  s=0
+  "$indexer" info --json "$tmp/i.h5" >/dev/full 2>/dev/null || s=$?
+  [ "$s" = 2 ] || fail "info writing to /dev/full exited $s (expected 2)"
+fi
+echo "PASS"
