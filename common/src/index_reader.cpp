@@ -12,6 +12,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "index_checksum.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/hdf5.hpp"
@@ -324,8 +325,14 @@ Index Index::open(const fs::path& path, const IndexOpenOptions& options) {
   // Skeletons.
   const h5::Group skel_group = root.open_group("skeletons");
   const auto skeleton_count = static_cast<std::size_t>(info.skeleton_count);
-  for (std::size_t k = 0; k < skeleton_count; ++k)
-    impl->skeletons.push_back(read_skeleton(skel_group.open_group(std::to_string(k)), file));
+  for (std::size_t k = 0; k < skeleton_count; ++k) {
+    const h5::Group g = skel_group.open_group(std::to_string(k));
+    // The small tables (names, parents, offsets, channels, masses, inertia):
+    // a flipped bit there would change answers silently. The per-frame and
+    // bound arrays are checked when read (array, stream_rows).
+    check_group_checksums(g);
+    impl->skeletons.push_back(read_skeleton(g, file));
+  }
   if (skel_group.members().size() != skeleton_count)
     throw InputError(file, 0,
                      "/skeletons: " + std::to_string(skel_group.members().size()) +
@@ -334,6 +341,7 @@ Index Index::open(const fs::path& path, const IndexOpenOptions& options) {
 
   // Clips.
   const h5::Group cg = root.open_group("clips");
+  check_group_checksums(cg);  // paths, labels, frame ranges, frame times
   const std::size_t C = static_cast<std::size_t>(info.clip_count);
   impl->clips.resize(C);
   read_table<IndexClip>(cg, kClipColumns, impl->clips);

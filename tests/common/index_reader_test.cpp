@@ -252,6 +252,30 @@ TEST(IndexReader, DatasetChecksumsCatchDamageBehindAValidUserBlock) {
   EXPECT_TRUE(found) << (r.problems.empty() ? "" : r.problems.front());
 }
 
+TEST(IndexReader, OpenChecksTheClipAndSkeletonTables) {
+  // A changed clip label or segment mass behind a valid user block: the
+  // search opens indexes with Index::open, which must refuse them (they
+  // would change answers silently).
+  for (const auto& [group, dataset] :
+       {std::pair<std::string, std::string>{"clips", "frame_time_s"},
+        std::pair<std::string, std::string>{"skeletons/0", "mass_kg"}}) {
+    const GoldenCopy copy("open-" + dataset);
+    {
+      h5::File f = h5::File::open(copy.file, true);
+      h5::Dataset d = group == "clips"
+                          ? f.root().open_group("clips").open_dataset(dataset)
+                          : f.root().open_group("skeletons").open_group("0").open_dataset(dataset);
+      std::vector<double> v = d.read_all<double>();
+      v[0] += 1.0;
+      d.write_all<double>(v);
+      f.close();
+    }
+    seal_index_file(copy.file);
+    const std::string e = error_of([&] { (void)Index::open(copy.file); });
+    EXPECT_NE(e.find(dataset + ": checksum mismatch"), std::string::npos) << e;
+  }
+}
+
 TEST(IndexReader, ArrayErrorsNameTheProblem) {
   const Index index = Index::open(golden());
   EXPECT_NE(error_of([&] { index.array(0, "frames", "no_such_field"); }).find("unknown field"),
