@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mocap/common/error.hpp"
@@ -83,7 +83,6 @@ std::uint64_t dataset_checksum(const h5::Dataset& d, ValueFindings* findings, bo
   }
   return h.digest();
 }
-
 
 void check_group_checksums(const h5::Group& g) {
   for (const auto& name : g.members()) {
