@@ -5,14 +5,9 @@
 # index is left as it was; once the lock is free the build runs.
 #   bash tests/cli/build_lock.sh BUILD_DIR DATA_DIR
 set -euo pipefail
-build="${1:?usage: build_lock.sh BUILD_DIR DATA_DIR}"
-data="${2:?usage: build_lock.sh BUILD_DIR DATA_DIR}"
-indexer="$build/indexer/mocap-index"
-[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup build_lock "$@"
 command -v flock >/dev/null || { echo "SKIP: no flock(1)"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
 mkdir "$tmp/in"
 cp "$data/bandai-namco-1/data/dataset-1_walk_normal_001.bvh" "$tmp/in/"
 "$indexer" build -q --out "$tmp/i.h5" "$tmp/in" >/dev/null 2>&1 || fail "first build failed"

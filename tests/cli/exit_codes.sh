@@ -4,13 +4,8 @@
 # written (/dev/full) fails with 2 instead of exiting 0.
 #   bash tests/cli/exit_codes.sh BUILD_DIR DATA_DIR
 set -euo pipefail
-build="${1:?usage: exit_codes.sh BUILD_DIR DATA_DIR}"
-data="${2:?usage: exit_codes.sh BUILD_DIR DATA_DIR}"
-indexer="$build/indexer/mocap-index"
-[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup exit_codes "$@"
 status() { local s=0; "$@" >/dev/null 2>&1 || s=$?; echo "$s"; }
 [ "$(status "$indexer" verify "$tmp/missing.h5")" = 2 ] || fail "verify of a missing file is not 2"
 mkdir "$tmp/in"

@@ -5,14 +5,8 @@
 # info print valid JSON.
 #   bash tests/cli/invalid_utf8.sh BUILD_DIR DATA_DIR
 set -euo pipefail
-build="${1:?usage: invalid_utf8.sh BUILD_DIR DATA_DIR}"
-data="${2:?usage: invalid_utf8.sh BUILD_DIR DATA_DIR}"
-indexer="$build/indexer/mocap-index"
-search="$build/search/mocap-search"
-[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup invalid_utf8 "$@"
 valid_json_lines() { python3 -c 'import json,sys
 for line in open(sys.argv[1], encoding="utf-8"): json.loads(line)' "$1" || fail "not valid UTF-8 JSON lines: $1"; }
 bn="$(cd "$data/bandai-namco-1/data" && pwd)"

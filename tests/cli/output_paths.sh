@@ -8,15 +8,8 @@
 # every query is answered.
 #   bash tests/cli/output_paths.sh BUILD_DIR DATA_DIR
 set -euo pipefail
-build="${1:?usage: output_paths.sh BUILD_DIR DATA_DIR}"
-data="${2:?usage: output_paths.sh BUILD_DIR DATA_DIR}"
-indexer="$build/indexer/mocap-index"
-search="$build/search/mocap-search"
-synth="$build/synth/mocap-synth"
-[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup output_paths "$@"
 bn="$(cd "$data/bandai-namco-1/data" && pwd)"
 mkdir "$tmp/in"
 cp "$bn/dataset-1_walk_normal_001.bvh" "$bn/dataset-1_walk_normal_002.bvh" \

@@ -5,15 +5,8 @@
 # batch that is a FIFO. Every command must end within the timeout.
 #   bash tests/cli/unbounded_inputs.sh BUILD_DIR DATA_DIR
 set -euo pipefail
-build="${1:?usage: unbounded_inputs.sh BUILD_DIR DATA_DIR}"
-data="${2:?usage: unbounded_inputs.sh BUILD_DIR DATA_DIR}"
-indexer="$build/indexer/mocap-index"
-search="$build/search/mocap-search"
-synth="$build/synth/mocap-synth"
-[ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup unbounded_inputs "$@"
 bn="$(cd "$data/bandai-namco-1/data" && pwd)"
 walk="$bn/dataset-1_walk_normal_001.bvh"
 mkdir "$tmp/in"

@@ -13,3 +13,19 @@ missing_tool() {
   echo "SKIP: $* ($setup installs it)"
   exit 77
 }
+
+# cli_setup NAME BUILD_DIR DATA_DIR: sets build, data, indexer, search and
+# synth, skips (exit 77) without the sample data, makes the temporary folder
+# $tmp (removed at exit) and defines fail MESSAGE (exit 1).
+cli_setup() {
+  local name="$1"
+  build="${2:?usage: $name.sh BUILD_DIR DATA_DIR}"
+  data="${3:?usage: $name.sh BUILD_DIR DATA_DIR}"
+  indexer="$build/indexer/mocap-index"
+  search="$build/search/mocap-search"
+  synth="$build/synth/mocap-synth"
+  [ -d "$data/bandai-namco-1/data" ] || { echo "SKIP: no data at $data"; exit 77; }
+  tmp="$(mktemp -d)"
+  trap 'rm -rf "$tmp"' EXIT
+}
+fail() { echo "FAIL: $*" >&2; exit 1; }
