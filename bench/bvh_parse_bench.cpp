@@ -4,6 +4,7 @@
 //   Set 2: $MOCAP_BN2_DIR, else unpacked once into <tmp>/mocap-bandai-namco-2.
 #include <benchmark/benchmark.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -28,15 +29,29 @@ fs::path bandai_namco_2_dir() {
   if (const char* env = std::getenv("MOCAP_BN2_DIR"); env && *env) return env;
   const fs::path archive = data_dir() / "bandai-namco-2.tar.zst";
   const fs::path cache = fs::temp_directory_path() / "mocap-bandai-namco-2";
-  if (!fs::exists(cache / ".unpacked")) {
-    if (!fs::exists(archive)) return {};
-    std::error_code ec;
-    fs::create_directories(cache, ec);
-    const std::string cmd = "tar --zstd -xf '" + archive.string() + "' -C '" + cache.string() + "'";
-    if (std::system(cmd.c_str()) != 0) return {};
-    std::ofstream(cache / ".unpacked").put('\n');
+  const fs::path data = cache / "bandai-namco-2" / "data";
+  if (fs::exists(cache / ".unpacked")) return data;
+  if (!fs::exists(archive)) return {};
+  // Unpacked into a folder of this process's own, then renamed into place:
+  // a process running at the same time (a test, another benchmark) never
+  // reads a half-written cache (tests/test_support.cpp does the same).
+  const fs::path mine = cache.string() + ".tmp-" + std::to_string(::getpid());
+  std::error_code ec;
+  fs::remove_all(mine, ec);
+  fs::create_directories(mine, ec);
+  const std::string cmd = "tar --zstd -xf '" + archive.string() + "' -C '" + mine.string() + "'";
+  if (ec || std::system(cmd.c_str()) != 0) {
+    fs::remove_all(mine, ec);
+    return {};
   }
-  return cache / "bandai-namco-2" / "data";
+  std::ofstream(mine / ".unpacked").put('\n');
+  fs::rename(mine, cache, ec);
+  if (ec && !fs::exists(cache / ".unpacked")) {  // a half-written cache of an older version
+    fs::remove_all(cache, ec);
+    fs::rename(mine, cache, ec);
+  }
+  fs::remove_all(mine, ec);
+  return fs::exists(cache / ".unpacked") ? data : fs::path{};
 }
 
 struct Corpus {

@@ -20,7 +20,9 @@ namespace {
   std::abort();
 }
 
-bool in_range(double v, double max) { return std::isfinite(v) && v > 0.0 && v <= max; }
+bool in_range(double v, double max) {
+  return std::isfinite(v) && v > 0.0 && v <= max;
+}
 
 }  // namespace
 
