@@ -19,10 +19,17 @@ bin="$build/indexer/mocap-index"
 [ -x /usr/bin/time ] || { echo "needs /usr/bin/time (GNU time)"; exit 1; }
 
 set2="${MOCAP_BN2_DIR:-/tmp/mocap-bandai-namco-2/bandai-namco-2/data}"
-if [ ! -d "$set2" ]; then
-  mkdir -p /tmp/mocap-bandai-namco-2
-  tar --zstd -xf "$data/bandai-namco-2.tar.zst" -C /tmp/mocap-bandai-namco-2
-  set2=/tmp/mocap-bandai-namco-2/bandai-namco-2/data
+cache=/tmp/mocap-bandai-namco-2
+if [ -z "${MOCAP_BN2_DIR:-}" ] && [ ! -f "$cache/.unpacked" ]; then
+  # Into a folder of this process's own, then renamed into place (no reader
+  # ever sees a half-written cache; tests/test_support.cpp does the same).
+  mine="$cache.tmp-$$"
+  rm -rf "$mine" && mkdir -p "$mine"
+  tar --zstd -xf "$data/bandai-namco-2.tar.zst" -C "$mine" && : >"$mine/.unpacked"
+  if ! mv -T "$mine" "$cache" 2>/dev/null && [ ! -f "$cache/.unpacked" ]; then
+    rm -rf "$cache" && mv -T "$mine" "$cache"
+  fi
+  rm -rf "$mine"
 fi
 work=$(mktemp -d /tmp/mocap-index-bench.XXXXXX)
 trap 'rm -rf "$work"' EXIT

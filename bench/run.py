@@ -104,10 +104,23 @@ def set2_dir(data):
         return d
     base = os.path.join(tempfile.gettempdir(), "mocap-bandai-namco-2")
     d = os.path.join(base, "bandai-namco-2", "data")
-    if not os.path.isdir(d):
+    if not os.path.exists(os.path.join(base, ".unpacked")):
         log(f"unpacking set 2 into {base}")
-        os.makedirs(base, exist_ok=True)
-        run(["tar", "--zstd", "-xf", os.path.join(data, "bandai-namco-2.tar.zst"), "-C", base])
+        # Into a folder of this process's own, then renamed into place, so a
+        # test or benchmark running at the same time never reads a
+        # half-written cache (tests/test_support.cpp does the same).
+        mine = "%s.tmp-%d" % (base, os.getpid())
+        shutil.rmtree(mine, ignore_errors=True)
+        os.makedirs(mine)
+        run(["tar", "--zstd", "-xf", os.path.join(data, "bandai-namco-2.tar.zst"), "-C", mine])
+        open(os.path.join(mine, ".unpacked"), "w").close()
+        try:
+            os.rename(mine, base)
+        except OSError:
+            if not os.path.exists(os.path.join(base, ".unpacked")):
+                shutil.rmtree(base, ignore_errors=True)
+                os.rename(mine, base)
+        shutil.rmtree(mine, ignore_errors=True)
     return d
 
 
