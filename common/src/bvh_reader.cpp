@@ -25,6 +25,8 @@ namespace {
 // or lose all precision (an angle of 1e308 degrees).
 constexpr double kMaxBvhValue = 1e7;
 constexpr double kMinFrameTime = 1e-5, kMaxFrameTime = 60.0;
+// Joints in one file (real rigs have tens to a few hundred).
+constexpr std::size_t kMaxJoints = 10000;
 
 using detail::after_blanks;
 using detail::is_binary;
@@ -208,6 +210,9 @@ class BvhParser {
     bool opened = false;
     RawJoint j;
     const std::size_t line = token_line_;
+    if (clip.joints.size() >= kMaxJoints)
+      fail(line, "more than " + std::to_string(kMaxJoints) +
+                     " joints: not a character skeleton (docs/cli.md \"Input limits\")");
     j.name = joint_name(keyword, opened);
     const auto [seen, fresh] = joint_lines_.emplace(j.name, line);
     if (!fresh)

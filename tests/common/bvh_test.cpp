@@ -141,6 +141,15 @@ TEST(BvhValidity, DuplicateChannel) {
   expect_input_error(text, 9, "duplicate");
 }
 
+TEST(BvhValidity, TooManyJoints) {
+  std::string text =
+      "HIERARCHY\nROOT R\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n";
+  for (int i = 0; i < 10000; ++i) text += "JOINT J" + std::to_string(i) + "\n{\nOFFSET 0 1 0\n}\n";
+  text += "}\nMOTION\nFrames: 0\nFrame Time: 0.1\n";
+  // Joint 10,001 (the root is the first) opens on line 6 + 4 * 9999.
+  expect_input_error(text, 6 + 4 * 9999, "more than 10000 joints");
+}
+
 TEST(BvhValidity, DuplicateJointName) {
   std::string text = two_joints("Frames: 0\nFrame Time: 0.1\n");
   const std::string child = text.substr(text.find("JOINT ") + 6);
