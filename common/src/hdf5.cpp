@@ -19,6 +19,13 @@ namespace detail {
 /// HDF5 keeps the error-printing setting per thread in thread-safe builds:
 /// switch it off once in every thread that calls in.
 /// The error API failing is a broken library, not bad input: logic_error.
+// HDF5 registers a clean-up of its own with atexit. After a close that
+// failed (a full disk: the flush fails), that clean-up closes the file again
+// and crashes (SIGSEGV at exit). Every file and object here is closed by its
+// owner (RAII), so the library's exit clean-up is switched off before any
+// other HDF5 call (static initialisation).
+const bool kNoHdf5Atexit = [] { return H5dont_atexit() >= 0; }();
+
 void silence() {
   thread_local bool done = false;
   if (!done) {
@@ -406,6 +413,11 @@ File File::create(const std::filesystem::path& path, hsize_t userblock_bytes) {
   // HDF5 1.10 file format: checksummed metadata, readable by HDF5 >= 1.10 (h5py too).
   check_status(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_V110), f.path_,
                "cannot select the HDF5 1.10 file format");
+  // Closing the file closes every object still open in it: when a write
+  // fails (a full disk), no group or dataset outlives a file that could not
+  // be flushed (HDF5 would otherwise crash closing them at exit).
+  check_status(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), f.path_,
+               "cannot set the file close degree");
   f.file_ = check(H5Fcreate(f.path_.c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), H5Fclose,
                   f.path_, "cannot create the file");
   f.root_ =
