@@ -16,12 +16,11 @@ namespace {
 // a start block none of whose end blocks can beat tau gets la = inf (its
 // start frames are skipped). The path-cost term is left out (it is >= 0).
 template <class Placed>
-void root_block_pass(const PairContext& pair, const RootBoundQuery& q, std::size_t s_end,
-                     const LengthFrames& len, double tau, const Placed& placed, Scratch& scratch) {
+void root_block_pass(const RootBoundQuery& q, std::size_t s_end, const LengthFrames& len,
+                     double tau, const Placed& placed, Scratch& scratch) {
   constexpr std::size_t B = RootBlocks::kBlock;
   const RootBlocks& blocks = scratch.root_blocks;
   const std::size_t last_e = blocks.x0.size() * B;  // past the clip's last block
-  (void)pair;
   for (std::size_t sa = 0; sa < s_end; sa += B) {
     const std::size_t sb = std::min(s_end, sa + B);  // [sa, sb)
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
@@ -150,29 +149,29 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   const bool a_bounds = bounded_a || root_a;
   scratch.a_exact.assign(k, a_bounds ? 0 : 1);
   const bool bounded = prune && pair.out_bound != nullptr;
+  // la[s]: the least placement-free bound `lower` of b over s's window
+  // [s + min, s + max].
+  auto window_minima = [&](const auto& lower) {
+    thread_local FixedWindowMinima windows;
+    windows.build(0, k, len.max - len.min + 1, lower);
+    scratch.la.resize(s_end);
+    for (std::size_t s = 0; s < s_end; ++s)
+      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
+  };
   if (bounded) {
-    // la[s]: the least placement-free bound of b over s's window [s + min, s + max].
     const RelativeBoundFrames& fr = scratch.out_frames;
     relative_bound_frames(*pair.out_bound, skeleton.tables, ci.frame_start, k, scratch.out_frames);
-    thread_local FixedWindowMinima windows;
-    windows.build(0, k, len.max - len.min + 1, [&](std::size_t e) { return fr.lower(e); });
-    scratch.la.resize(s_end);
-    for (std::size_t s = 0; s < s_end; ++s)
-      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
+    window_minima([&](std::size_t e) { return fr.lower(e); });
   } else if (root_b) {
-    // la[s]: the least placement-free root bound (x and z distances 0) over the window.
+    // The root bound with the x and z distances 0 (they depend on s).
     const RootBoundQuery& q = *pair.root_out;
-    thread_local FixedWindowMinima windows;
-    windows.build(0, k, len.max - len.min + 1, [&](std::size_t e) {
+    window_minima([&](std::size_t e) {
       return root_bound(q, kin[e], kin[e], kin_rot[e], 0.0, q.root_body.y() - root_at(e).y(), 0.0);
     });
-    scratch.la.resize(s_end);
-    for (std::size_t s = 0; s < s_end; ++s)
-      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
   } else {
     scratch.la.assign(s_end, 0.0);
   }
-  if (root_b) root_block_pass(pair, *pair.root_out, s_end, len, tau, placed, scratch);
+  if (root_b) root_block_pass(*pair.root_out, s_end, len, tau, placed, scratch);
   double min_lb = kInf;
   for (std::size_t s = 0; s < s_end; ++s) min_lb = std::min(min_lb, scratch.a[s] + scratch.la[s]);
   if (prune && safe(min_lb) > tau) {
