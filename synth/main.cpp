@@ -5,7 +5,7 @@
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
 //               [--refine-polish-window W] [--refine-polish-segments]
 //               [--refine-polish-smoothing J]
-//               [--threads N]
+//               [--no-step-feet] [--threads N]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -68,12 +68,16 @@ int main(int argc, char** argv) {
                  "T_c: stop when the step cost to the goal is below this (J)")
       ->capture_default_str();
   mocap::add_refine_options(app, options.params);
+  bool no_step = false;
+  app.add_flag("--no-step-feet", no_step,
+               "no stepping pass after the A* search (feet may glide; lowest g)");
   unsigned threads = 0;
   app.add_option("--threads", threads,
                  "worker threads: the gaps are supplemented in parallel (default: all cores); "
                  "the output does not depend on it");
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
   CLI11_PARSE(app, argc, argv);
+  options.params.step_feet = !no_step;
   std::optional<tbb::global_control> parallelism;
   if (threads > 0) parallelism.emplace(tbb::global_control::max_allowed_parallelism, threads);
   const auto t0 = std::chrono::steady_clock::now();

@@ -63,6 +63,8 @@ int main(int argc, char** argv) {
   app.add_flag("--no-choose-length", no_choose,
                "plan with the length estimate instead of choosing the length");
   app.add_flag("--no-plant-feet", no_plant, "no contact-aware (foot planting) proposals");
+  bool no_step = false;
+  app.add_flag("--no-step-feet", no_step, "no stepping pass after the search");
   mocap::add_refine_options(app, params);
   bool refine_free = false;
   app.add_flag("--refine-free", refine_free,
@@ -74,6 +76,7 @@ int main(int argc, char** argv) {
   // gradient would otherwise use every core).
   const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   params.plant_feet = !no_plant;
+  params.step_feet = !no_step;
   params.exact_lookahead = !h_lookahead;
   params.choose_length = !no_choose;
   params.refine.keep_limits = !refine_free;
@@ -116,7 +119,9 @@ int main(int argc, char** argv) {
     std::size_t lower = 0, slide_ok = 0;
     double sum_a = 0, sum_s = 0, sum_i = 0, slide_a = 0, slide_s = 0, slide_i = 0;
     // Foot-skating ratios summed over gaps: A*, slerp, inertialize, the source clips.
-    double skate_a = 0, skate_s = 0, skate_i = 0, skate_src = 0, slide_src = 0;
+    double skate_a = 0, skate_s = 0, skate_i = 0, skate_src = 0, slide_src = 0, g_src = 0;
+    double sum_ss = 0, skate_ss = 0, air_a = 0, air_s = 0, air_i = 0, air_src = 0;
+    std::size_t lower_stepped = 0;
     std::size_t skate_ok = 0;
     std::size_t viol_a = 0, viol_s = 0, viol_i = 0;
     // Sums of the g terms over the gaps (A*, slerp).
@@ -179,6 +184,13 @@ int main(int argc, char** argv) {
       const auto ms_ = mocap::measure_transition(gap, slerp);
       const auto mi = mocap::measure_transition(gap, inert);
       if (ma.energy_J < ms_.energy_J) ++lower;
+      // Slerp with the same stepping pass as A*'s (when it has one).
+      auto slerp_stepped = slerp;
+      if (params.step_feet) mocap::step_transition_feet(gap, slerp_stepped);
+      const auto mss = mocap::measure_transition(gap, slerp_stepped);
+      if (ma.energy_J < mss.energy_J) ++lower_stepped;
+      sum_ss += mss.energy_J;
+      skate_ss += mss.skating_ratio;
       if (ma.foot_sliding_m <= ms_.foot_sliding_m + 1e-9) ++slide_ok;
       // The source clips' own skating around the gap: as many captured steps
       // before frame a of X and from frame b of Y as the transition has.
@@ -199,10 +211,21 @@ int main(int argc, char** argv) {
       skate_s += ms_.skating_ratio;
       skate_i += mi.skating_ratio;
       skate_src += src_ratio;
+      air_a += ma.airborne_ratio;
+      air_s += ms_.airborne_ratio;
+      air_i += mi.airborne_ratio;
+      air_src += n_x + n_y > 0
+                     ? (src_x.airborne_ratio * n_x + src_y.airborne_ratio * n_y) / (n_x + n_y)
+                     : 0.0;
       // Their contact-based sliding per as many steps as the transition has
       // (the mean of the two windows).
       const double src_slide = 0.5 * (src_x.foot_sliding_m + src_y.foot_sliding_m);
       slide_src += src_slide;
+      // Their g over as many steps (the mean of the two windows).
+      double src_g = 0.0;
+      for (const auto* window : {&before_gap, &after_gap})
+        for (double e : mocap::motion_step_energies(sk, *window, dt)) src_g += 0.5 * e;
+      g_src += src_g;
       if (ma.skating_ratio <= ms_.skating_ratio + 1e-12) ++skate_ok;
       sum_a += ma.energy_J;
       sum_s += ms_.energy_J;
@@ -231,6 +254,7 @@ int main(int argc, char** argv) {
                       {"inertialize", mocap::measures_json(mi)},
                       {"source_foot_skating_ratio", src_ratio},
                       {"source_foot_sliding_m", src_slide},
+                      {"source_energy_J", src_g},
                       {"astar_ms", ms},
                       {"astar_cpu_ms", cpu_ms},
                       {"stop_reason", stats.stop_reason},
@@ -252,9 +276,14 @@ int main(int argc, char** argv) {
     std::printf(
         "\nGaps: %zu. A* g lower than slerp in %zu (%.0f%%); mean g A* %.1f J, slerp %.1f J (ratio "
         "%.2f), "
-        "inertialize %.1f J.\n",
+        "inertialize %.1f J; the source clips' own g over as many steps %.1f J.\n",
         specs.size(), lower, 100.0 * static_cast<double>(lower) / n, sum_a / n, sum_s / n,
-        sum_a / sum_s, sum_i / n);
+        sum_a / sum_s, sum_i / n, g_src / n);
+    if (params.step_feet)
+      std::printf(
+          "Slerp with the same stepping pass: A* g lower in %zu gaps; its mean g %.1f J, "
+          "foot-skating ratio %.3f.\n",
+          lower_stepped, sum_ss / n, skate_ss / n);
     std::printf(
         "Foot sliding (total): A* %.3f m, slerp %.3f m, inertialize %.3f m; A* <= slerp in %zu "
         "gaps. "
@@ -265,6 +294,10 @@ int main(int argc, char** argv) {
         "%.3f; A* <= slerp in %zu gaps. Source clips' foot sliding over as many steps: %.3f m "
         "(total).\n",
         skate_a / n, skate_s / n, skate_i / n, skate_src / n, skate_ok, slide_src);
+    std::printf(
+        "Airborne ratio (no foot on the ground; mean per gap): A* %.3f, slerp %.3f, inertialize "
+        "%.3f, source clips %.3f.\n",
+        air_a / n, air_s / n, air_i / n, air_src / n);
     std::printf(
         "A* time per transition (one thread): median %.1f ms, max %.1f ms wall; processor time "
         "median %.1f ms, "
@@ -297,6 +330,10 @@ int main(int argc, char** argv) {
                               {"mean_g_astar_J", sum_a / n},
                               {"mean_g_slerp_J", sum_s / n},
                               {"mean_g_inertialize_J", sum_i / n},
+                              {"mean_g_source_J", g_src / n},
+                              {"astar_lower_g_than_stepped_slerp", lower_stepped},
+                              {"mean_g_stepped_slerp_J", sum_ss / n},
+                              {"skating_ratio_stepped_slerp", skate_ss / n},
                               {"ratio_mean_g", sum_a / sum_s},
                               {"foot_sliding_astar_m", slide_a},
                               {"foot_sliding_slerp_m", slide_s},
@@ -305,6 +342,10 @@ int main(int argc, char** argv) {
                               {"skating_ratio_slerp", skate_s / n},
                               {"skating_ratio_inertialize", skate_i / n},
                               {"skating_ratio_source", skate_src / n},
+                              {"airborne_ratio_astar", air_a / n},
+                              {"airborne_ratio_slerp", air_s / n},
+                              {"airborne_ratio_inertialize", air_i / n},
+                              {"airborne_ratio_source", air_src / n},
                               {"foot_sliding_source_m", slide_src},
                               {"median_ms", median},
                               {"median_cpu_ms", cpu_median},

@@ -44,10 +44,13 @@ StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const Worl
                          double dt) {
   const double ground = sk.model.params.ground_height_m;
   StepSkating out;
+  out.airborne = !sk.foot_joints.empty();
   for (int j : sk.foot_joints) {
     const auto ju = static_cast<std::size_t>(j);
     const Eigen::Vector3d& pa = a.positions_m[ju];
     const Eigen::Vector3d& pb = b.positions_m[ju];
+    if (pa.y() - ground < kSkatingHeightM || pb.y() - ground < kSkatingHeightM)
+      out.airborne = false;
     if (pa.y() - ground >= kSkatingHeightM || pb.y() - ground >= kSkatingHeightM) continue;
     const double v = std::hypot(pb.x() - pa.x(), pb.z() - pa.z()) / dt;
     if (v <= kSkatingSpeedMps) continue;
@@ -61,9 +64,23 @@ void SkatingTally::add(const SynthSkeleton& sk, const WorldPose& a, const WorldP
   const StepSkating s = step_skating(sk, a, b, dt);
   ++steps;
   skating_steps += s.joints > 0 ? 1 : 0;
+  airborne_steps += s.airborne ? 1 : 0;
   joints += s.joints;
   speed_sum += s.speed_sum;
   sliding_m += step_foot_sliding(sk, a, b, dt);
+}
+
+std::size_t skating_steps(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  const SynthSkeleton& sk = *gap.skeleton;
+  WorldPose a, b;
+  synth_world_pose(sk, gap.start, a);
+  SkatingTally tally;
+  for (std::size_t k = 0; k <= frames.size(); ++k) {
+    synth_world_pose(sk, k < frames.size() ? frames[k] : gap.goal, b);
+    tally.add(sk, a, b, gap.frame_time_s);
+    std::swap(a, b);
+  }
+  return tally.skating_steps;
 }
 
 std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f) {
@@ -162,6 +179,7 @@ TransitionMeasures measure_transition(const GapProblem& gap,
   m.foot_sliding_m = skating.sliding_m;
   m.skating_ratio = skating.ratio();
   m.skating_speed_mps = skating.mean_speed();
+  m.airborne_ratio = skating.airborne_ratio();
   return m;
 }
 
@@ -180,6 +198,7 @@ MotionMeasures measure_motion(const SynthSkeleton& sk, const std::vector<SynthFr
   m.foot_sliding_m = skating.sliding_m;
   m.skating_ratio = skating.ratio();
   m.skating_speed_mps = skating.mean_speed();
+  m.airborne_ratio = skating.airborne_ratio();
   return m;
 }
 

@@ -32,6 +32,7 @@ inline constexpr double kSkatingSpeedMps = 0.5;
 struct StepSkating {
   std::size_t joints = 0;  // joints that skate in this step
   double speed_sum = 0.0;  // their horizontal speeds summed, m/s
+  bool airborne = false;   // every foot joint at or above kSkatingHeightM in both frames
 };
 StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
                          double dt);
@@ -39,12 +40,18 @@ StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const Worl
 /// Skating over consecutive steps: steps that skate, steps, joints and their
 /// speeds, and the contact-based sliding (step_foot_sliding) summed.
 struct SkatingTally {
-  std::size_t skating_steps = 0, steps = 0, joints = 0;
+  std::size_t skating_steps = 0, steps = 0, joints = 0, airborne_steps = 0;
   double speed_sum = 0.0, sliding_m = 0.0;
   void add(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b, double dt);
   double ratio() const { return steps ? static_cast<double>(skating_steps) / steps : 0.0; }
   double mean_speed() const { return joints ? speed_sum / static_cast<double>(joints) : 0.0; }
+  double airborne_ratio() const {
+    return steps ? static_cast<double>(airborne_steps) / static_cast<double>(steps) : 0.0;
+  }
 };
+
+/// Steps of S_0 -> frames... -> S_G in which a foot skates (step_skating).
+std::size_t skating_steps(const GapProblem& gap, const std::vector<SynthFrame>& frames);
 
 /// Joints of frame `f` outside the gap's range of motion (0 without a range).
 std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f);

@@ -71,7 +71,8 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                       {"estimated_frames", t.stats.estimated_frames},
                       {"stop_reason", t.stats.stop_reason},
                       {"refine_steps", t.stats.refine_steps},
-                      {"refine_gain_J", t.stats.refine_gain_J}};
+                      {"refine_gain_J", t.stats.refine_gain_J},
+                      {"stepped", t.stats.stepped}};
     nlohmann::json bl = nlohmann::json::object();
     for (const auto& [m, ms] : t.baselines) bl[transition_method_name(m)] = measures_json(ms);
     tj["baselines_same_length"] = bl;
@@ -79,11 +80,22 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
   }
   j["transitions"] = trs;
   nlohmann::json segs = nlohmann::json::array();
-  for (const MotionSegment& s : result.segments)
-    segs.push_back({{"kind", s.kind},
-                    {"pair", s.pair},
-                    {"first_frame", s.first_frame},
-                    {"frames", s.frame_count}});
+  for (const MotionSegment& s : result.segments) {
+    nlohmann::json sj = {{"kind", s.kind},
+                         {"pair", s.pair},
+                         {"first_frame", s.first_frame},
+                         {"frames", s.frame_count}};
+    if (s.kind == "partial" && s.frame_count >= 2) {  // the captured frames' own measures
+      const auto first = result.frames.begin() + static_cast<std::ptrdiff_t>(s.first_frame);
+      const MotionMeasures m = measure_motion(
+          *result.skeleton,
+          std::vector<SynthFrame>(first, first + static_cast<std::ptrdiff_t>(s.frame_count)),
+          result.frame_time_s);
+      sj["foot_skating_ratio"] = m.skating_ratio;
+      sj["airborne_ratio"] = m.airborne_ratio;
+    }
+    segs.push_back(std::move(sj));
+  }
   double total = 0.0;
   for (double e : result.step_energies_J) total += e;
   j["motion"] = {{"bvh", bvh_path},
@@ -95,6 +107,7 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                  {"foot_sliding_m", result.motion_measures.foot_sliding_m},
                  {"foot_skating_ratio", result.motion_measures.skating_ratio},
                  {"skating_speed_mps", result.motion_measures.skating_speed_mps},
+                 {"airborne_ratio", result.motion_measures.airborne_ratio},
                  {"step_energies_J", result.step_energies_J}};
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
@@ -163,7 +176,7 @@ std::string synth_report_html(const Index& index, const Query& query,
        "data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</"
        "th><th>side</th>"
        "<th>method</th><th>frames</th><th>g (J)</th><th>slerp g (J)</th><th>foot sliding (m)</th>"
-       "<th>skating ratio</th><th>skating speed (m/s)</th>"
+       "<th>skating ratio</th><th>skating speed (m/s)</th><th>airborne ratio</th>"
        "<th>range violations</th><th>peak ang. speed (rad/s)</th></tr>";
   for (const TransitionReport& t : result.transitions) {
     double slerp_g = std::nan("");
@@ -175,13 +188,14 @@ std::string synth_report_html(const Index& index, const Query& query,
       << (std::isnan(slerp_g) ? std::string("-") : fmt(1, slerp_g)) << "</td><td>"
       << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << fmt(2, t.measures.skating_ratio)
       << "</td><td>" << fmt(2, t.measures.skating_speed_mps) << "</td><td>"
-      << t.measures.range_violations << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps)
-      << "</td></tr>";
+      << fmt(2, t.measures.airborne_ratio) << "</td><td>" << t.measures.range_violations
+      << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps) << "</td></tr>";
   }
   const MotionMeasures& mm = result.motion_measures;
   o << "<tr><td colspan=\"6\">whole motion (" << result.frames.size() << " frames)</td><td>"
     << fmt(3, mm.foot_sliding_m) << "</td><td>" << fmt(2, mm.skating_ratio) << "</td><td>"
-    << fmt(2, mm.skating_speed_mps) << "</td><td></td><td></td></tr>";
+    << fmt(2, mm.skating_speed_mps) << "</td><td>" << fmt(2, mm.airborne_ratio)
+    << "</td><td></td><td></td></tr>";
   o << "</table></figure>\n";
   synth_detail::energy_plot(o, result);
   o << "</body></html>\n";

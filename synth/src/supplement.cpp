@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "astar.hpp"
+#include "foot_steps.hpp"
 #include "measures.hpp"
 #include "mocap/synth/path_cache.hpp"
 #include "mocap/synth/refine.hpp"
@@ -71,15 +72,28 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   st = SupplementStats{};
   std::vector<SynthFrame> frames =
       synth_detail::astar_search(gap, params, choose_transition_frames(gap, params), &st);
+  if (params.step_feet) {
+    // Only where the feet skate, and kept where it skates less.
+    const std::size_t skating = synth_detail::skating_steps(gap, frames);
+    if (skating > 0) {
+      std::vector<SynthFrame> stepped = frames;
+      synth_detail::step_feet(gap, stepped);
+      if (synth_detail::skating_steps(gap, stepped) < skating) {
+        frames = std::move(stepped);
+        st.stepped = true;
+      }
+    }
+  }
   if (params.refine.iterations > 0 || params.refine.polish_sweeps > 0) {
     // Feet may slide as much as the slerp transition of the same length's
-    // (the search's own bound), not more; no joint may turn faster than in
-    // that slerp, the search's path or the captured steps at either end.
+    // (the search's own bound; after the stepping pass: as much as its
+    // path), not more; no joint may turn faster than in that slerp, the
+    // path or the captured steps at either end.
     PathCache slerp_path;
     const std::vector<SynthFrame> slerp = slerp_transition(gap, frames.size());
     slerp_path.build_poses(gap, slerp);
     RefineOptions ro = params.refine;
-    ro.foot_sliding_limit_m = slerp_path.foot_sliding(gap);
+    ro.foot_sliding_limit_m = st.stepped ? 0.0 : slerp_path.foot_sliding(gap);
     ro.angular_speed_limit_radps = synth_detail::peak_angular_speed(gap, slerp);
     const RefineResult r = refine_transition(gap, frames, ro);
     st.refine_steps = r.steps;

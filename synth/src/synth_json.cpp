@@ -10,6 +10,7 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
           {"foot_sliding_m", m.foot_sliding_m},
           {"foot_skating_ratio", m.skating_ratio},
           {"skating_speed_mps", m.skating_speed_mps},
+          {"airborne_ratio", m.airborne_ratio},
           {"range_violations", m.range_violations},
           {"peak_angular_speed_radps", m.peak_angular_speed_radps},
           {"step_energies_J", m.step_energies_J},
@@ -25,6 +26,7 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
 nlohmann::json supplement_params_json(const SupplementParams& params) {
   return {{"max_states", params.max_states},
           {"cost_threshold_J", params.cost_threshold_J},
+          {"step_feet", params.step_feet},
           {"refine_iterations", params.refine.iterations},
           {"refine_smoothing_J", params.refine.smoothing_J},
           {"refine_polish_sweeps", params.refine.polish_sweeps},

@@ -50,6 +50,8 @@ cmp -s "$tmp/m.bvh" "$tmp/m2.bvh" || fail "two runs gave different motions"
 cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 "$synth" "${base[@]/m.bvh/ms.bvh}" --results "$tmp/results.jsonl" --transition slerp --report "$tmp/rs.json" >/dev/null
 "$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
+# --no-step-feet: the search's own legs everywhere.
+"$synth" "${base[@]/m.bvh/mn.bvh}" --results "$tmp/results.jsonl" --no-step-feet --report "$tmp/rn.json" >/dev/null
 # --refine: the same transitions' lengths, g never above the unrefined run's.
 "$synth" "${base[@]/m.bvh/mr.bvh}" --results "$tmp/results.jsonl" --refine 5 --report "$tmp/rr.json" >/dev/null
 # --refine-smoothing: smoothed stages first, the same guarantees.
@@ -60,6 +62,12 @@ cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 python3 - "$tmp" <<'PY'
 import json, sys
 t = sys.argv[1]
+def slide_limit(a, b):
+    """The refinement slides the feet no more than the slerp of the same
+    length, or than the stepped path it starts from (docs/synthesis.md)."""
+    if b["search"]["stepped"]:
+        return a["foot_sliding_m"]
+    return b["baselines_same_length"]["slerp"]["foot_sliding_m"]
 r = json.load(open(t + "/r.json"))
 rw = json.load(open(t + "/rw.json"))
 p = rw["parameters"]
@@ -69,7 +77,7 @@ assert r["parameters"]["refine_polish_window"] == 1 and r["parameters"]["refine_
 for a, b in zip(r["transitions"], rw["transitions"]):
     assert b["frames"] == a["frames"]
     assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
-    assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
+    assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= slide_limit(a, b) + 1e-9
 assert sum(b["search"]["refine_gain_J"] for b in rw["transitions"]) > 0
 rr = json.load(open(t + "/rr.json"))
 r1 = json.load(open(t + "/r1.json"))
@@ -89,7 +97,7 @@ for refined, most in ((rr, 5), (rq, 8)):
         assert a["search"]["refine_steps"] == 0 and a["search"]["refine_gain_J"] == 0
         assert b["frames"] == a["frames"] and b["search"]["refine_steps"] <= most
         assert abs(a["g_J"] - b["g_J"] - b["search"]["refine_gain_J"]) <= 1e-6 * a["g_J"], (a["g_J"], b["g_J"])
-        assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= b["baselines_same_length"]["slerp"]["foot_sliding_m"] + 1e-9
+        assert b["g_J"] <= a["g_J"] and b["foot_sliding_m"] <= slide_limit(a, b) + 1e-9
 assert sum(b["search"]["refine_steps"] for b in rr["transitions"]) > 0
 segs = r["motion"]["segments"]
 kinds = [s["kind"] for s in segs]
@@ -100,6 +108,7 @@ for s in segs:
     if s["kind"] == "partial":
         c = r["chosen"][s["pair"] - 1]
         assert s["frames"] == c["end_frame"] - c["start_frame"] + 1
+        assert 0 <= s["foot_skating_ratio"] <= 1 and 0 <= s["airborne_ratio"] <= 1, s
 assert len(r["transitions"]) == 4
 for tr in r["transitions"]:
     assert tr["method"] == "astar" and tr["frames"] >= 0
@@ -108,8 +117,17 @@ for tr in r["transitions"]:
     assert tr["frames"] <= r["parameters"]["max_states"]
     for k in ("foot_sliding_m", "range_violations", "peak_angular_speed_radps"):
         assert tr[k] >= 0
+    assert 0 <= tr["airborne_ratio"] <= 1 and isinstance(tr["search"]["stepped"], bool), tr
     assert "slerp" in tr["baselines_same_length"] and "inertialize" in tr["baselines_same_length"]
     assert tr["search"]["stop_reason"] in ("threshold", "horizon", "max_states")
+assert r["parameters"]["step_feet"] is True and 0 <= r["motion"]["airborne_ratio"] <= 1
+rn = json.load(open(t + "/rn.json"))
+assert rn["parameters"]["step_feet"] is False
+assert not any(x["search"]["stepped"] for x in rn["transitions"])
+# Stepped transitions skate less than the search's own legs did.
+for a, b in zip(r["transitions"], rn["transitions"]):
+    if a["search"]["stepped"]:
+        assert a["foot_skating_ratio"] < b["foot_skating_ratio"], (a["foot_skating_ratio"], b["foot_skating_ratio"])
 rs = json.load(open(t + "/rs.json"))
 assert all(x["method"] == "slerp" for x in rs["transitions"])
 rp = json.load(open(t + "/rp.json"))

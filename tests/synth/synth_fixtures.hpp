@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mocap/common/index.hpp"
+#include "mocap/synth/synth.hpp"
 #include "test_support.hpp"
 
 namespace mocap::test {
@@ -36,6 +37,40 @@ inline std::size_t clip_named(const Index& index, const std::string& name) {
     if (index.clips()[c].path.ends_with("/" + name)) return c;
   ADD_FAILURE() << "no clip " << name;
   return 0;
+}
+
+// A gap from frame a of clip x to frame b of clip y (same skeleton), y
+// placed by the assembly rule 0.4 s ahead (continuation_placement).
+struct RealGap {
+  SynthSkeleton sk;
+  RangeOfMotion rom;
+  GapProblem gap;
+};
+inline std::unique_ptr<RealGap> make_gap(const Index& index, std::size_t x, std::size_t a,
+                                         std::size_t y, std::size_t b) {
+  auto g = std::make_unique<RealGap>();
+  g->sk = make_synth_skeleton(index, index.clips()[x].skeleton, x);
+  g->rom = range_of_motion(index, g->sk, index.skeletons()[index.clips()[x].skeleton].clips);
+  auto& gap = g->gap;
+  gap.skeleton = &g->sk;
+  gap.range = &g->rom;
+  gap.frame_time_s = index.clips()[x].frame_time_s;
+  gap.before = clip_frame(index, x, a - 1);
+  gap.start = clip_frame(index, x, a);
+  const SynthFrame g0 = clip_frame(index, y, b), g1 = clip_frame(index, y, b + 1);
+  const double dt = gap.frame_time_s;
+  const auto p =
+      continuation_placement(g->sk, gap.start, horizontal_root_velocity(gap.before, gap.start, dt),
+                             g0, horizontal_root_velocity(g0, g1, dt), 0.4);
+  gap.goal = place_frame(g->sk, g0, p);
+  gap.after = place_frame(g->sk, g1, p);
+  return g;
+}
+
+// The same, clips given by file name.
+inline std::unique_ptr<RealGap> make_gap(const Index& index, const std::string& x, std::size_t a,
+                                         const std::string& y, std::size_t b) {
+  return make_gap(index, clip_named(index, x), a, clip_named(index, y), b);
 }
 
 }  // namespace mocap::test

@@ -15,6 +15,7 @@
 #include "mocap/synth/refine.hpp"
 #include "mocap/synth/synth.hpp"
 #include "mocap/synth/synth_job.hpp"
+#include "synth_fixtures.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -38,45 +39,8 @@ const mocap::Index* shared_index() {
   return index.get();
 }
 
-std::size_t clip_named(const mocap::Index& index, const std::string& name) {
-  for (std::size_t c = 0; c < index.clips().size(); ++c)
-    if (index.clips()[c].path.ends_with("/" + name)) return c;
-  ADD_FAILURE() << "no clip " << name;
-  return 0;
-}
-
-// A gap from frame a of clip x to frame b of clip y (same skeleton), y placed by the assembly rule.
-struct RealGap {
-  mocap::SynthSkeleton sk;
-  mocap::RangeOfMotion rom;
-  mocap::GapProblem gap;
-};
-std::unique_ptr<RealGap> make_gap(const mocap::Index& index, std::size_t x, std::size_t a,
-                                  std::size_t y, std::size_t b) {
-  auto g = std::make_unique<RealGap>();
-  g->sk = mocap::make_synth_skeleton(index, index.clips()[x].skeleton, x);
-  g->rom = mocap::range_of_motion(index, g->sk, index.skeletons()[index.clips()[x].skeleton].clips);
-  auto& gap = g->gap;
-  gap.skeleton = &g->sk;
-  gap.range = &g->rom;
-  gap.frame_time_s = index.clips()[x].frame_time_s;
-  gap.before = mocap::clip_frame(index, x, a - 1);
-  gap.start = mocap::clip_frame(index, x, a);
-  const SynthFrame g0 = mocap::clip_frame(index, y, b), g1 = mocap::clip_frame(index, y, b + 1);
-  const double dt = gap.frame_time_s;
-  const auto p = mocap::continuation_placement(
-      g->sk, gap.start, mocap::horizontal_root_velocity(gap.before, gap.start, dt), g0,
-      mocap::horizontal_root_velocity(g0, g1, dt), 0.4);
-  gap.goal = mocap::place_frame(g->sk, g0, p);
-  gap.after = mocap::place_frame(g->sk, g1, p);
-  return g;
-}
-
-// The same, clips given by file name.
-std::unique_ptr<RealGap> make_gap(const mocap::Index& index, const std::string& x, std::size_t a,
-                                  const std::string& y, std::size_t b) {
-  return make_gap(index, clip_named(index, x), a, clip_named(index, y), b);
-}
+using mocap::test::clip_named;
+using mocap::test::make_gap;
 
 // Bit-identical transitions (root positions and every local rotation).
 void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<SynthFrame>& b) {
@@ -94,7 +58,7 @@ void expect_same_frames(const std::vector<SynthFrame>& a, const std::vector<Synt
 // frame 30, same content) and its slerp transition at the length A* plans,
 // with that transition's measures.
 struct SlerpStart {
-  std::unique_ptr<RealGap> g;
+  std::unique_ptr<mocap::test::RealGap> g;
   std::vector<SynthFrame> slerp;
   mocap::TransitionMeasures ms;
 };
@@ -454,6 +418,7 @@ TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
     for (bool exact : {false, true}) {
       mocap::SupplementParams p;
       p.exact_lookahead = exact;
+      p.step_feet = false;  // the search itself: the stepping pass trades g for steps
       mocap::SupplementStats st;
       const auto a = mocap::supplement_astar(g->gap, p, &st);
       ASSERT_EQ(st.stop_reason, "horizon") << xn;
@@ -679,6 +644,7 @@ TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   REQUIRE_INDEX();
   auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   mocap::SupplementParams p;
+  p.step_feet = false;  // its bounds are the search's (the stepping pass: foot_steps_test)
   mocap::SupplementStats plain_stats, refined_stats;
   const auto plain = mocap::supplement_astar(g->gap, p, &plain_stats);
   EXPECT_EQ(plain_stats.refine_steps, 0u);

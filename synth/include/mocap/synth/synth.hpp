@@ -170,6 +170,10 @@ struct SupplementParams {
   /// Contact-aware proposals: a foot within contact height of the ground in
   /// the current state is kept in place (its leg turned by inverse kinematics).
   bool plant_feet = true;
+  /// After the search (and the refinement): the stepping pass. Feet on the
+  /// ground stay planted; a foot that must move is lifted and set down
+  /// ahead (docs/synthesis.md "Stepping").
+  bool step_feet = true;
   /// Choose the length (choose_transition_frames) instead of taking the
   /// estimate.
   bool choose_length = true;
@@ -208,6 +212,8 @@ struct SupplementStats {
   /// how much g they took off the search's path, joules.
   std::size_t refine_steps = 0;
   double refine_gain_J = 0.0;
+  /// The stepping pass (SupplementParams::step_feet) replaced the legs.
+  bool stepped = false;
 };
 
 /// Initial length estimate (frames to insert), in [1, max_states].
@@ -226,6 +232,12 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
 /// definition), rad/s, of the captured steps at the gap's ends, S_-1 -> S_0
 /// and S_G -> S_G+1: how fast the clips themselves turn a joint there.
 double end_steps_peak_angular_speed(const GapProblem& gap);
+
+/// The stepping pass of supplement_astar (SupplementParams::step_feet) on
+/// any transition of `gap` (`frames` changed in place: the legs' rotations):
+/// feet on the ground stay planted, and a foot that must move is lifted and
+/// set down ahead (docs/synthesis.md "Stepping").
+void step_transition_feet(const GapProblem& gap, std::vector<SynthFrame>& frames);
 
 /// `frames` inserted frames: root linear, joints slerp, at i / (frames + 1).
 std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t frames);
@@ -249,6 +261,10 @@ struct TransitionMeasures {
   double skating_ratio = 0.0;
   /// Mean horizontal speed of those joints in those steps, m/s (0: none).
   double skating_speed_mps = 0.0;
+  /// Airborne ratio: the fraction of the same steps in which every foot and
+  /// toe joint is 5 cm or more above the ground in both frames (no foot on
+  /// the ground: a flight phase, or feet floating).
+  double airborne_ratio = 0.0;
   /// (frame, joint) pairs of the inserted frames outside the range of motion.
   std::size_t range_violations = 0;
   /// max over steps and joints of |log(q_f+1 q_f^-1)| / dt, local rotations, rad/s.
@@ -287,6 +303,7 @@ struct MotionMeasures {
   double foot_sliding_m = 0.0;
   double skating_ratio = 0.0;
   double skating_speed_mps = 0.0;
+  double airborne_ratio = 0.0;
 };
 MotionMeasures measure_motion(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
                               double frame_time_s);

@@ -1,0 +1,116 @@
+// synth/src/foot_steps.cpp: the stepping pass (docs/synthesis.md
+// "Stepping"). A bad gap is refused; a transition between walks that glides
+// steps instead (no skating, each foot ending where S_G has it); a
+// transition whose feet do not skate is left as the search made it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "mocap/synth/synth.hpp"
+#include "synth_fixtures.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using namespace mocap;
+
+const Index* shared_index() { return test::built_index({"bandai-namco-1"}); }
+
+// Horizontal distance of every foot joint between the last inserted frame
+// and S_G, the largest.
+double largest_foot_gap_to_goal(const GapProblem& gap, const std::vector<SynthFrame>& frames) {
+  WorldPose a, b;
+  synth_world_pose(*gap.skeleton, frames.back(), a);
+  synth_world_pose(*gap.skeleton, gap.goal, b);
+  double d = 0.0;
+  for (int j : gap.skeleton->foot_joints) {
+    const auto ju = static_cast<std::size_t>(j);
+    d = std::max(d, std::hypot(a.positions_m[ju].x() - b.positions_m[ju].x(),
+                               a.positions_m[ju].z() - b.positions_m[ju].z()));
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST(FootSteps, RefusesABadGap) {
+  GapProblem gap;  // no skeleton, no frame time
+  std::vector<SynthFrame> frames(3);
+  EXPECT_THROW(step_transition_feet(gap, frames), std::invalid_argument);
+}
+
+TEST(FootSteps, NoFramesNothingToStep) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto g = test::make_gap(*index, "dataset-1_walk_normal_001.bvh", 20,
+                          "dataset-1_walk_angry_001.bvh", 30);
+  std::vector<SynthFrame> none;
+  step_transition_feet(g->gap, none);
+  EXPECT_TRUE(none.empty());
+}
+
+TEST(FootSteps, AGlidingWalkTransitionStepsAndEndsOnTheGoalsFeet) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  for (const auto& [x, y] :
+       {std::pair{"dataset-1_walk_normal_001.bvh", "dataset-1_walk_angry_001.bvh"},
+        std::pair{"dataset-1_walk_active_001.bvh", "dataset-1_walk_active_002.bvh"}}) {
+    auto g = test::make_gap(*index, x, 30, y, 40);
+    const std::size_t n = choose_transition_frames(g->gap, SupplementParams{});
+    std::vector<SynthFrame> frames = slerp_transition(g->gap, n);
+    const TransitionMeasures glide = measure_transition(g->gap, frames);
+    ASSERT_GT(glide.skating_ratio, 0.3) << x << ": the slerp glides";
+    step_transition_feet(g->gap, frames);
+    ASSERT_EQ(frames.size(), n);
+    const TransitionMeasures stepped = measure_transition(g->gap, frames);
+    EXPECT_LE(stepped.skating_ratio, std::min(0.1, glide.skating_ratio / 4)) << x;
+    // Each foot is close to where S_G has it one frame before S_G.
+    EXPECT_LT(largest_foot_gap_to_goal(g->gap, frames), 0.15) << x;
+    // The stepping pass only turns the legs: the root stays on the path.
+    const std::vector<SynthFrame> slerp = slerp_transition(g->gap, n);
+    for (std::size_t i = 0; i < n; ++i)
+      EXPECT_EQ(frames[i].root_position_m, slerp[i].root_position_m) << x << " frame " << i;
+  }
+}
+
+TEST(FootSteps, AStarOnAWalkGapNoLongerSkates) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto g = test::make_gap(*index, "dataset-1_walk_normal_001.bvh", 30,
+                          "dataset-1_walk_angry_001.bvh", 40);
+  SupplementParams p;
+  SupplementStats st;
+  const auto a = supplement_astar(g->gap, p, &st);
+  EXPECT_TRUE(st.stepped);
+  EXPECT_LE(measure_transition(g->gap, a).skating_ratio, 0.05);
+  p.step_feet = false;
+  SupplementStats plain;
+  const auto b = supplement_astar(g->gap, p, &plain);
+  EXPECT_FALSE(plain.stepped);
+  EXPECT_GT(measure_transition(g->gap, b).skating_ratio, 0.2) << "without steps the feet glide";
+}
+
+TEST(FootSteps, ATransitionThatDoesNotSkateIsLeftAsTheSearchMadeIt) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto g = test::make_gap(*index, "dataset-1_bow_normal_001.bvh", 20,
+                          "dataset-1_bow_normal_001.bvh", 24);
+  SupplementParams p;
+  SupplementStats st;
+  const auto a = supplement_astar(g->gap, p, &st);
+  ASSERT_EQ(measure_transition(g->gap, a).skating_ratio, 0.0);
+  EXPECT_FALSE(st.stepped);
+  p.step_feet = false;
+  const auto b = supplement_astar(g->gap, p);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (std::size_t j = 0; j < a[i].local_rotations.size(); ++j)
+      EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs());
+}
