@@ -25,8 +25,10 @@
 //    exact_lookahead is off) is kept, provided it slides
 //    the feet no more than the geodesic completion. Stops when
 //    g(S -> S_G) < T_c, when the planned length is used up, or after T_n.
-//    Optionally followed by refine_transition (refine.hpp; SupplementParams::
-//    refine): L-BFGS on every inserted frame at once, exact g.
+//    Where the path's feet skate, the stepping pass (step_feet) then turns
+//    the legs so that planted feet stay and moving feet step. Optionally
+//    followed by refine_transition (refine.hpp; SupplementParams::refine):
+//    L-BFGS on every inserted frame at once, exact g.
 //  - slerp: linear root, slerp per joint, the same number of frames;
 //  - inertialize: the goal pose (extrapolated backwards with its own
 //    velocity) plus the start offset decayed by Bollo's quintic.
@@ -170,9 +172,11 @@ struct SupplementParams {
   /// Contact-aware proposals: a foot within contact height of the ground in
   /// the current state is kept in place (its leg turned by inverse kinematics).
   bool plant_feet = true;
-  /// After the search (and the refinement): the stepping pass. Feet on the
-  /// ground stay planted; a foot that must move is lifted and set down
-  /// ahead (docs/synthesis.md "Stepping").
+  /// After the search, where its path's feet skate: the stepping pass
+  /// (step_transition_feet), kept when it skates in fewer steps. Feet on
+  /// the ground stay planted; a foot that must move is lifted and set down
+  /// ahead. The path's g then rises, typically above slerp's
+  /// (docs/synthesis.md "Stepping"); false: the search's own legs.
   bool step_feet = true;
   /// Choose the length (choose_transition_frames) instead of taking the
   /// estimate.
@@ -185,8 +189,9 @@ struct SupplementParams {
   /// supplement_astar sets refine.foot_sliding_limit_m and
   /// refine.angular_speed_limit_radps to those of the slerp transition of
   /// the same length (the values given are not used): the feet slide at most
-  /// as much as in that slerp and no joint turns faster than in it, in the
-  /// search's path or in the captured steps at either end.
+  /// as much as in that slerp (a stepped path: as much as in itself) and no
+  /// joint turns faster than in it, in the path or in the captured steps at
+  /// either end. The refinement runs after the stepping pass.
   RefineOptions refine;
 };
 
