@@ -21,7 +21,9 @@ double horizontal_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::hypot(a.x() - b.x(), a.z() - b.z());
 }
 
-double smoothstep(double s) { return s * s * (3.0 - 2.0 * s); }
+double smoothstep(double s) {
+  return s * s * (3.0 - 2.0 * s);
+}
 
 // One leg over the poses W_0 (S_0), W_1 .. W_N (the inserted frames) and
 // W_{N+1} (S_G).
@@ -53,8 +55,8 @@ class LegSteps {
     // the ground (S_0's when planted there, else S_G's).
     const Eigen::Quaterniond inv = w[0].rotations[a].conjugate();
     for (int f : leg.feet)
-      foot_offsets_.push_back(inv * (w[0].positions_m[static_cast<std::size_t>(f)] -
-                                     w[0].positions_m[a]));
+      foot_offsets_.push_back(
+          inv * (w[0].positions_m[static_cast<std::size_t>(f)] - w[0].positions_m[a]));
     ground_rotation_ = start_on_ground_ ? w[0].rotations[a] : goal_.rotation;
     if (start_on_ground_) {
       mode_ = Mode::planted;
@@ -76,7 +78,7 @@ class LegSteps {
   const AnklePose* advance(std::size_t i, bool others_swinging, std::size_t away) {
     const std::size_t last = w_.size() - 1;
     const std::size_t left = last - i;  // steps after this frame's
-    if (mode_ == Mode::air) {  // half way through a swing at S_0: lands half a swing later
+    if (mode_ == Mode::air) {           // half way through a swing at S_0: lands half a swing later
       target_ = own(i - 1);
       swing_from(i, goal_on_ground_ && left < swing_frames_, (swing_frames_ + 1) / 2);
     } else if (mode_ == Mode::planted) {
@@ -87,10 +89,9 @@ class LegSteps {
       const double own_off = (hip(i) - own(i).position).norm();
       const bool out_of_reach = (hip(i) - target_.position).norm() >
                                 std::max(p_.reach_fraction * length_, own_off + kReachMarginM);
-      const bool far =
-          horizontal_distance(hip(i), target_.position) >
-          std::max(p_.release_fraction * horizontal_reach(i),
-                   horizontal_distance(hip(i), own(i).position) + kFarMarginM);
+      const bool far = horizontal_distance(hip(i), target_.position) >
+                       std::max(p_.release_fraction * horizontal_reach(i),
+                                horizontal_distance(hip(i), own(i).position) + kFarMarginM);
       if (relocate && left < swing_frames_ * away && (!others_swinging || left < 2)) {
         swing_from(i, true, swing_frames_);
       } else if (out_of_reach || (far && !others_swinging)) {
@@ -210,8 +211,7 @@ void step_feet(const GapProblem& gap, std::vector<SynthFrame>& frames,
       bool others_swinging = false;
       std::size_t away = 0;
       for (std::size_t k = 0; k < steps.size(); ++k) {
-        if (k != l && steps[k].mode() != LegSteps::Mode::planted)
-          others_swinging = true;
+        if (k != l && steps[k].mode() != LegSteps::Mode::planted) others_swinging = true;
         if (steps[k].away_from_goal()) ++away;
       }
       if (const AnklePose* t = steps[l].advance(i, others_swinging, std::max<std::size_t>(1, away)))

@@ -17,7 +17,9 @@ namespace {
 
 using namespace mocap;
 
-const Index* shared_index() { return test::built_index({"bandai-namco-1"}); }
+const Index* shared_index() {
+  return test::built_index({"bandai-namco-1"});
+}
 
 // Horizontal distance of every foot joint between the last inserted frame
 // and S_G, the largest.
