@@ -24,6 +24,7 @@
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/json_text.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
@@ -439,8 +440,17 @@ int main(int argc, char** argv) {
   info->add_option("INDEX", info_file, "Index file")->required();
   info->add_flag("--json", info_json, "Print one JSON object");
 
+  // Input limits of the subcommands that read capture or character files.
+  mocap::InputLimitFlags inspect_limits, summary_limits, build_limits;
+  mocap::add_input_limit_options(*inspect, inspect_limits);
+  mocap::add_input_limit_options(*summary, summary_limits);
+  mocap::add_input_limit_options(*build, build_limits);
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*inspect) mocap::apply_input_limits(inspect_limits);
+    if (*summary) mocap::apply_input_limits(summary_limits);
+    if (*build) mocap::apply_input_limits(build_limits);
     int rc = kExitFatal;
     if (*inspect) rc = run_inspect(file, frame, unit, up, character, json);
     if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);

@@ -25,6 +25,7 @@
 #include "mocap/common/atomic_file.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/output_path.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/energy_command.hpp"
@@ -89,7 +90,7 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
       ->check(CLI::PositiveNumber);
   app.add_option("--max-length", a.max_length_s,
                  "Longest partial motion in seconds, for queries without max_length_s "
-                 "(default 2)")
+                 "(default 4)")
       ->check(CLI::PositiveNumber);
   app.add_option("--checks", a.checks, "approx: kd-tree leaves visited per search (default 256)")
       ->check(CLI::PositiveNumber);
@@ -227,13 +228,20 @@ int main(int argc, char** argv) {
   SearchArgs search;
   add_search_options(app, search);
   add_energy_command(app, energy);
+  mocap::InputLimitFlags search_limits, energy_limits;
+  mocap::add_input_limit_options(app, search_limits);
+  mocap::add_input_limit_options(*app.get_subcommand("energy"), energy_limits);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
   try {
-    if (app.got_subcommand("energy")) return run_energy(energy);
+    if (app.got_subcommand("energy")) {
+      mocap::apply_input_limits(energy_limits);
+      return run_energy(energy);
+    }
+    mocap::apply_input_limits(search_limits);
     return run_search(search);
   } catch (const mocap::InputError& e) {
     fmt::print(stderr, "mocap-search: {}\n", e.what());

@@ -20,6 +20,7 @@
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/output_path.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
@@ -76,12 +77,15 @@ int main(int argc, char** argv) {
                  "worker threads: the gaps are supplemented in parallel (default: all cores); "
                  "the output does not depend on it");
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
+  mocap::InputLimitFlags limits;
+  mocap::add_input_limit_options(app, limits);
   CLI11_PARSE(app, argc, argv);
   options.params.step_feet = !no_step;
   std::optional<tbb::global_control> parallelism;
   if (threads > 0) parallelism.emplace(tbb::global_control::max_allowed_parallelism, threads);
   const auto t0 = std::chrono::steady_clock::now();
   try {
+    mocap::apply_input_limits(limits);
     static const std::map<std::string, mocap::TransitionMethod> methods = {
         {"astar", mocap::TransitionMethod::astar},
         {"slerp", mocap::TransitionMethod::slerp},
@@ -112,7 +116,7 @@ int main(int argc, char** argv) {
             ? std::filesystem::path()
             : mocap::checked_output_path(html_path, mocap::OutputKind::html, force, "--html");
 
-    (void)mocap::check_input_file(query_path, mocap::kMaxJsonFileBytes);
+    (void)mocap::check_input_file(query_path, mocap::input_limits().json_file_bytes);
     std::ifstream qin(query_path);
     if (!qin) throw mocap::InputError(query_path, 0, "cannot read the query");
     std::stringstream qs;

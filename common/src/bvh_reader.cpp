@@ -15,6 +15,7 @@
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
+#include "mocap/common/input_limits.hpp"
 
 namespace mocap {
 
@@ -25,8 +26,6 @@ namespace {
 // or lose all precision (an angle of 1e308 degrees).
 constexpr double kMaxBvhValue = 1e7;
 constexpr double kMinFrameTime = 1e-5, kMaxFrameTime = 60.0;
-// Joints in one file (real rigs have tens to a few hundred).
-constexpr std::size_t kMaxJoints = 10000;
 
 using detail::after_blanks;
 using detail::is_binary;
@@ -210,9 +209,11 @@ class BvhParser {
     bool opened = false;
     RawJoint j;
     const std::size_t line = token_line_;
-    if (clip.joints.size() >= kMaxJoints)
-      fail(line, "more than " + std::to_string(kMaxJoints) +
-                     " joints: not a character skeleton (docs/cli.md \"Input limits\")");
+    // Real rigs have tens to a few hundred joints.
+    if (const std::size_t most = input_limits().bvh_joints; clip.joints.size() >= most)
+      fail(line, "more than " + std::to_string(most) +
+                     " joints: not a character skeleton (docs/cli.md \"Input limits\", "
+                     "--max-joints)");
     j.name = joint_name(keyword, opened);
     const auto [seen, fresh] = joint_lines_.emplace(j.name, line);
     if (!fresh)
@@ -574,7 +575,7 @@ bool BvhHierarchy::heads(std::string_view text) const {
 }
 
 RawClip read_bvh_file(const std::filesystem::path& path) {
-  (void)check_input_file(path, kMaxBvhBytes);
+  (void)check_input_file(path, input_limits().bvh_bytes);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
   std::error_code ec;

@@ -13,6 +13,7 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
+#include "mocap/common/input_limits.hpp"
 
 namespace mocap {
 
@@ -155,7 +156,7 @@ Character parse_character_json(const std::string& text, const std::string& sourc
 }
 
 Character read_character_file(const std::filesystem::path& path) {
-  (void)check_input_file(path, kMaxJsonFileBytes);
+  (void)check_input_file(path, input_limits().json_file_bytes);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "cannot open character file");
   std::ostringstream text;

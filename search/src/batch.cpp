@@ -10,13 +10,14 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/json_text.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
 
 std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
-  (void)check_input_file(path, kMaxBatchBytes);
+  (void)check_input_file(path, input_limits().batch_bytes);
   std::ifstream in(path);
   if (!in) throw InputError(path.string(), 0, "cannot open the query file");
   std::vector<BatchEntry> out;
@@ -49,7 +50,7 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
 }
 
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
-  (void)check_input_file(path, kMaxJsonFileBytes);
+  (void)check_input_file(path, input_limits().json_file_bytes);
   std::ifstream in(path);
   if (!in) throw InputError(path.string(), 0, "cannot open the query file");
   std::stringstream ss;

@@ -1,4 +1,5 @@
 #include "mocap/search/query.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/json_text.hpp"
 
 #include <fnmatch.h>
@@ -230,8 +231,9 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   if (!frames.is_array()) c.fail("frames", "expected a list of query frames");
   if (frames.size() < 2)
     c.fail("frames", "at least 2 query frames are needed, got " + std::to_string(frames.size()));
-  if (frames.size() > kMaxQueryFrames)
-    c.fail("frames", "at most " + std::to_string(kMaxQueryFrames) + " query frames, got " +
+  if (const std::size_t most = input_limits().query_frames; frames.size() > most)
+    c.fail("frames", "at most " + std::to_string(most) +
+                         " query frames (--max-query-frames), got " +
                          std::to_string(frames.size()));
   for (std::size_t i = 0; i < frames.size(); ++i)
     q.frames.push_back(query_frame(c, frames[i], "frames[" + std::to_string(i) + "]", base_dir));

@@ -8,6 +8,7 @@
 #include "mocap/common/body.hpp"
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
 
@@ -101,7 +102,7 @@ std::shared_ptr<QueryBvhFile> whole_file(RawClip raw, const std::string& unit_op
 
 FileStat stat_or_throw(const std::filesystem::path& path) {
   try {
-    return check_input_file(path, kMaxBvhBytes);
+    return check_input_file(path, input_limits().bvh_bytes);
   } catch (const InputError& e) {
     throw InputError(path.string(), 0, "cannot read the BVH file: " + e.detail());
   }

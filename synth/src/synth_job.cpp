@@ -17,6 +17,7 @@
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/skeleton.hpp"
 #include "mocap/common/units.hpp"
@@ -312,7 +313,7 @@ std::vector<Channel> parse_channels(const std::string& s) {
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
                                              const std::string& query_id, const Index& index) {
   try {
-    (void)check_input_file(path, kMaxBatchBytes);
+    (void)check_input_file(path, input_limits().batch_bytes);
   } catch (const InputError& e) {
     throw InputError(path.string(), 0, "cannot read the search results: " + e.detail());
   }

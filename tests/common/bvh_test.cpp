@@ -11,10 +11,12 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/units.hpp"
 #include "test_support.hpp"
@@ -148,6 +150,30 @@ TEST(BvhValidity, TooManyJoints) {
   text += "}\nMOTION\nFrames: 0\nFrame Time: 0.1\n";
   // Joint 10,001 (the root is the first) opens on line 6 + 4 * 9999.
   expect_input_error(text, 6 + 4 * 9999, "more than 10000 joints");
+  // The limit in force (--max-joints): 20 joints refuses the 21st, and a
+  // limit above the count reads the file.
+  mocap::InputLimits lower;
+  lower.bvh_joints = 20;
+  mocap::set_input_limits(lower);
+  expect_input_error(text, 6 + 4 * 19, "more than 20 joints");
+  mocap::InputLimits higher;
+  higher.bvh_joints = 10001;
+  mocap::set_input_limits(higher);
+  EXPECT_EQ(parse_bvh(text, "many.bvh").joints.size(), 10001u);
+  mocap::set_input_limits(mocap::InputLimits{});
+}
+
+TEST(InputLimits, RefusesLimitsThatWouldRefuseEverything) {
+  for (auto set : {+[](mocap::InputLimits& l) { l.bvh_bytes = 0; },
+                   +[](mocap::InputLimits& l) { l.json_file_bytes = 0; },
+                   +[](mocap::InputLimits& l) { l.batch_bytes = 0; },
+                   +[](mocap::InputLimits& l) { l.query_frames = 1; },
+                   +[](mocap::InputLimits& l) { l.bvh_joints = 0; }}) {
+    mocap::InputLimits l;
+    set(l);
+    EXPECT_THROW(mocap::set_input_limits(l), std::invalid_argument);
+  }
+  EXPECT_EQ(mocap::input_limits().bvh_joints, mocap::InputLimits{}.bvh_joints) << "left unchanged";
 }
 
 TEST(BvhValidity, DuplicateJointName) {

@@ -1,7 +1,7 @@
 // libFuzzer target for the query parser (search/src/query.cpp).
 //
 // Any input must either parse or throw mocap::InputError (never crash or
-// hang). A parsed query keeps the parser's promises: 2 to kMaxQueryFrames
+// hang). A parsed query keeps the parser's promises: 2 to input_limits().query_frames
 // frames, a transition time in range, top >= 1, finite given values.
 #include <cmath>
 #include <cstddef>
@@ -11,6 +11,7 @@
 #include <string>
 
 #include "mocap/common/error.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/search/query.hpp"
 
 namespace {
@@ -30,7 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const mocap::InputError&) {
     return 0;
   }
-  if (q.frames.size() < 2 || q.frames.size() > mocap::kMaxQueryFrames) fail("frame count");
+  if (q.frames.size() < 2 || q.frames.size() > mocap::input_limits().query_frames)
+    fail("frame count");
   if (!(q.transition_time_s >= 1e-3 && q.transition_time_s <= 60.0)) fail("transition time");
   if (q.top < 1) fail("top");
   if (!std::isfinite(q.path_weight) || q.path_weight < 0.0) fail("path weight");

@@ -24,14 +24,9 @@ struct FileStat {
 /// callers can say what they were doing.
 FileStat stat_file(const std::filesystem::path& path);
 
-/// Input limits (docs/cli.md "Input limits"), bytes.
-inline constexpr std::uint64_t kMaxBvhBytes = 8ull << 30;        // a BVH file
-inline constexpr std::uint64_t kMaxJsonFileBytes = 16ull << 20;  // a character or query file
-inline constexpr std::uint64_t kMaxBatchBytes = 4ull << 30;      // a query batch, results file
-
 /// stat_file of an input that must be a regular file (links followed) of at
-/// most `max_bytes`: a FIFO or a device would block or never end, a folder
-/// cannot be read. Throws InputError(path, 0, reason) naming what it is.
+/// most `max_bytes` (the limits in force: input_limits.hpp): a FIFO or a device would block or
+/// never end, a folder cannot be read. Throws InputError(path, 0, reason) naming what it is.
 FileStat check_input_file(const std::filesystem::path& path, std::uint64_t max_bytes);
 
 /// Bytes read from a file; immutable once read.

@@ -85,9 +85,6 @@ enum class FramePlacement : std::uint8_t {
 /// "world", "position", "relative".
 const char* placement_name(FramePlacement p);
 
-/// The most query frames one query may have (docs/cli.md "Input limits").
-inline constexpr std::size_t kMaxQueryFrames = 256;
-
 struct Query {
   std::string id;  // default "<line N>" / file stem
   std::vector<QueryFrameSpec> frames;
