@@ -69,6 +69,11 @@ int main(int argc, char** argv) {
                  "T_c: stop when the step cost to the goal is below this (J)")
       ->capture_default_str();
   mocap::add_refine_options(app, options.params);
+  double fps = 0.0;
+  app.add_option("--fps", fps,
+                 "output frame rate of a timed query (time_s on its frames; default: the first "
+                 "BVH query frame's rate, else 30)")
+      ->check(CLI::Range(0.001, 1000.0));
   bool no_step = false;
   app.add_flag("--no-step-feet", no_step,
                "no stepping pass after the A* search (feet may glide; lowest g)");
@@ -81,6 +86,7 @@ int main(int argc, char** argv) {
   mocap::add_input_limit_options(app, limits);
   CLI11_PARSE(app, argc, argv);
   options.params.step_feet = !no_step;
+  if (fps > 0.0) options.fps = fps;
   std::optional<tbb::global_control> parallelism;
   if (threads > 0) parallelism.emplace(tbb::global_control::max_allowed_parallelism, threads);
   const auto t0 = std::chrono::steady_clock::now();

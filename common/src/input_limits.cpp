@@ -10,7 +10,9 @@ InputLimits g_limits;
 
 }  // namespace
 
-const InputLimits& input_limits() { return g_limits; }
+const InputLimits& input_limits() {
+  return g_limits;
+}
 
 void set_input_limits(const InputLimits& limits) {
   if (limits.bvh_bytes == 0) throw std::invalid_argument("BVH file limit must be > 0");

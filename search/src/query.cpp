@@ -108,8 +108,14 @@ std::filesystem::path resolve(const std::filesystem::path& base, const std::stri
 QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
                            const std::filesystem::path& base_dir) {
   if (!v.is_object()) c.fail(path, "expected an object, got " + type_name(v));
-  check_keys(c, v, path, {"root_position", "root_heading_deg", "joints", "bvh", "frame", "only"});
+  check_keys(c, v, path,
+             {"root_position", "root_heading_deg", "joints", "bvh", "frame", "only", "time_s"});
   QueryFrameSpec f;
+  if (v.contains("time_s")) {
+    const double t = number(c, v["time_s"], path + ".time_s", 3600.0);
+    if (t < 0.0) c.fail(path + ".time_s", "must be >= 0 seconds");
+    f.time_s = t;
+  }
   if (v.contains("root_position")) {
     const json& p = v["root_position"];
     if (!p.is_array() || p.size() != 3)
@@ -237,6 +243,18 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
                          std::to_string(frames.size()));
   for (std::size_t i = 0; i < frames.size(); ++i)
     q.frames.push_back(query_frame(c, frames[i], "frames[" + std::to_string(i) + "]", base_dir));
+  // Key-pose times: all frames or none, the first at 0, strictly increasing
+  // by at least a millisecond.
+  for (std::size_t i = 0; i < q.frames.size(); ++i) {
+    const std::string at = "frames[" + std::to_string(i) + "].time_s";
+    if (q.frames[i].time_s.has_value() != q.frames[0].time_s.has_value())
+      c.fail(at, "give time_s on every query frame or on none");
+    if (!q.frames[i].time_s) continue;
+    if (i == 0 && *q.frames[0].time_s != 0.0)
+      c.fail(at, "the first key pose is at 0 seconds, got " + json_text(frames[0]["time_s"]));
+    if (i > 0 && !(*q.frames[i].time_s >= *q.frames[i - 1].time_s + 1e-3))
+      c.fail(at, "must exceed the previous frame's time_s by at least 0.001 s");
+  }
   if (j.contains("relative")) {
     const json& r = j["relative"];
     if (r.is_boolean())

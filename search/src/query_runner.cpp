@@ -2,6 +2,8 @@
 // groups, seeding and sweep (query_runner.hpp).
 #include "query_runner.hpp"
 
+#include "mocap/search/timing.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -177,22 +179,19 @@ bool QueryRunner::passes(std::size_t clip) const {
 }
 
 PairContext QueryRunner::context(std::size_t k, std::size_t h, SearchMode mode) {
-  PairContext pair{engine_.index,
-                   skeletons_[k].get(),
-                   &resolved_[k][h],
-                   &resolved_[k][h + 1],
-                   q_.transition_time_s,
-                   q_.path_weight,
-                   q_.placement,
-                   mode,
-                   q_.min_length_s.value_or(options_.min_length_s),
-                   q_.max_length_s.value_or(options_.max_length_s),
-                   nullptr,
-                   nullptr,
-                   &bounds_[k][h],
-                   &bounds_[k][h + 1],
-                   cache_of(k, h),
-                   cache_of(k, h + 1)};
+  double min_length = q_.min_length_s.value_or(options_.min_length_s);
+  double max_length = q_.max_length_s.value_or(options_.max_length_s);
+  if (q_.timed()) {  // lengths that fill the time between the two key poses
+    const TimedPairWindow w = timed_pair_window(*q_.frames[h + 1].time_s - *q_.frames[h].time_s,
+                                                q_.transition_time_s, min_length);
+    min_length = w.min_length_s;
+    max_length = w.max_length_s;
+  }
+  PairContext pair{
+      engine_.index,        skeletons_[k].get(), &resolved_[k][h], &resolved_[k][h + 1],
+      q_.transition_time_s, q_.path_weight,      q_.placement,     mode,
+      min_length,           max_length,          nullptr,          nullptr,
+      &bounds_[k][h],       &bounds_[k][h + 1],  cache_of(k, h),   cache_of(k, h + 1)};
   if (mode == SearchMode::exact && !relative_pair(h)) {
     pair.frame_lb_a = frame_bounds_of(k, h);
     pair.frame_lb_b = frame_bounds_of(k, h + 1);

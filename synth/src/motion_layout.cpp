@@ -2,6 +2,7 @@
 // (motion_layout.hpp).
 #include "motion_layout.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace mocap::synth_detail {
@@ -127,7 +128,66 @@ void add_travel(FramePlacement placement, const std::vector<QueryFrameInput>& qu
   }
 }
 
+// Timed key poses: each partial motion moved between its two query frames
+// (motion_layout.hpp); the query frames stay.
+void add_timed_travel(FramePlacement placement, const std::vector<QueryFrameInput>& query_frames,
+                      const std::vector<TimedPair>& timed, double dt, MotionLayout& out) {
+  const std::size_t pairs = out.pieces.size();
+  out.merged_in.assign(pairs, 0);
+  out.merged_out.assign(pairs, 0);
+  auto gives_xz = [&](std::size_t h) {
+    if (placement == FramePlacement::world) return false;
+    const auto& p = query_frames[h].pose.given.root_position_m;
+    return p[0].has_value() && p[2].has_value();
+  };
+  auto velocity = [&](std::size_t h) {
+    return query_velocity(out.queries[h], query_frames[h].prev.has_value(),
+                          query_frames[h].next.has_value(), dt);
+  };
+  for (std::size_t h = 0; h < pairs; ++h) {
+    if (timed[h].direct) continue;
+    auto& pc = out.pieces[h];
+    const std::size_t n = pc.size();
+    const Eigen::Vector3d v_s = horizontal_root_velocity(pc[0], pc[1], dt);
+    const Eigen::Vector3d v_e = horizontal_root_velocity(pc[n - 2], pc[n - 1], dt);
+    std::vector<Eigen::Vector3d> needs;
+    if (gives_xz(h))
+      needs.push_back(out.queries[h].frame.root_position_m +
+                      0.5 * static_cast<double>(timed[h].in + 1) * dt * (velocity(h) + v_s) -
+                      pc[0].root_position_m);
+    if (gives_xz(h + 1))
+      needs.push_back(out.queries[h + 1].frame.root_position_m -
+                      0.5 * static_cast<double>(timed[h].out + 1) * dt * (v_e + velocity(h + 1)) -
+                      pc[n - 1].root_position_m);
+    if (needs.empty()) continue;
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& d : needs) shift += d / static_cast<double>(needs.size());
+    shift.y() = 0.0;
+    for (SynthFrame& f : pc) translate(f, shift);
+  }
+}
+
 }  // namespace
+
+std::vector<SynthFrame> resample_frames(const std::vector<SynthFrame>& frames, std::size_t count) {
+  if (frames.size() < 2 || count < 2)
+    throw std::invalid_argument("resample_frames: at least 2 frames in and out");
+  std::vector<SynthFrame> out(count);
+  const double scale = static_cast<double>(frames.size() - 1) / static_cast<double>(count - 1);
+  for (std::size_t i = 0; i < count; ++i) {
+    const double u = static_cast<double>(i) * scale;
+    const auto k = std::min(frames.size() - 2, static_cast<std::size_t>(u));
+    const double t = u - static_cast<double>(k);
+    const SynthFrame& a = frames[k];
+    const SynthFrame& b = frames[k + 1];
+    SynthFrame& f = out[i];
+    f.root_position_m = (1.0 - t) * a.root_position_m + t * b.root_position_m;
+    f.local_rotations.resize(a.local_rotations.size());
+    for (std::size_t j = 0; j < a.local_rotations.size(); ++j)
+      f.local_rotations[j] = a.local_rotations[j].slerp(t, b.local_rotations[j]).normalized();
+  }
+  return out;
+}
 
 bool same_pose(const SynthFrame& a, const SynthFrame& b) {
   if ((a.root_position_m - b.root_position_m).norm() > 1e-4) return false;
@@ -139,12 +199,14 @@ bool same_pose(const SynthFrame& a, const SynthFrame& b) {
 MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
                             const std::vector<QueryFrameInput>& query_frames,
                             const std::vector<std::vector<SynthFrame>>& raw, double dt,
-                            double transition_time_s) {
+                            double transition_time_s, const std::vector<TimedPair>* timed) {
   const std::size_t H = query_frames.size();
   if (H < 2 || raw.size() + 1 != H)
     throw std::invalid_argument("lay_out_motion: expected H >= 2 query frames and H - 1 pieces");
   for (const auto& r : raw)
     if (r.size() < 2) throw std::invalid_argument("lay_out_motion: a piece of fewer than 2 frames");
+  if (timed && timed->size() != raw.size())
+    throw std::invalid_argument("lay_out_motion: expected one timing per pair");
   std::vector<FrameRoot> roots;
   for (const QueryFrameInput& q : query_frames) roots.push_back(frame_root(q.pose));
   std::vector<std::optional<GroundPose>> out_pose;
@@ -177,7 +239,10 @@ MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
     p.after = query_frames[h].next ? placed(query_frames[h].next->given) : p.frame;
     out.queries.push_back(std::move(p));
   }
-  add_travel(placement, query_frames, dt, transition_time_s, out);
+  if (timed)
+    add_timed_travel(placement, query_frames, *timed, dt, out);
+  else
+    add_travel(placement, query_frames, dt, transition_time_s, out);
   return out;
 }
 

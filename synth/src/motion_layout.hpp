@@ -43,6 +43,19 @@ struct MotionLayout {
 /// local rotation within 1e-4 rad.
 bool same_pose(const SynthFrame& a, const SynthFrame& b);
 
+/// A pair of timed key poses in the output (docs/queries.md "Timed key
+/// poses"): `in` and `out` transition frames around the partial motion, or
+/// (`direct`) one transition of `in` frames from Q^h to Q^h+1.
+struct TimedPair {
+  std::size_t in = 0, out = 0;
+  bool direct = false;
+};
+
+/// `frames` (at least 2) resampled to `count` frames (at least 2) spanning
+/// the same motion: frame i at position i (frames - 1) / (count - 1), the
+/// root interpolated linearly, each joint by slerp.
+std::vector<SynthFrame> resample_frames(const std::vector<SynthFrame>& frames, std::size_t count);
+
 /// Lays out the motion. `raw` holds R_h in clip coordinates (at least two
 /// frames each), `query_frames` Q^1..Q^H (H = raw.size() + 1).
 ///  - The output's coordinates are Q^1's own (a BVH frame where it is in its
@@ -67,9 +80,16 @@ bool same_pose(const SynthFrame& a, const SynthFrame& b);
 ///    root x/z and the two are not one pose, R_h and everything after it move by the mean of the
 ///    two horizontal root velocities times T (for "in" and "out" alike), so
 ///    the character keeps moving instead of marking time.
+///  - Timed key poses (`timed`: one entry per pair): the query frames stay
+///    where the query puts them (no travel shift, no merges), and each
+///    partial motion that is not `direct` moves horizontally by the mean of
+///    what its start needs (Q^h plus the in-transition's travel) and what its
+///    end needs (Q^h+1 less the out-transition's travel), where the query
+///    frames give root x/z.
 MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
                             const std::vector<QueryFrameInput>& query_frames,
                             const std::vector<std::vector<SynthFrame>>& raw, double dt,
-                            double transition_time_s);
+                            double transition_time_s,
+                            const std::vector<TimedPair>* timed = nullptr);
 
 }  // namespace mocap::synth_detail

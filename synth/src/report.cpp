@@ -109,6 +109,18 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                  {"skating_speed_mps", result.motion_measures.skating_speed_mps},
                  {"airborne_ratio", result.motion_measures.airborne_ratio},
                  {"step_energies_J", result.step_energies_J}};
+  if (!result.timing.empty()) {
+    nlohmann::json pairs = nlohmann::json::array();
+    for (const PairTiming& t : result.timing)
+      pairs.push_back({{"pair", t.pair},
+                       {"key_frame", t.key_frame},
+                       {"in_frames", t.in_frames},
+                       {"partial_frames", t.piece_frames},
+                       {"out_frames", t.out_frames},
+                       {"warp", t.warp},
+                       {"direct", t.direct}});
+    j["timing"] = {{"fps", 1.0 / result.frame_time_s}, {"pairs", pairs}};
+  }
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};

@@ -70,8 +70,15 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
   SupplementStats local;
   SupplementStats& st = stats ? *stats : local;
   st = SupplementStats{};
-  std::vector<SynthFrame> frames =
-      synth_detail::astar_search(gap, params, choose_transition_frames(gap, params), &st);
+  std::vector<SynthFrame> frames;
+  if (params.fixed_frames > 0) {  // the length is given: run to the horizon
+    SupplementParams fixed = params;
+    fixed.cost_threshold_J = 0.0;
+    fixed.max_states = std::max(params.max_states, params.fixed_frames);
+    frames = synth_detail::astar_search(gap, fixed, params.fixed_frames, &st);
+  } else {
+    frames = synth_detail::astar_search(gap, params, choose_transition_frames(gap, params), &st);
+  }
   if (params.step_feet) {
     // Only where the feet skate, and kept where it skates less.
     const std::size_t skating = synth_detail::skating_steps(gap, frames);

@@ -22,6 +22,7 @@
 #include "mocap/common/skeleton.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/query_pose.hpp"
+#include "mocap/search/timing.hpp"
 #include "motion_layout.hpp"
 
 namespace mocap {
@@ -196,6 +197,9 @@ struct GapTask {
   bool merged = false;
   TransitionReport report;
   std::vector<SynthFrame> frames;
+  /// Timed key poses: exactly `fixed_frames` frames (possibly 0).
+  bool fixed = false;
+  std::size_t fixed_frames = 0;
 };
 
 // The gaps, two per pair in order: into each partial motion from its query
@@ -229,6 +233,30 @@ std::vector<GapTask> gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom
   return tasks;
 }
 
+// The gaps of a timed query: per pair "in" and "out" of the given lengths,
+// or one "direct" gap from Q^h to Q^h+1 (then the pair's "out" slot is an
+// empty merged task, so that tasks stay two per pair).
+std::vector<GapTask> timed_gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom,
+                                     const synth_detail::MotionLayout& layout,
+                                     const std::vector<synth_detail::TimedPair>& timed, double dt) {
+  std::vector<GapTask> tasks = gap_tasks(sk, rom, layout, dt);
+  for (std::size_t h = 0; h < timed.size(); ++h) {
+    GapTask& in = tasks[2 * h];
+    GapTask& out = tasks[2 * h + 1];
+    in.fixed = out.fixed = true;
+    in.fixed_frames = timed[h].in;
+    out.fixed_frames = timed[h].out;
+    if (!timed[h].direct) continue;
+    const synth_detail::PlacedQueryFrame& qn = layout.queries[h + 1];
+    in.side = "direct";
+    in.gap.goal = qn.frame;
+    in.gap.after = qn.after;
+    out.merged = true;
+    out.fixed = false;
+  }
+  return tasks;
+}
+
 // Supplements one gap by options.method and measures it, with the other
 // baselines at the same length.
 void supplement_gap(GapTask& t, const SynthOptions& options) {
@@ -242,13 +270,17 @@ void supplement_gap(GapTask& t, const SynthOptions& options) {
   }
   const auto ts = std::chrono::steady_clock::now();
   // Baselines get the length A* would plan with (choose_transition_frames),
-  // so --transition slerp|inertialize compare like with like.
-  const std::size_t frames = options.method == TransitionMethod::astar
+  // so --transition slerp|inertialize compare like with like; a timed gap
+  // has its length given.
+  const std::size_t frames = t.fixed ? t.fixed_frames
+                             : options.method == TransitionMethod::astar
                                  ? 0
                                  : choose_transition_frames(t.gap, options.params);
+  SupplementParams params = options.params;
+  if (t.fixed) params.fixed_frames = frames;
   switch (options.method) {
     case TransitionMethod::astar:
-      t.frames = supplement_astar(t.gap, options.params, &tr.stats);
+      if (!t.fixed || frames > 0) t.frames = supplement_astar(t.gap, params, &tr.stats);
       break;
     case TransitionMethod::slerp:
       t.frames = slerp_transition(t.gap, frames);
@@ -281,6 +313,11 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
   const std::size_t H = pieces.size() + 1;
   for (std::size_t h = 0; h + 1 < H; ++h) {
     add_segment("query", h + 1, {res.query_frames[h]});
+    if (std::string(tasks[2 * h].side) == "direct") {  // timed: no partial motion
+      add_segment("transition", h + 1, tasks[2 * h].frames);
+      res.transitions.push_back(std::move(tasks[2 * h].report));
+      continue;
+    }
     for (std::size_t side = 0; side < 2; ++side) {
       GapTask& t = tasks[2 * h + side];
       if (side == 1) {
@@ -400,6 +437,70 @@ Pick parse_pick(const std::string& text) {
   return p;
 }
 
+// The output frame time of a timed query: 1 / --fps, else the first BVH
+// query frame's file rate, else 1/30 s.
+double output_frame_time(const Query& query, const SynthOptions& options, QueryBvhCache& cache,
+                         const std::string& source) {
+  if (options.fps) {
+    if (!(*options.fps > 0.0 && *options.fps <= 1000.0))
+      throw InputError("--fps", 0, "must be in (0, 1000] frames per second");
+    return 1.0 / *options.fps;
+  }
+  for (const QueryFrameSpec& f : query.frames)
+    if (f.bvh) try {
+        return cache.get(*f.bvh, "")->motion.frame_time_s;
+      } catch (const InputError& e) {
+        throw InputError(source, 0, e.what());
+      }
+  return 1.0 / 30.0;
+}
+
+// The frames of each pair of a timed query at output frame time `dt`
+// (docs/queries.md "Timed key poses"): Q^h at round(time_s / dt), the
+// time between shared by timed_pair_window; each partial motion (captured
+// at `clip_dt`) resampled in `raw` to its played frames. Fills `timing`.
+std::vector<synth_detail::TimedPair> time_pairs(const Query& query, double dt, double clip_dt,
+                                                std::vector<std::vector<SynthFrame>>& raw,
+                                                std::vector<PairTiming>& timing) {
+  const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
+  std::vector<synth_detail::TimedPair> out;
+  auto key = [&](std::size_t h) {
+    return static_cast<std::size_t>(std::llround(*query.frames[h].time_s / dt));
+  };
+  for (std::size_t h = 0; h < raw.size(); ++h) {
+    const std::size_t a = key(h), b = key(h + 1);
+    const std::size_t steps = b > a ? b - a : 1;  // output steps from Q^h to Q^h+1
+    const TimedPairWindow w = timed_pair_window(
+        *query.frames[h + 1].time_s - *query.frames[h].time_s, query.transition_time_s, min_s);
+    synth_detail::TimedPair p;
+    // The partial motion plays over round(played_s / dt) steps; the rest is
+    // shared by the two transitions (a transition of n frames spans n + 1
+    // steps), each at least one step.
+    const auto played = static_cast<std::size_t>(std::llround(w.played_s / dt));
+    PairTiming t;
+    t.pair = h + 1;
+    t.key_frame = a;
+    if (w.direct || played < 1 || played + 2 > steps) {
+      p.direct = true;
+      p.in = steps - 1;
+    } else {
+      const std::size_t rest = steps - played;
+      p.in = rest / 2 - 1;
+      p.out = rest - rest / 2 - 1;
+      t.warp =
+          static_cast<double>(played) * dt / (static_cast<double>(raw[h].size() - 1) * clip_dt);
+      raw[h] = synth_detail::resample_frames(raw[h], played + 1);
+      t.piece_frames = played + 1;
+    }
+    t.in_frames = p.in;
+    t.out_frames = p.out;
+    t.direct = p.direct;
+    timing.push_back(t);
+    out.push_back(p);
+  }
+  return out;
+}
+
 SynthResult synthesize(const Index& index, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out) {
@@ -432,17 +533,35 @@ SynthResult synthesize(const Index& index, const Query& query,
   for (std::size_t h = 0; h + 1 < H; ++h)
     for (std::size_t f = res.chosen[h].start_frame; f <= res.chosen[h].end_frame; ++f)
       raw[h].push_back(source.frame(res.chosen[h].clip_index, f));
+  std::vector<synth_detail::TimedPair> timed;
+  if (query.timed()) {
+    res.frame_time_s = output_frame_time(query, options, bvh_cache, src);
+    timed = time_pairs(query, res.frame_time_s, dt, raw, res.timing);
+  } else if (options.fps) {
+    throw InputError("--fps", 0, "needs a timed query (time_s on every query frame)");
+  }
+  const double out_dt = res.frame_time_s;
   const synth_detail::MotionLayout layout =
-      synth_detail::lay_out_motion(sk, query.placement, qf, raw, dt, query.transition_time_s);
+      synth_detail::lay_out_motion(sk, query.placement, qf, raw, out_dt, query.transition_time_s,
+                                   timed.empty() ? nullptr : &timed);
   for (const auto& q : layout.queries) res.query_frames.push_back(q.frame);
-  std::vector<GapTask> tasks = gap_tasks(sk, rom, layout, dt);
+  std::vector<GapTask> tasks = timed.empty() ? gap_tasks(sk, rom, layout, dt)
+                                             : timed_gap_tasks(sk, rom, layout, timed, out_dt);
   // Each gap is supplemented as its own task (independent: the result does
   // not depend on the thread count).
   tbb::parallel_for(std::size_t{0}, tasks.size(),
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
   assemble(res, layout.pieces, tasks);
-  res.step_energies_J = motion_step_energies(sk, res.frames, dt);
-  res.motion_measures = measure_motion(sk, res.frames, dt);
+  if (!timed.empty()) {
+    const std::size_t last = res.timing.empty() ? 0 : res.timing.back().key_frame;
+    const std::size_t want =
+        static_cast<std::size_t>(std::llround(*query.frames.back().time_s / out_dt)) + 1;
+    if (res.frames.size() != want || last >= want)
+      throw std::logic_error("timed synthesis: " + std::to_string(res.frames.size()) +
+                             " frames, expected " + std::to_string(want));
+  }
+  res.step_energies_J = motion_step_energies(sk, res.frames, out_dt);
+  res.motion_measures = measure_motion(sk, res.frames, out_dt);
   res.synth_ms = ms_since(t0);
   return res;
 }

@@ -20,6 +20,7 @@
 #include "mocap/common/index.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/search/timing.hpp"
 #include "search_fixtures.hpp"
 #include "test_support.hpp"
 
@@ -265,6 +266,48 @@ TEST(LengthLimits, WorldRankingEqualsPerFrameReferenceSet1) {
         EXPECT_EQ(results[r].end_frame, refs[r].e) << q.id << " rank " << r + 1;
         EXPECT_NEAR(results[r].score_J, refs[r].score, 1e-9 * std::max(1.0, refs[r].score))
             << q.id << " rank " << r + 1;
+      }
+    }
+  }
+}
+
+// Timed key poses (docs/queries.md "Timed key poses"): each pair ranks
+// partial motions whose captured length fits the time between its key poses
+// (timed_pair_window), in relative and world placement, exact equal to
+// brute; a pair too short for any partial motion ranks the minimum length.
+TEST(LengthLimits, TimedPairsRankPartialMotionsThatFitTheirInterval) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty()) << "could not build the set-1 index";
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  const std::string walk =
+      (test::data_dir() / "bandai-namco-1/data/dataset-1_walk_normal_001.bvh").string();
+  const double times[] = {0.0, 0.2, 1.2, 3.2};  // intervals 0.2 s (direct), 1 s, 2 s
+  for (const char* relative : {"true", "false"}) {
+    std::string frames;
+    for (std::size_t i = 0; i < 4; ++i)
+      frames += std::string(i ? ", " : "") + R"({"bvh": ")" + walk + R"(", "frame": )" +
+                std::to_string(40 + 30 * i) + R"(, "time_s": )" + std::to_string(times[i]) + "}";
+    const Query q =
+        parse(R"({"id": "timed", "relative": )" + std::string(relative) + R"(, "frames": [)" +
+              frames + R"(], "filter": {"exclude": ["dataset-1_walk_normal_001*"]}})");
+    ASSERT_TRUE(q.timed());
+    SearchOptions exact, brute;
+    brute.mode = SearchMode::brute;
+    const auto e = engine.run(q, exact);
+    const auto b = engine.run(q, brute);
+    test::expect_same_results(e, b, q.id, 0.0);
+    ASSERT_EQ(e.pairs.size(), 3u);
+    for (std::size_t h = 0; h < 3; ++h) {
+      const TimedPairWindow w =
+          timed_pair_window(times[h + 1] - times[h], q.transition_time_s, exact.min_length_s);
+      EXPECT_EQ(w.direct, h == 0);
+      ASSERT_FALSE(e.pairs[h].results.empty()) << relative << " pair " << h;
+      for (const auto& r : e.pairs[h].results) {
+        const auto [lo, hi] =
+            limit_frames(w.min_length_s, w.max_length_s, index.clips()[r.clip_index].frame_time_s);
+        EXPECT_GE(r.end_frame - r.start_frame, lo) << relative << " pair " << h;
+        EXPECT_LE(r.end_frame - r.start_frame, hi) << relative << " pair " << h;
       }
     }
   }

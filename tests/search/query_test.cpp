@@ -56,6 +56,30 @@ TEST(QueryValidityTest, FrameFields) {
                "frames[1].root_heading_deg: expected a number");
 }
 
+TEST(QueryValidityTest, KeyPoseTimes) {
+  const std::string a = R"({"root_position": [0,0,0])", b = R"({"root_position": [0,0,1])";
+  auto two = [&](const std::string& ta, const std::string& tb) {
+    return R"({"frames": [)" + a + ta + "}, " + b + tb + "}]}";
+  };
+  // Both or neither; the first at 0; increasing by at least a millisecond.
+  expect_error(two(R"(, "time_s": 0)", ""), "frames[1].time_s: give time_s on every");
+  expect_error(two("", R"(, "time_s": 1)"), "frames[1].time_s: give time_s on every");
+  expect_error(two(R"(, "time_s": 0.5)", R"(, "time_s": 1)"),
+               "frames[0].time_s: the first key pose is at 0");
+  expect_error(two(R"(, "time_s": 0)", R"(, "time_s": 0)"), "frames[1].time_s: must exceed");
+  expect_error(two(R"(, "time_s": 0)", R"(, "time_s": 0.0005)"), "frames[1].time_s: must exceed");
+  expect_error(two(R"(, "time_s": 0)", R"(, "time_s": -1)"), "frames[1].time_s: must be >= 0");
+  expect_error(two(R"(, "time_s": 0)", R"(, "time_s": "1s")"),
+               "frames[1].time_s: expected a number");
+  expect_error(two(R"(, "time_s": 0)", R"(, "time_s": 1e5)"), "frames[1].time_s");
+  expect_error(R"({"frames": [{"time_s": 0}, {"root_position": [0,0,1], "time_s": 1}]})",
+               "frames[0]: gives nothing");
+  const Query q = parse(two(R"(, "time_s": 0)", R"(, "time_s": 1.2)"));
+  EXPECT_TRUE(q.timed());
+  EXPECT_EQ(*q.frames[1].time_s, 1.2);
+  EXPECT_FALSE(parse(two("", "")).timed());
+}
+
 TEST(QueryValidityTest, JointRotations) {
   const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, {"joints": {"RightArm": )";
   expect_error(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})",

@@ -46,6 +46,10 @@ struct QueryFrameSpec {
   /// With `bvh`: the DOFs taken from the file ("root_position",
   /// "root_position_xz", "root_heading", or joint names); empty = all.
   std::vector<std::string> only;
+  /// "time_s": when the motion passes this key pose, seconds from the first
+  /// key pose (docs/queries.md "Timed key poses"). Given on every frame of
+  /// a query or on none; the first at 0; strictly increasing.
+  std::optional<double> time_s;
 
   /// True when nothing at all is given (an error for a query frame).
   bool empty() const;
@@ -91,6 +95,8 @@ struct Query {
   FramePlacement placement = FramePlacement::relative;
   /// Any relative placement (position or position and heading).
   bool relative() const { return placement != FramePlacement::world; }
+  /// The frames carry time_s (a timed query: docs/queries.md "Timed key poses").
+  bool timed() const { return !frames.empty() && frames.front().time_s.has_value(); }
   /// Length limits of a partial motion, seconds (e - s >= round(min / frame
   /// time), >= 1 frame; e - s <= round(max / frame time)); unset: the search
   /// options' (SearchOptions::min_length_s, max_length_s).

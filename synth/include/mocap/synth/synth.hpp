@@ -181,6 +181,10 @@ struct SupplementParams {
   /// Choose the length (choose_transition_frames) instead of taking the
   /// estimate.
   bool choose_length = true;
+  /// > 0: exactly this many inserted frames (timed key poses: the time is
+  /// given); the search then runs to its horizon (no T_c stop) and T_n
+  /// does not cap it. 0: the length is chosen (choose_length).
+  std::size_t fixed_frames = 0;
   /// Shortest transition considered by the estimate, seconds.
   double min_duration_s = 0.1;
   /// After the search: the refinement of the whole path (refine_transition,

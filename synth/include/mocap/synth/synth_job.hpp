@@ -42,6 +42,23 @@ struct SynthOptions {
   TransitionMethod method = TransitionMethod::astar;
   SupplementParams params;
   std::vector<Pick> picks;
+  /// Output frame rate of a timed query (frames per second, > 0); unset:
+  /// the first BVH query frame's file rate, else 30. Refused for an untimed
+  /// query.
+  std::optional<double> fps;
+};
+
+/// A pair of timed key poses in the output (docs/queries.md "Timed key poses").
+struct PairTiming {
+  std::size_t pair = 0;          // 1-based
+  std::size_t key_frame = 0;     // output frame of Q^h: round(time_s / frame time)
+  std::size_t in_frames = 0;     // transition frames into the partial motion
+  std::size_t piece_frames = 0;  // the partial motion's frames, resampled
+  std::size_t out_frames = 0;    // transition frames out of it
+  /// Played over captured length of the partial motion (1: as captured).
+  double warp = 1.0;
+  /// No partial motion: one transition of in_frames from Q^h to Q^h+1.
+  bool direct = false;
 };
 
 /// One piece of the output motion.
@@ -74,6 +91,8 @@ struct SynthResult {
   /// Sliding over the whole motion (measure_motion).
   MotionMeasures motion_measures;
   std::vector<SynthFrame> query_frames;  // completed Q^h, as placed
+  /// Per pair, for a timed query (empty otherwise).
+  std::vector<PairTiming> timing;
   double synth_ms = 0.0;
 };
 

@@ -1,0 +1,154 @@
+// Timed key poses through synthesize() (docs/queries.md "Timed key poses"):
+// resampling refuses too few frames and keeps the ends; a held-out
+// in-between passes each key pose at its time, writes round(T / dt) + 1
+// frames at the clip's rate or at --fps, warps the partial motion within
+// its range, fills a pair too short for a partial motion directly; --fps is
+// refused for an untimed query.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "mocap/common/error.hpp"
+#include "mocap/search/query.hpp"
+#include "mocap/search/search.hpp"
+#include "mocap/search/timing.hpp"
+#include "mocap/synth/synth_job.hpp"
+#include "motion_layout.hpp"
+#include "synth_fixtures.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mocap;
+
+const Index* shared_index() { return test::built_index({"bandai-namco-1"}); }
+
+const fs::path kWalk = "bandai-namco-1/data/dataset-1_walk_normal_001.bvh";
+
+// A held-out query of frames `frames` of walk_normal_001 at `times`.
+std::string timed_walk(const std::vector<std::size_t>& frames, const std::vector<double>& times) {
+  const std::string file = fs::absolute(test::data_dir() / kWalk).string();
+  std::string out = R"({"id": "ib", "top": 1, "frames": [)";
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    out += std::string(i ? ", " : "") + R"({"bvh": ")" + file + R"(", "frame": )" +
+           std::to_string(frames[i]) + R"(, "time_s": )" + std::to_string(times[i]) + "}";
+  return out + R"(], "filter": {"exclude": ["dataset-1_walk_normal_001*"]}})";
+}
+
+struct Synthesised {
+  SynthResult result;
+  std::optional<SynthSkeleton> skeleton;
+};
+
+std::unique_ptr<Synthesised> synthesise(const Index& index, const std::string& text,
+                                        const SynthOptions& options = {}) {
+  const Query q = parse_query_text(text, "<test>", 0, fs::current_path(), "q");
+  const QueryOutcome found = SearchEngine(index).run(q, SearchOptions{});
+  if (found.error) {
+    ADD_FAILURE() << *found.error;
+    return nullptr;
+  }
+  auto out = std::make_unique<Synthesised>();
+  out->result = synthesize(index, q, found.pairs, options, out->skeleton);
+  return out;
+}
+
+// Frame f of the walk file as the index holds it.
+SynthFrame walk_frame(const Index& index, std::size_t f) {
+  return clip_frame(index, test::clip_named(index, kWalk.filename().string()), f);
+}
+
+// The output frame is the key pose: every joint's local rotation within
+// 1e-4 rad (the root's position is placed: relative placement).
+void expect_key_pose(const SynthFrame& out, const SynthFrame& key, const std::string& what) {
+  for (std::size_t j = 0; j < key.local_rotations.size(); ++j)
+    EXPECT_LT(out.local_rotations[j].angularDistance(key.local_rotations[j]), 1e-4)
+        << what << " joint " << j;
+}
+
+}  // namespace
+
+TEST(TimedKeyPoses, ResampleRefusesTooFewFramesAndKeepsTheEnds) {
+  std::vector<SynthFrame> two(2);
+  for (auto& f : two) f.local_rotations.assign(1, Eigen::Quaterniond::Identity());
+  two[1].root_position_m = Eigen::Vector3d(1, 0, 0);
+  EXPECT_THROW(synth_detail::resample_frames({two[0]}, 3), std::invalid_argument);
+  EXPECT_THROW(synth_detail::resample_frames(two, 1), std::invalid_argument);
+  const auto five = synth_detail::resample_frames(two, 5);
+  ASSERT_EQ(five.size(), 5u);
+  EXPECT_EQ(five.front().root_position_m, two[0].root_position_m);
+  EXPECT_EQ(five.back().root_position_m, two[1].root_position_m);
+  EXPECT_NEAR(five[1].root_position_m.x(), 0.25, 1e-12);
+}
+
+TEST(TimedKeyPoses, AHeldOutInBetweenPassesEachKeyPoseAtItsTime) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const double dt = index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  // A 30-frame gap (frames 100 and 131) at the file's rate, then at 60 fps.
+  const std::string q = timed_walk({100, 131}, {0.0, 31 * dt});
+  auto s = synthesise(*index, q);
+  ASSERT_NE(s, nullptr);
+  const SynthResult& r = s->result;
+  ASSERT_EQ(r.frames.size(), 32u);
+  EXPECT_DOUBLE_EQ(r.frame_time_s, dt);
+  expect_key_pose(r.frames.front(), walk_frame(*index, 100), "first key");
+  expect_key_pose(r.frames.back(), walk_frame(*index, 131), "second key");
+  ASSERT_EQ(r.timing.size(), 1u);
+  const PairTiming& t = r.timing[0];
+  EXPECT_FALSE(t.direct);
+  EXPECT_EQ(1 + t.in_frames + t.piece_frames + t.out_frames + 1, r.frames.size());
+  EXPECT_GE(t.warp, kMinTimeWarp * 0.9);
+  EXPECT_LE(t.warp, kMaxTimeWarp * 1.1);
+  // The second key pose keeps its place relative to the first, as in the file.
+  const Eigen::Vector3d moved =
+      walk_frame(*index, 131).root_position_m - walk_frame(*index, 100).root_position_m;
+  const Eigen::Vector3d out_moved = r.frames.back().root_position_m - r.frames.front().root_position_m;
+  EXPECT_LT((moved - out_moved).norm(), 1e-3);
+
+  SynthOptions at60;
+  at60.fps = 60.0;
+  auto s60 = synthesise(*index, q, at60);
+  ASSERT_NE(s60, nullptr);
+  EXPECT_EQ(s60->result.frames.size(),
+            static_cast<std::size_t>(std::llround(31 * dt * 60.0)) + 1);
+  expect_key_pose(s60->result.frames.back(), walk_frame(*index, 131), "second key at 60 fps");
+}
+
+TEST(TimedKeyPoses, APairTooShortForAPartialMotionIsFilledDirectly) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const double dt = index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  // Pairs of 6 frames (direct) and 40 frames.
+  auto s = synthesise(*index, timed_walk({100, 106, 146}, {0.0, 6 * dt, 46 * dt}));
+  ASSERT_NE(s, nullptr);
+  const SynthResult& r = s->result;
+  ASSERT_EQ(r.frames.size(), 47u);
+  ASSERT_EQ(r.timing.size(), 2u);
+  EXPECT_TRUE(r.timing[0].direct);
+  EXPECT_EQ(r.timing[0].in_frames, 5u);
+  EXPECT_FALSE(r.timing[1].direct);
+  EXPECT_EQ(r.timing[1].key_frame, 6u);
+  expect_key_pose(r.frames[6], walk_frame(*index, 106), "middle key");
+  expect_key_pose(r.frames[46], walk_frame(*index, 146), "last key");
+}
+
+TEST(TimedKeyPoses, FpsNeedsATimedQuery) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const std::string file = fs::absolute(test::data_dir() / kWalk).string();
+  SynthOptions at60;
+  at60.fps = 60.0;
+  const std::string q = R"({"top": 1, "frames": [{"bvh": ")" + file + R"(", "frame": 10}, {"bvh": ")" +
+                        file + R"(", "frame": 40}]})";
+  EXPECT_THROW(synthesise(*index, q, at60), InputError);
+}
