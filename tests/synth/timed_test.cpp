@@ -27,7 +27,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace mocap;
 
-const Index* shared_index() { return test::built_index({"bandai-namco-1"}); }
+const Index* shared_index() {
+  return test::built_index({"bandai-namco-1"});
+}
 
 const fs::path kWalk = "bandai-namco-1/data/dataset-1_walk_normal_001.bvh";
 
@@ -91,7 +93,8 @@ TEST(TimedKeyPoses, AHeldOutInBetweenPassesEachKeyPoseAtItsTime) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
-  const double dt = index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  const double dt =
+      index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
   // A 30-frame gap (frames 100 and 131) at the file's rate, then at 60 fps.
   const std::string q = timed_walk({100, 131}, {0.0, 31 * dt});
   auto s = synthesise(*index, q);
@@ -110,15 +113,15 @@ TEST(TimedKeyPoses, AHeldOutInBetweenPassesEachKeyPoseAtItsTime) {
   // The second key pose keeps its place relative to the first, as in the file.
   const Eigen::Vector3d moved =
       walk_frame(*index, 131).root_position_m - walk_frame(*index, 100).root_position_m;
-  const Eigen::Vector3d out_moved = r.frames.back().root_position_m - r.frames.front().root_position_m;
+  const Eigen::Vector3d out_moved =
+      r.frames.back().root_position_m - r.frames.front().root_position_m;
   EXPECT_LT((moved - out_moved).norm(), 1e-3);
 
   SynthOptions at60;
   at60.fps = 60.0;
   auto s60 = synthesise(*index, q, at60);
   ASSERT_NE(s60, nullptr);
-  EXPECT_EQ(s60->result.frames.size(),
-            static_cast<std::size_t>(std::llround(31 * dt * 60.0)) + 1);
+  EXPECT_EQ(s60->result.frames.size(), static_cast<std::size_t>(std::llround(31 * dt * 60.0)) + 1);
   expect_key_pose(s60->result.frames.back(), walk_frame(*index, 131), "second key at 60 fps");
 }
 
@@ -126,7 +129,8 @@ TEST(TimedKeyPoses, APairTooShortForAPartialMotionIsFilledDirectly) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
-  const double dt = index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  const double dt =
+      index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
   // Pairs of 6 frames (direct) and 40 frames.
   auto s = synthesise(*index, timed_walk({100, 106, 146}, {0.0, 6 * dt, 46 * dt}));
   ASSERT_NE(s, nullptr);
@@ -148,7 +152,7 @@ TEST(TimedKeyPoses, FpsNeedsATimedQuery) {
   const std::string file = fs::absolute(test::data_dir() / kWalk).string();
   SynthOptions at60;
   at60.fps = 60.0;
-  const std::string q = R"({"top": 1, "frames": [{"bvh": ")" + file + R"(", "frame": 10}, {"bvh": ")" +
-                        file + R"(", "frame": 40}]})";
+  const std::string q = R"({"top": 1, "frames": [{"bvh": ")" + file +
+                        R"(", "frame": 10}, {"bvh": ")" + file + R"(", "frame": 40}]})";
   EXPECT_THROW(synthesise(*index, q, at60), InputError);
 }
