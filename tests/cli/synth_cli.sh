@@ -3,7 +3,7 @@
 # results, unknown clip, query id absent, skeleton/frame-rate mismatch), then a
 # 3-frame query with explicit results -> BVH + REPORT.json, checked for the
 # assembly (query, transition, partial, ... segments), the measures, and
-# determinism (two runs give the same BVH).
+# determinism (two runs give the same BVH), a timed in-between and --fps.
 #   bash tests/cli/synth_cli.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 build="${1:?usage: synth_cli.sh BUILD_DIR DATA_DIR}"
@@ -146,4 +146,27 @@ assert r["timings_ms"]["search"] > 0
 assert [c["rank"] for c in r["chosen"]] == [1, 1]
 assert all(c["start_frame"] < c["end_frame"] for c in r["chosen"])
 PY
+# A timed in-between (docs/queries.md "Timed key poses"): frames 100 and 131
+# of a held-out walk at 0 and 31/30 s give 32 frames at the file's rate and
+# 63 at --fps 60; --fps is refused for an untimed query.
+walk="$(cd "$data/bandai-namco-1/data" && pwd)/dataset-1_walk_normal_001.bvh"
+printf '{"id": "ib", "frames": [{"bvh": "%s", "frame": 100, "time_s": 0}, {"bvh": "%s", "frame": 131, "time_s": 1.0333333}], "filter": {"exclude": ["dataset-1_walk_normal_001*"]}}\n' \
+  "$walk" "$walk" >"$tmp/timed.json"
+"$synth" --index "$tmp/index.h5" --query "$tmp/timed.json" --out "$tmp/t.bvh" --report "$tmp/t.json" >/dev/null
+"$synth" --index "$tmp/index.h5" --query "$tmp/timed.json" --out "$tmp/t60.bvh" --report "$tmp/t60.json" \
+  --fps 60 >/dev/null
+grep -q "^Frames: 32$" "$tmp/t.bvh" || fail "the timed motion does not have 32 frames"
+grep -q "^Frames: 63$" "$tmp/t60.bvh" || fail "the timed motion at 60 fps does not have 63 frames"
+python3 - "$tmp/t.json" "$tmp/t60.json" <<'PY'
+import json, sys
+for path, fps in zip(sys.argv[1:], (30.0, 60.0)):
+    r = json.load(open(path))
+    t = r["timing"]
+    assert abs(t["fps"] - fps) < 1e-3, t
+    p = t["pairs"][0]
+    assert p["key_frame"] == 0 and not p["direct"], p
+    assert 1 + p["in_frames"] + p["partial_frames"] + p["out_frames"] + 1 == r["motion"]["frames"], p
+    assert 0.7 < p["warp"] < 1.4, p
+PY
+expect_error "needs a timed query" "${base[@]/m.bvh/mf.bvh}" --results "$tmp/results.jsonl" --fps 60
 echo "ok: mocap-synth CLI"
