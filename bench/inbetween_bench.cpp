@@ -30,7 +30,9 @@ using namespace mocap;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  return v.empty()      ? 0.0
+         : v.size() % 2 ? v[v.size() / 2]
+                        : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -53,7 +55,8 @@ int main(int argc, char** argv) {
     for (const auto& e : fs::directory_iterator(argv[2]))
       if (e.path().extension() == ".bvh") files.push_back(fs::absolute(e.path()));
     std::sort(files.begin(), files.end());
-    const std::size_t step = std::max<std::size_t>(1, files.size() / std::max<std::size_t>(1, clips));
+    const std::size_t step =
+        std::max<std::size_t>(1, files.size() / std::max<std::size_t>(1, clips));
     std::vector<Query> queries;
     for (std::size_t i = 0; i < files.size() && queries.size() < clips; i += step) {
       const std::size_t frames = read_bvh_file(files[i].string()).frame_count;
@@ -62,9 +65,9 @@ int main(int argc, char** argv) {
       const std::string f = files[i].string(), stem = files[i].stem().string();
       const double t = static_cast<double>(gap + 1) / 30.0;
       const std::string text = R"({"id": ")" + stem + R"(", "top": 1, "frames": [{"bvh": ")" + f +
-                               R"(", "frame": )" + std::to_string(a) + R"(, "time_s": 0}, {"bvh": ")" +
-                               f + R"(", "frame": )" + std::to_string(a + gap + 1) +
-                               R"(, "time_s": )" + std::to_string(t) +
+                               R"(", "frame": )" + std::to_string(a) +
+                               R"(, "time_s": 0}, {"bvh": ")" + f + R"(", "frame": )" +
+                               std::to_string(a + gap + 1) + R"(, "time_s": )" + std::to_string(t) +
                                R"(}], "filter": {"exclude": [")" + stem + R"(*"]}})";
       queries.push_back(parse_query_text(text, "<bench>", 0, fs::current_path(), stem));
     }
