@@ -21,6 +21,7 @@
 #include <limits>
 #include <map>
 
+#include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
@@ -31,6 +32,7 @@
 #include "mocap/indexer/collection.hpp"
 #include "mocap/indexer/index_builder.hpp"
 #include "mocap/indexer/inspect.hpp"
+#include "mocap/indexer/sharded_build.hpp"
 
 namespace {
 
@@ -252,9 +254,81 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
   return s.skipped.empty() ? kExitOk : kExitSomeFailed;
 }
 
+// A sharded build: the shards' summaries and the manifest.
+int run_sharded_build(mocap::IndexBuildOptions opt, std::size_t shards, bool json, bool quiet) {
+  opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
+  ProgressPrinter printer;
+  if (!quiet) opt.progress = [&printer](const mocap::IndexBuildProgress& p) { printer(p); };
+  const mocap::ShardedBuildSummary s = mocap::build_sharded(opt, shards);
+  std::size_t clips = 0, skipped = 0;
+  std::uint64_t frames = 0;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& b : s.shards) {
+    clips += b.clips;
+    frames += b.frames;
+    skipped += b.skipped.size();
+    nlohmann::json sk = nlohmann::json::array();
+    for (const auto& k : b.skipped) sk.push_back({{"path", k.path}, {"reason", k.reason}});
+    list.push_back({{"out", b.out.string()},
+                    {"up_to_date", b.up_to_date},
+                    {"clips", b.clips},
+                    {"frames", b.frames},
+                    {"new", b.parsed_new},
+                    {"changed", b.parsed_changed},
+                    {"reused", b.reused},
+                    {"removed", b.removed},
+                    {"skipped", sk},
+                    {"seconds", b.seconds}});
+  }
+  if (json) {
+    std::cout << mocap::json_text(nlohmann::json{{"out", s.manifest.string()},
+                                                 {"clips", clips},
+                                                 {"frames", frames},
+                                                 {"shards", list}})
+              << '\n';
+  } else {
+    for (const auto& b : s.shards)
+      fmt::print("{}: {}{} clips, {} frames\n", b.out.string(), b.up_to_date ? "up to date, " : "",
+                 b.clips, b.frames);
+    fmt::print("{}: {} shards, {} clips, {} frames, {} skipped\n", s.manifest.string(),
+               s.shards.size(), clips, frames, skipped);
+  }
+  return skipped ? kExitSomeFailed : kExitOk;
+}
+
+// verify of a manifest: every shard present, unchanged and sound.
+int run_verify_collection(const std::string& file, bool json) {
+  const mocap::CollectionManifest m = mocap::read_collection_manifest(file);
+  std::vector<std::string> problems = mocap::collection_shard_problems(file, m);
+  std::size_t datasets = 0;
+  if (problems.empty())
+    for (const auto& sh : m.shards) {
+      const mocap::IndexVerifyReport r = mocap::verify_index(mocap::shard_file(file, sh));
+      datasets += r.datasets_checked;
+      for (const auto& p : r.problems) problems.push_back("shard " + sh.path + ": " + p);
+    }
+  const bool ok = problems.empty();
+  if (json) {
+    std::cout << mocap::json_text(nlohmann::json{{"file", file},
+                                                 {"ok", ok},
+                                                 {"shards", m.shards.size()},
+                                                 {"problems", problems},
+                                                 {"datasets_checked", datasets}})
+              << '\n';
+  } else if (ok) {
+    fmt::print("{}: ok ({} shards, {} datasets)\n", file, m.shards.size(), datasets);
+  } else {
+    for (const auto& p : problems) fmt::print(stderr, "mocap-index: {}: {}\n", file, p);
+    fmt::print(stderr, "mocap-index: {}: verification FAILED ({} problem(s))\n", file,
+               problems.size());
+  }
+  return ok ? kExitOk : kExitSomeFailed;
+}
+
 int run_verify(const std::string& file, bool json) {
   // A file that cannot be read at all is exit 2 (an InputError), not damage.
   (void)mocap::check_input_file(file, std::numeric_limits<std::uint64_t>::max());
+  if (mocap::is_collection_manifest(file)) return run_verify_collection(file, json);
   const mocap::IndexVerifyReport r = mocap::verify_index(file);
   if (json) {
     std::cout << mocap::json_text(nlohmann::json{{"file", file},
@@ -274,7 +348,44 @@ int run_verify(const std::string& file, bool json) {
   return r.ok ? kExitOk : kExitSomeFailed;
 }
 
+// info of a manifest: its shards (a missing or changed one is an error) and totals.
+int run_info_collection(const std::string& file, bool json) {
+  const mocap::CollectionManifest m = mocap::read_collection_manifest(file);
+  if (const auto problems = mocap::collection_shard_problems(file, m); !problems.empty())
+    throw mocap::InputError(file, 0, problems.front());
+  std::size_t clips = 0;
+  std::uint64_t frames = 0;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& sh : m.shards) {
+    const mocap::Index index = mocap::Index::open(mocap::shard_file(file, sh));
+    clips += index.clips().size();
+    frames += index.frame_count();
+    list.push_back({{"path", sh.path},
+                    {"clips", index.clips().size()},
+                    {"frames", index.frame_count()},
+                    {"skeletons", index.skeletons().size()},
+                    {"xxh64", sh.xxh64}});
+  }
+  if (json) {
+    std::cout << mocap::json_text(nlohmann::json{{"file", file},
+                                                 {"format", mocap::kCollectionFormat},
+                                                 {"version", mocap::kCollectionVersion},
+                                                 {"clips", clips},
+                                                 {"frames", frames},
+                                                 {"shards", list}})
+              << '\n';
+  } else {
+    fmt::print("{}: collection of {} shards, {} clips, {} frames\n", file, m.shards.size(), clips,
+               frames);
+    for (const auto& s : list)
+      fmt::print("  {}: {} clips, {} frames\n", s["path"].get<std::string>(),
+                 s["clips"].get<std::size_t>(), s["frames"].get<std::uint64_t>());
+  }
+  return kExitOk;
+}
+
 int run_info(const std::string& file, bool json) {
+  if (mocap::is_collection_manifest(file)) return run_info_collection(file, json);
   const mocap::Index index = mocap::Index::open(file);
   const mocap::IndexInfo& in = index.info();
   std::error_code ec;
@@ -422,6 +533,12 @@ int main(int argc, char** argv) {
                   "device or FIFO; docs/cli.md \"Output paths\")");
   build->add_flag("--json", build_json, "Print the summary as one JSON object");
   build->add_flag("--quiet,-q", build_quiet, "No progress output");
+  std::size_t build_shards = 0;
+  build
+      ->add_option("--shards", build_shards,
+                   "Split the collection into N index files balanced by frames; --out is then "
+                   "their manifest (COLLECTION.json; docs/index-format.md \"Collections\")")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
 
   std::string verify_file;
   bool verify_json = false;
@@ -454,8 +571,14 @@ int main(int argc, char** argv) {
     int rc = kExitFatal;
     if (*inspect) rc = run_inspect(file, frame, unit, up, character, json);
     if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);
-    if (*build)
+    if (*build && build_shards > 0) {
+      build_opt.unit = unit_option(build_unit);
+      build_opt.up = up_option(build_up);
+      if (!build_character.empty()) build_opt.character = build_character;
+      rc = run_sharded_build(build_opt, build_shards, build_json, build_quiet);
+    } else if (*build) {
       rc = run_build(build_opt, build_unit, build_up, build_character, build_json, build_quiet);
+    }
     if (*verify) rc = run_verify(verify_file, verify_json);
     if (*info) rc = run_info(info_file, info_json);
     // What the command printed must have been written (a full disk, a

@@ -1,0 +1,108 @@
+// Sharded builds (sharded_build.hpp).
+#include "mocap/indexer/sharded_build.hpp"
+
+#include <fstream>
+#include <numeric>
+#include <string>
+
+#include "mocap/common/collection_manifest.hpp"
+#include "mocap/common/error.hpp"
+#include "mocap/common/file.hpp"
+#include "mocap/common/xxh64.hpp"
+#include "mocap/indexer/collection.hpp"
+
+namespace mocap {
+namespace {
+
+// The frame count of a BVH file's MOTION header (0 when it has none: the
+// build reports such a file).
+std::uint64_t header_frames(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto at = line.find("Frames:");
+    if (at != std::string::npos) {
+      try {
+        return std::stoull(line.substr(at + 7));
+      } catch (const std::exception&) {
+        return 0;
+      }
+    }
+  }
+  return 0;
+}
+
+// Where each of `count` consecutive groups ends (exclusive), balanced by
+// frames: group k ends at the first file whose running total reaches
+// (k + 1) / count of the whole, each group keeping at least one file.
+std::vector<std::size_t> split_points(const std::vector<std::uint64_t>& frames, std::size_t count) {
+  const double total = static_cast<double>(std::accumulate(frames.begin(), frames.end(), 0ull));
+  std::vector<std::size_t> ends;
+  std::size_t i = 0;
+  double sum = 0.0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t must_leave = count - k - 1;  // files for the groups after this one
+    const double target = total * static_cast<double>(k + 1) / static_cast<double>(count);
+    do {
+      sum += static_cast<double>(frames[i]);
+      ++i;
+    } while (i + must_leave < frames.size() && sum + 0.5 * static_cast<double>(frames[i]) < target);
+    ends.push_back(k + 1 == count ? frames.size() : i);
+  }
+  return ends;
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> shard_paths(const std::filesystem::path& manifest,
+                                               std::size_t count) {
+  std::vector<std::filesystem::path> out;
+  for (std::size_t k = 1; k <= count; ++k)
+    out.push_back(manifest.parent_path() / (manifest.stem().string() + ".shard-" +
+                                            std::to_string(k) + "-of-" + std::to_string(count) +
+                                            ".h5"));
+  return out;
+}
+
+ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t count) {
+  const std::string out = options.out.string();
+  if (count == 0) throw InputError("--shards", 0, "must be at least 1");
+  if (std::filesystem::exists(options.out) && !options.force &&
+      !is_collection_manifest(options.out))
+    throw InputError(out, 0,
+                     "exists and is not a collection manifest (--force replaces it; docs/cli.md "
+                     "\"Output paths\")");
+  const Collection collection = list_collection(options.inputs);
+  if (options.strict && !collection.problems.empty())
+    throw InputError(collection.problems.front().input, 0, collection.problems.front().reason);
+  if (collection.files.size() < count)
+    throw InputError(out, 0,
+                     std::to_string(count) + " shards need at least as many files; the inputs hold " +
+                         std::to_string(collection.files.size()));
+  std::vector<std::uint64_t> frames;
+  for (const CollectionEntry& e : collection.files) frames.push_back(header_frames(e.path));
+  const std::vector<std::size_t> ends = split_points(frames, count);
+  const std::vector<std::filesystem::path> paths = shard_paths(options.out, count);
+  ShardedBuildSummary sum;
+  sum.manifest = options.out;
+  CollectionManifest manifest;
+  std::size_t first = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    IndexBuildOptions o = options;
+    o.out = paths[k];
+    o.inputs.clear();
+    for (std::size_t i = first; i < ends[k]; ++i) o.inputs.push_back(collection.files[i].path.string());
+    first = ends[k];
+    sum.shards.push_back(build_index(o));
+    const IndexBuildSummary& s = sum.shards.back();
+    manifest.shards.push_back(
+        {paths[k].filename().string(), s.clips, s.frames, hex64(hash_file(paths[k]))});
+  }
+  // Inputs that named nothing readable are reported with the first shard.
+  for (const CollectionProblem& p : collection.problems)
+    sum.shards.front().skipped.push_back({p.input, p.reason});
+  write_collection_manifest(options.out, manifest);
+  return sum;
+}
+
+}  // namespace mocap
