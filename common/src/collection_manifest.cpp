@@ -54,7 +54,8 @@ CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
       fail(path, at + ".clips", "expected a count");
     if (!s.contains("frames") || !s["frames"].is_number_unsigned())
       fail(path, at + ".frames", "expected a count");
-    if (!s.contains("xxh64") || !s["xxh64"].is_string() || s["xxh64"].get<std::string>().size() != 16)
+    if (!s.contains("xxh64") || !s["xxh64"].is_string() ||
+        s["xxh64"].get<std::string>().size() != 16)
       fail(path, at + ".xxh64", "expected 16 hex digits");
     sh.path = s["path"].get<std::string>();
     sh.clips = s["clips"].get<std::size_t>();
@@ -81,7 +82,8 @@ std::vector<std::string> collection_shard_problems(const std::filesystem::path& 
       if (hex64(hash_file(f)) != s.xxh64)
         problems.push_back("shard " + s.path +
                            ": changed since the manifest was written (its bytes no longer hash "
-                           "to " + s.xxh64 + ")");
+                           "to " +
+                           s.xxh64 + ")");
     } catch (const InputError& e) {
       problems.push_back("shard " + s.path + ": " + e.detail());
     }

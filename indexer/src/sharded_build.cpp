@@ -58,9 +58,9 @@ std::vector<std::filesystem::path> shard_paths(const std::filesystem::path& mani
                                                std::size_t count) {
   std::vector<std::filesystem::path> out;
   for (std::size_t k = 1; k <= count; ++k)
-    out.push_back(manifest.parent_path() / (manifest.stem().string() + ".shard-" +
-                                            std::to_string(k) + "-of-" + std::to_string(count) +
-                                            ".h5"));
+    out.push_back(manifest.parent_path() /
+                  (manifest.stem().string() + ".shard-" + std::to_string(k) + "-of-" +
+                   std::to_string(count) + ".h5"));
   return out;
 }
 
@@ -77,7 +77,8 @@ ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t 
     throw InputError(collection.problems.front().input, 0, collection.problems.front().reason);
   if (collection.files.size() < count)
     throw InputError(out, 0,
-                     std::to_string(count) + " shards need at least as many files; the inputs hold " +
+                     std::to_string(count) +
+                         " shards need at least as many files; the inputs hold " +
                          std::to_string(collection.files.size()));
   std::vector<std::uint64_t> frames;
   for (const CollectionEntry& e : collection.files) frames.push_back(header_frames(e.path));
@@ -91,7 +92,8 @@ ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t 
     IndexBuildOptions o = options;
     o.out = paths[k];
     o.inputs.clear();
-    for (std::size_t i = first; i < ends[k]; ++i) o.inputs.push_back(collection.files[i].path.string());
+    for (std::size_t i = first; i < ends[k]; ++i)
+      o.inputs.push_back(collection.files[i].path.string());
     first = ends[k];
     sum.shards.push_back(build_index(o));
     const IndexBuildSummary& s = sum.shards.back();
