@@ -23,11 +23,13 @@
 #include <string>
 
 #include "mocap/common/atomic_file.hpp"
+#include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/output_path.hpp"
 #include "mocap/common/units.hpp"
+#include "mocap/search/collection_search.hpp"
 #include "mocap/search/energy_command.hpp"
 #include "mocap/search/search.hpp"
 
@@ -166,8 +168,13 @@ int run_search(const SearchArgs& a) {
   const auto batch =
       a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
   const auto t0 = std::chrono::steady_clock::now();
-  const mocap::Index index = mocap::Index::open(a.index);
-  const mocap::SearchEngine engine(index);
+  const bool collection = mocap::is_collection_manifest(a.index);
+  std::optional<mocap::Index> index;
+  std::optional<mocap::SearchEngine> engine;
+  if (!collection) {
+    index.emplace(mocap::Index::open(a.index));
+    engine.emplace(*index);
+  }
   const double load_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ofstream file;
@@ -192,7 +199,10 @@ int run_search(const SearchArgs& a) {
     }
   };
   const auto t1 = std::chrono::steady_clock::now();
-  const auto outcomes = mocap::run_query_batch(engine, batch, opt, progress);
+  // A collection manifest: every shard answers, the top-r lists merged
+  // (docs/search.md "Collections").
+  const auto outcomes = collection ? mocap::run_collection_batch(a.index, batch, opt, progress)
+                                   : mocap::run_query_batch(*engine, batch, opt, progress);
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   std::ostream& os = a.out.empty() ? std::cout : file;
   std::size_t failed = 0;

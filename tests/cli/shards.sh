@@ -4,7 +4,8 @@
 # shards hold together exactly the clips of one index, in its order; a
 # rebuild reuses them; verify and info read the manifest; a changed or
 # missing shard, a bad shard count or an --out of another kind are clear
-# errors and leave the manifest alone.
+# errors and leave the manifest alone; mocap-search over a manifest answers
+# as the single index does.
 #   bash tests/cli/shards.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -66,6 +67,28 @@ for n in (2, 3):
 print("ok")
 PY
 fi
+# One process over a manifest answers exactly as the single index: 40
+# held-out queries of every kind (bench/search_queries.py), results equal
+# but for the stats.
+python3 "$(dirname "${BASH_SOURCE[0]}")/../../bench/search_queries.py" "$(cd "$set1/data" && pwd)" 40 7 >"$tmp/q.jsonl"
+"$search" -q --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --out "$tmp/r1.jsonl" || true
+for n in 2 3; do
+  "$search" -q --index "$tmp/c$n.json" --queries "$tmp/q.jsonl" --out "$tmp/r$n.jsonl" || true
+  python3 - "$tmp/r1.jsonl" "$tmp/r$n.jsonl" <<'PY' || fail "$n shards: results differ from the single index"
+import json, sys
+a = [json.loads(l) for l in open(sys.argv[1])]
+b = [json.loads(l) for l in open(sys.argv[2])]
+assert len(a) == len(b) == 40
+results = 0
+for x, y in zip(a, b):
+    x.pop("stats", None)
+    y.pop("stats", None)
+    assert x == y, (x.get("id"), json.dumps(x)[:200], json.dumps(y)[:200])
+    results += sum(len(p["results"]) for p in x.get("pairs", []))
+assert results > 300, results
+PY
+done
+
 # A rebuild with nothing changed reuses every shard.
 "$indexer" build -q --json --shards 3 --out "$tmp/c3.json" "$set1" >"$tmp/again.json"
 python3 -c "
@@ -91,4 +114,9 @@ status=0
 [ "$status" -eq 1 ] || fail "verify of a missing shard: exit $status (expected 1)"
 grep -q "c2.shard-1-of-2.h5" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
 [ "$(md5sum <"$tmp/c3.json")" = "$before" ] || fail "the manifest changed"
+# The search refuses a collection with a changed shard before any query.
+status=0
+"$search" -q --index "$tmp/c3.json" --queries "$tmp/q.jsonl" >/dev/null 2>"$tmp/err.txt" || status=$?
+[ "$status" -eq 2 ] || fail "search over a changed shard: exit $status (expected 2)"
+grep -q "c3.shard-2-of-3.h5" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
 echo "PASS"
