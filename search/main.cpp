@@ -69,7 +69,9 @@ struct SearchArgs {
 };
 
 void add_search_options(CLI::App& app, SearchArgs& a) {
-  app.add_option("--index", a.index, "Index file (HDF5, mocap-index build); opened once per batch");
+  app.add_option("--index", a.index,
+                 "Index file (HDF5, mocap-index build), or a collection manifest (mocap-index "
+                 "build --shards); opened once per batch");
   auto* qs = app.add_option("--queries", a.queries,
                             "Query batch: one JSON query per line (docs/queries.md)");
   auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");

@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "mocap/common/atomic_file.hpp"
+#include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
@@ -130,6 +131,11 @@ int main(int argc, char** argv) {
     const std::filesystem::path qp(query_path);
     const mocap::Query query =
         mocap::parse_query_text(qs.str(), query_path, 0, qp.parent_path(), qp.stem().string());
+    if (mocap::is_collection_manifest(index_path))
+      throw mocap::InputError(
+          index_path, 0,
+          "a collection manifest: mocap-synth reads one index (give it an index "
+          "file; docs/index-format.md \"Collections\")");
     const mocap::Index index = mocap::Index::open(index_path);
 
     std::vector<mocap::PairResults> ranked;

@@ -89,6 +89,13 @@ assert results > 300, results
 PY
 done
 
+# mocap-synth reads one index: a manifest is refused clearly.
+printf '{"frames": [{"root_position": [0, null, 0]}, {"root_position": [0, null, 1]}]}\n' >"$tmp/s.json"
+status=0
+"$synth" --index "$tmp/c2.json" --query "$tmp/s.json" --out "$tmp/m.bvh" >/dev/null 2>"$tmp/err.txt" ||
+  status=$?
+[ "$status" -ne 0 ] && grep -q "a collection manifest" "$tmp/err.txt" || fail "mocap-synth: $(cat "$tmp/err.txt")"
+
 # A rebuild with nothing changed reuses every shard.
 "$indexer" build -q --json --shards 3 --out "$tmp/c3.json" "$set1" >"$tmp/again.json"
 python3 -c "
