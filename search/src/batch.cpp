@@ -92,7 +92,8 @@ bool reads_frame_arrays(const QueryFrameSpec& f) {
 
 std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
-    const std::function<void(std::size_t, std::size_t)>& progress) {
+    const std::function<void(std::size_t, std::size_t)>& progress,
+    const std::vector<std::vector<double>>* ceilings) {
   validate_search_options(options);
   bool whole_body = false;
   for (const BatchEntry& e : batch)
@@ -110,7 +111,7 @@ std::vector<QueryOutcome> run_query_batch(
       out[i].error = e.error;
     } else {
       try {
-        out[i] = engine.run(*e.query, options);
+        out[i] = engine.run(*e.query, options, ceilings ? &(*ceilings)[i] : nullptr);
       } catch (const std::exception& err) {
         out[i] = QueryOutcome{};
         out[i].id = e.id;

@@ -2,6 +2,7 @@
 #include "mocap/search/collection_search.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
@@ -65,6 +66,10 @@ std::vector<QueryOutcome> run_collection_batch(
     throw InputError(manifest.string(), 0, problems.front());
   std::vector<std::vector<QueryOutcome>> per_shard;
   std::vector<std::size_t> offsets;
+  // Per query and pair, the r-th best score of the shards searched so far:
+  // a later shard's clips rank after theirs at equal scores, so it need not
+  // find results at or above it (SearchEngine::run's ceilings).
+  std::vector<std::vector<double>> ceilings(batch.size());
   std::size_t offset = 0, done_before = 0;
   const std::size_t total = batch.size() * m.shards.size();
   for (const CollectionShard& s : m.shards) {
@@ -77,10 +82,18 @@ std::vector<QueryOutcome> run_collection_batch(
     std::function<void(std::size_t, std::size_t)> shard_progress;
     if (progress)
       shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
-    per_shard.push_back(run_query_batch(engine, batch, options, shard_progress));
+    per_shard.push_back(run_query_batch(engine, batch, options, shard_progress, &ceilings));
     offsets.push_back(offset);
     offset += s.clips;
     done_before += batch.size();
+    const std::vector<QueryOutcome> so_far = merge_shard_outcomes(per_shard, offsets, batch);
+    for (std::size_t q = 0; q < batch.size(); ++q) {
+      ceilings[q].assign(so_far[q].pairs.size(), std::numeric_limits<double>::infinity());
+      const std::size_t top = batch[q].query ? batch[q].query->top : 0;
+      for (std::size_t h = 0; h < so_far[q].pairs.size(); ++h)
+        if (top > 0 && so_far[q].pairs[h].results.size() >= top)
+          ceilings[q][h] = so_far[q].pairs[h].results[top - 1].score_J;
+    }
   }
   return merge_shard_outcomes(per_shard, offsets, batch);
 }

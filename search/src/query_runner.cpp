@@ -23,8 +23,9 @@ namespace mocap::search_detail {
 
 QueryRunner::QueryRunner(const SearchEngine::Impl& engine, const Query& query,
                          const SearchOptions& options,
-                         const std::vector<std::unique_ptr<SkeletonData>>& skeletons)
-    : engine_(engine), q_(query), options_(options), skeletons_(skeletons) {}
+                         const std::vector<std::unique_ptr<SkeletonData>>& skeletons,
+                         const std::vector<double>* ceilings)
+    : engine_(engine), q_(query), options_(options), skeletons_(skeletons), ceilings_(ceilings) {}
 
 void QueryRunner::prepare() {
   const SearchEngine::Impl& m = engine_;
@@ -253,7 +254,8 @@ class PairSearch {
         eval_mode_(mode == SearchMode::approx ? SearchMode::exact : mode),
         relative_(runner.relative_pair(h)),
         bounded_(eval_mode_ == SearchMode::exact && !relative_),
-        top_(q_.top) {
+        top_(q_.top, eval_mode_ == SearchMode::exact ? runner.ceiling(h)
+                                                     : std::numeric_limits<double>::infinity()) {
     const std::size_t skeletons = runner_.skeletons_.size();
     for (std::size_t k = 0; k < skeletons; ++k)
       contexts_.push_back(runner_.context(k, h, eval_mode_));

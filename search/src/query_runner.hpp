@@ -9,6 +9,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -35,8 +36,16 @@ class QueryRunner {
  public:
   // `skeletons`: the tables of the query's character (the engine's or a
   // query character's), one per index skeleton; all must outlive the runner.
+  // `ceilings` (optional, one per pair): SearchEngine::run's.
   QueryRunner(const SearchEngine::Impl& engine, const Query& query, const SearchOptions& options,
-              const std::vector<std::unique_ptr<SkeletonData>>& skeletons);
+              const std::vector<std::unique_ptr<SkeletonData>>& skeletons,
+              const std::vector<double>* ceilings = nullptr);
+
+  // The starting tau of pair h (+inf without ceilings).
+  double ceiling(std::size_t h) const {
+    return ceilings_ && h < ceilings_->size() ? (*ceilings_)[h]
+                                              : std::numeric_limits<double>::infinity();
+  }
 
   // Resolves every query frame on every skeleton, with what the engine
   // precomputes for them, and the per-frame bounds of partial frames (exact
@@ -91,6 +100,7 @@ class QueryRunner {
   const Query& q_;
   const SearchOptions& options_;
   const std::vector<std::unique_ptr<SkeletonData>>& skeletons_;
+  const std::vector<double>* ceilings_ = nullptr;
   // resolved_[k][i]: query frame i on skeleton k; bounds_[k][i] its box-bound form.
   std::vector<std::vector<ResolvedFrame>> resolved_;
   std::vector<std::vector<BoundQuery>> bounds_;

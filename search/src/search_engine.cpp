@@ -124,6 +124,11 @@ PairResults pair_results(const Index& index, std::size_t h, const PairRun& run) 
 }  // namespace
 
 QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options) const {
+  return run(q, options, nullptr);
+}
+
+QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options,
+                               const std::vector<double>* ceilings) const {
   const auto t0 = std::chrono::steady_clock::now();
   const Impl& m = *impl_;
   if (q.frames.size() < 2)
@@ -134,7 +139,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options) con
   const std::shared_ptr<const search_detail::CharacterTables> character =
       m.characters.tables_for(q);
   const auto& skeletons = character ? character->skeletons : m.skeletons;
-  search_detail::QueryRunner runner(m, q, options, skeletons);
+  search_detail::QueryRunner runner(m, q, options, skeletons, ceilings);
   runner.prepare();
   QueryOutcome out;
   out.id = q.id;

@@ -29,18 +29,22 @@ inline bool match_less(const ClipMatch& x, const ClipMatch& y) {
   return x.start < y.start;
 }
 
-// The shared top-r list of one pair; tau is the r-th best score (+inf until
-// r matches are in). Thread-safe; tau only decreases.
+// The shared top-r list of one pair; tau is the r-th best score (until r
+// matches are in: `ceiling`, +inf unless a collection's other shards already
+// hold r matches that rank before any of this index's at that score).
+// Thread-safe; tau only decreases.
 class TopMatches {
  public:
-  explicit TopMatches(std::size_t r) : r_(r) {}
+  explicit TopMatches(std::size_t r, double ceiling = std::numeric_limits<double>::infinity())
+      : r_(r), tau_(ceiling) {}
   double tau() const { return tau_.load(std::memory_order_acquire); }
   void insert(const ClipMatch& m) {
     std::lock_guard lock(mutex_);
     auto it = std::lower_bound(matches_.begin(), matches_.end(), m, match_less);
     matches_.insert(it, m);
     if (matches_.size() > r_) matches_.pop_back();
-    if (matches_.size() == r_) tau_.store(matches_.back().score, std::memory_order_release);
+    if (matches_.size() == r_ && matches_.back().score < tau_.load(std::memory_order_relaxed))
+      tau_.store(matches_.back().score, std::memory_order_release);
   }
   // The matches, best first (at most r); the list is left empty.
   std::vector<ClipMatch> take() { return std::move(matches_); }

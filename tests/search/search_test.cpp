@@ -462,6 +462,49 @@ TEST(Search, ExactEqualsBruteOnRandomQueriesSet1) {
   EXPECT_GE(pruned_somewhere, queries.size() / 2) << "exact mode should prune";
 }
 
+// A ceiling (a collection's other shards' r-th best score) keeps every
+// result scoring below it, in order, and prunes more; brute ignores it.
+TEST(Search, CeilingsKeepTheResultsBelowThemAndPruneMore) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(set1_index().empty()) << "could not build the set-1 index";
+  const Index index = Index::open(set1_index());
+  const SearchEngine engine(index);
+  const auto queries = random_queries(index, 40);
+  SearchOptions exact;
+  std::size_t pruned_more = 0;
+  for (const Query& q : queries) {
+    const auto free = engine.run(q, exact);
+    std::vector<double> ceilings;
+    for (const auto& p : free.pairs)  // the middle result's score
+      ceilings.push_back(p.results.empty() ? std::numeric_limits<double>::infinity()
+                                           : p.results[p.results.size() / 2].score_J);
+    const auto capped = engine.run(q, exact, &ceilings);
+    ASSERT_EQ(capped.pairs.size(), free.pairs.size());
+    for (std::size_t h = 0; h < free.pairs.size(); ++h) {
+      std::vector<const SearchResult*> below;
+      for (const auto& r : capped.pairs[h].results)
+        if (r.score_J < ceilings[h]) below.push_back(&r);
+      std::size_t k = 0;
+      for (const auto& r : free.pairs[h].results) {
+        if (r.score_J >= ceilings[h]) break;
+        ASSERT_LT(k, below.size()) << q.id;
+        EXPECT_EQ(below[k]->clip_index, r.clip_index) << q.id;
+        EXPECT_EQ(below[k]->start_frame, r.start_frame) << q.id;
+        EXPECT_EQ(below[k]->end_frame, r.end_frame) << q.id;
+        EXPECT_EQ(below[k]->score_J, r.score_J) << q.id;
+        ++k;
+      }
+      EXPECT_EQ(k, below.size()) << q.id;
+    }
+    EXPECT_LE(capped.stats.frames_evaluated, free.stats.frames_evaluated) << q.id;
+    pruned_more += capped.stats.frames_evaluated < free.stats.frames_evaluated;
+    SearchOptions brute;
+    brute.mode = SearchMode::brute;
+    expect_same_results(engine.run(q, brute, &ceilings), engine.run(q, brute), q.id);
+  }
+  EXPECT_GE(pruned_more, queries.size() / 4);
+}
+
 TEST(Search, ThreadsOneEqualsTwo) {
   MOCAP_REQUIRE_DATA();
   ASSERT_FALSE(set1_index().empty());

@@ -173,6 +173,14 @@ class SearchEngine {
   /// frame out of range; an unreadable or invalid character file), and
   /// std::invalid_argument for invalid options (validate_search_options).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
+  /// The same with, per pair, a score `ceilings[h]` the results need not
+  /// reach (exact mode only; brute and approx ignore it): the other shards
+  /// of a collection already hold `top` results that rank before any of
+  /// this index's scoring that much or more (collection_search.hpp). The
+  /// search prunes against it from the start; a pair may then return fewer
+  /// than `top` results, and some at or above the ceiling.
+  QueryOutcome run(const Query& query, const SearchOptions& options,
+                   const std::vector<double>* ceilings) const;
 
   /// Loads up front what queries will need and run() would otherwise load on
   /// first use (shared by all later queries): with `whole_body_frames`, the
@@ -217,9 +225,11 @@ std::vector<BatchEntry> read_single_query(const std::filesystem::path& path);
 /// exception) gets its `error` and the batch goes on; invalid options throw
 /// std::invalid_argument before any query runs. `progress(done, total)` (optional) is called
 /// from worker threads after each query, serialised.
+/// `ceilings` (optional): per batch entry, SearchEngine::run's per-pair ceilings.
 std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
-    const std::function<void(std::size_t, std::size_t)>& progress = {});
+    const std::function<void(std::size_t, std::size_t)>& progress = {},
+    const std::vector<std::vector<double>>* ceilings = nullptr);
 
 /// The contract line: {"id", "pairs": [...], "stats": {...}} or {"id", "error"}.
 std::string query_outcome_json(const QueryOutcome& outcome);
