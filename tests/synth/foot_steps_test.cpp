@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -80,39 +81,51 @@ TEST(FootSteps, AGlidingWalkTransitionStepsAndEndsOnTheGoalsFeet) {
   }
 }
 
+namespace {
+
+// A* on a gap from frame a of clip x to frame b of clip y, with and without
+// the stepping pass.
+struct WithAndWithout {
+  std::unique_ptr<test::RealGap> g;
+  std::vector<SynthFrame> stepped, plain;
+  SupplementStats stepped_stats, plain_stats;
+};
+std::unique_ptr<WithAndWithout> astar_both_ways(const Index& index, const char* x, std::size_t a,
+                                                const char* y, std::size_t b) {
+  auto w = std::make_unique<WithAndWithout>();
+  w->g = test::make_gap(index, x, a, y, b);
+  SupplementParams p;
+  w->stepped = supplement_astar(w->g->gap, p, &w->stepped_stats);
+  p.step_feet = false;
+  w->plain = supplement_astar(w->g->gap, p, &w->plain_stats);
+  return w;
+}
+
+}  // namespace
+
 TEST(FootSteps, AStarOnAWalkGapNoLongerSkates) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
-  auto g = test::make_gap(*index, "dataset-1_walk_normal_001.bvh", 30,
-                          "dataset-1_walk_angry_001.bvh", 40);
-  SupplementParams p;
-  SupplementStats st;
-  const auto a = supplement_astar(g->gap, p, &st);
-  EXPECT_TRUE(st.stepped);
-  EXPECT_LE(measure_transition(g->gap, a).skating_ratio, 0.05);
-  p.step_feet = false;
-  SupplementStats plain;
-  const auto b = supplement_astar(g->gap, p, &plain);
-  EXPECT_FALSE(plain.stepped);
-  EXPECT_GT(measure_transition(g->gap, b).skating_ratio, 0.2) << "without steps the feet glide";
+  const auto w = astar_both_ways(*index, "dataset-1_walk_normal_001.bvh", 30,
+                                 "dataset-1_walk_angry_001.bvh", 40);
+  EXPECT_TRUE(w->stepped_stats.stepped);
+  EXPECT_LE(measure_transition(w->g->gap, w->stepped).skating_ratio, 0.05);
+  EXPECT_FALSE(w->plain_stats.stepped);
+  EXPECT_GT(measure_transition(w->g->gap, w->plain).skating_ratio, 0.2)
+      << "without steps the feet glide";
 }
 
 TEST(FootSteps, ATransitionThatDoesNotSkateIsLeftAsTheSearchMadeIt) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
-  auto g = test::make_gap(*index, "dataset-1_bow_normal_001.bvh", 20,
-                          "dataset-1_bow_normal_001.bvh", 24);
-  SupplementParams p;
-  SupplementStats st;
-  const auto a = supplement_astar(g->gap, p, &st);
-  ASSERT_EQ(measure_transition(g->gap, a).skating_ratio, 0.0);
-  EXPECT_FALSE(st.stepped);
-  p.step_feet = false;
-  const auto b = supplement_astar(g->gap, p);
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t i = 0; i < a.size(); ++i)
-    for (std::size_t j = 0; j < a[i].local_rotations.size(); ++j)
-      EXPECT_EQ(a[i].local_rotations[j].coeffs(), b[i].local_rotations[j].coeffs());
+  const auto w = astar_both_ways(*index, "dataset-1_bow_normal_001.bvh", 20,
+                                 "dataset-1_bow_normal_001.bvh", 24);
+  ASSERT_EQ(measure_transition(w->g->gap, w->stepped).skating_ratio, 0.0);
+  EXPECT_FALSE(w->stepped_stats.stepped);
+  ASSERT_EQ(w->stepped.size(), w->plain.size());
+  for (std::size_t i = 0; i < w->stepped.size(); ++i)
+    for (std::size_t j = 0; j < w->stepped[i].local_rotations.size(); ++j)
+      EXPECT_EQ(w->stepped[i].local_rotations[j].coeffs(), w->plain[i].local_rotations[j].coeffs());
 }
