@@ -469,9 +469,10 @@ TEST(Search, CeilingsKeepTheResultsBelowThemAndPruneMore) {
   ASSERT_FALSE(set1_index().empty()) << "could not build the set-1 index";
   const Index index = Index::open(set1_index());
   const SearchEngine engine(index);
-  const auto queries = random_queries(index, 40);
+  // 40 queries (fewer where MOCAP_SEARCH_TEST_QUERIES asks: the sanitizer run).
+  const auto queries = random_queries(index, std::min<std::size_t>(40, random_query_count()));
   SearchOptions exact;
-  std::size_t pruned_more = 0;
+  std::size_t pruned_more = 0, i = 0;
   for (const Query& q : queries) {
     const auto free = engine.run(q, exact);
     std::vector<double> ceilings;
@@ -498,9 +499,11 @@ TEST(Search, CeilingsKeepTheResultsBelowThemAndPruneMore) {
     }
     EXPECT_LE(capped.stats.frames_evaluated, free.stats.frames_evaluated) << q.id;
     pruned_more += capped.stats.frames_evaluated < free.stats.frames_evaluated;
-    SearchOptions brute;
-    brute.mode = SearchMode::brute;
-    expect_same_results(engine.run(q, brute, &ceilings), engine.run(q, brute), q.id);
+    if (i++ % 5 == 0) {  // brute ignores ceilings (every fifth query: brute is slow)
+      SearchOptions brute;
+      brute.mode = SearchMode::brute;
+      expect_same_results(engine.run(q, brute, &ceilings), engine.run(q, brute), q.id);
+    }
   }
   EXPECT_GE(pruned_more, queries.size() / 4);
 }
