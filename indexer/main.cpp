@@ -204,19 +204,64 @@ class ProgressPrinter {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// The skipped files as JSON: [{"path", "reason"}].
+nlohmann::json skipped_json(const std::vector<mocap::IndexSkippedFile>& skipped) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& k : skipped) out.push_back({{"path", k.path}, {"reason", k.reason}});
+  return out;
+}
+
+// The summary of a sharded build: each shard's, then the collection's.
+int report_sharded_build(const mocap::ShardedBuildSummary& s, bool json) {
+  std::size_t clips = 0, skipped = 0;
+  std::uint64_t frames = 0;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& b : s.shards) {
+    clips += b.clips;
+    frames += b.frames;
+    skipped += b.skipped.size();
+    list.push_back({{"out", b.out.string()},
+                    {"up_to_date", b.up_to_date},
+                    {"clips", b.clips},
+                    {"frames", b.frames},
+                    {"new", b.parsed_new},
+                    {"changed", b.parsed_changed},
+                    {"reused", b.reused},
+                    {"removed", b.removed},
+                    {"skipped", skipped_json(b.skipped)},
+                    {"seconds", b.seconds}});
+  }
+  if (json) {
+    std::cout << mocap::json_text(nlohmann::json{{"out", s.manifest.string()},
+                                                 {"clips", clips},
+                                                 {"frames", frames},
+                                                 {"shards", list}})
+              << '\n';
+  } else {
+    for (const auto& b : s.shards) {
+      fmt::print("{}: {}{} clips, {} frames\n", b.out.string(), b.up_to_date ? "up to date, " : "",
+                 b.clips, b.frames);
+      for (const auto& k : b.skipped) fmt::print("  skipped {}: {}\n", k.path, k.reason);
+    }
+    fmt::print("{}: {} shards, {} clips, {} frames, {} skipped\n", s.manifest.string(),
+               s.shards.size(), clips, frames, skipped);
+  }
+  return skipped ? kExitSomeFailed : kExitOk;
+}
+
 int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& up,
-              const std::string& character, bool json, bool quiet) {
+              const std::string& character, std::size_t shards, bool json, bool quiet) {
   opt.unit = unit_option(unit);
   opt.up = up_option(up);
   if (!character.empty()) opt.character = character;
   opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
   ProgressPrinter printer;
   if (!quiet) opt.progress = [&printer](const mocap::IndexBuildProgress& p) { printer(p); };
+  if (shards > 0) return report_sharded_build(mocap::build_sharded(opt, shards), json);
   const mocap::IndexBuildSummary s = mocap::build_index(opt);
   const double fps = s.seconds > 0 ? static_cast<double>(s.frames) / s.seconds : 0.0;
   if (json) {
-    nlohmann::json skipped = nlohmann::json::array();
-    for (const auto& k : s.skipped) skipped.push_back({{"path", k.path}, {"reason", k.reason}});
+    const nlohmann::json skipped = skipped_json(s.skipped);
     std::cout << mocap::json_text(nlohmann::json{{"out", s.out.string()},
                                                  {"up_to_date", s.up_to_date},
                                                  {"clips", s.clips},
@@ -252,48 +297,6 @@ int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::
                human_bytes(static_cast<double>(s.index_bytes)));
   }
   return s.skipped.empty() ? kExitOk : kExitSomeFailed;
-}
-
-// A sharded build: the shards' summaries and the manifest.
-int run_sharded_build(mocap::IndexBuildOptions opt, std::size_t shards, bool json, bool quiet) {
-  opt.tool_version = std::string("mocap-index ") + MOCAP_VERSION;
-  ProgressPrinter printer;
-  if (!quiet) opt.progress = [&printer](const mocap::IndexBuildProgress& p) { printer(p); };
-  const mocap::ShardedBuildSummary s = mocap::build_sharded(opt, shards);
-  std::size_t clips = 0, skipped = 0;
-  std::uint64_t frames = 0;
-  nlohmann::json list = nlohmann::json::array();
-  for (const auto& b : s.shards) {
-    clips += b.clips;
-    frames += b.frames;
-    skipped += b.skipped.size();
-    nlohmann::json sk = nlohmann::json::array();
-    for (const auto& k : b.skipped) sk.push_back({{"path", k.path}, {"reason", k.reason}});
-    list.push_back({{"out", b.out.string()},
-                    {"up_to_date", b.up_to_date},
-                    {"clips", b.clips},
-                    {"frames", b.frames},
-                    {"new", b.parsed_new},
-                    {"changed", b.parsed_changed},
-                    {"reused", b.reused},
-                    {"removed", b.removed},
-                    {"skipped", sk},
-                    {"seconds", b.seconds}});
-  }
-  if (json) {
-    std::cout << mocap::json_text(nlohmann::json{{"out", s.manifest.string()},
-                                                 {"clips", clips},
-                                                 {"frames", frames},
-                                                 {"shards", list}})
-              << '\n';
-  } else {
-    for (const auto& b : s.shards)
-      fmt::print("{}: {}{} clips, {} frames\n", b.out.string(), b.up_to_date ? "up to date, " : "",
-                 b.clips, b.frames);
-    fmt::print("{}: {} shards, {} clips, {} frames, {} skipped\n", s.manifest.string(),
-               s.shards.size(), clips, frames, skipped);
-  }
-  return skipped ? kExitSomeFailed : kExitOk;
 }
 
 // verify of a manifest: every shard present, unchanged and sound.
@@ -412,8 +415,7 @@ int run_info(const std::string& file, bool json) {
                     {"frames", s.frame_count},
                     {"total_mass_kg", s.body.total_mass_kg}});
   }
-  nlohmann::json skipped = nlohmann::json::array();
-  for (const auto& k : index.skipped()) skipped.push_back({{"path", k.path}, {"reason", k.reason}});
+  const nlohmann::json skipped = skipped_json(index.skipped());
   const nlohmann::json out{
       {"file", file},
       {"bytes", bytes},
@@ -571,14 +573,9 @@ int main(int argc, char** argv) {
     int rc = kExitFatal;
     if (*inspect) rc = run_inspect(file, frame, unit, up, character, json);
     if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);
-    if (*build && build_shards > 0) {
-      build_opt.unit = unit_option(build_unit);
-      build_opt.up = up_option(build_up);
-      if (!build_character.empty()) build_opt.character = build_character;
-      rc = run_sharded_build(build_opt, build_shards, build_json, build_quiet);
-    } else if (*build) {
-      rc = run_build(build_opt, build_unit, build_up, build_character, build_json, build_quiet);
-    }
+    if (*build)
+      rc = run_build(build_opt, build_unit, build_up, build_character, build_shards, build_json,
+                     build_quiet);
     if (*verify) rc = run_verify(verify_file, verify_json);
     if (*info) rc = run_info(info_file, info_json);
     // What the command printed must have been written (a full disk, a
