@@ -81,12 +81,23 @@ std::vector<std::vector<SynthFrame>> place_pieces(
   return pieces;
 }
 
-// Horizontal root velocity of a placed query frame from its neighbours, m/s
+// Horizontal root velocity of placed query frame h from its neighbours, m/s
 // (0 for a frame at rest).
-Eigen::Vector3d query_velocity(const PlacedQueryFrame& q, bool has_prev, bool has_next, double dt) {
-  const int steps = (has_prev ? 1 : 0) + (has_next ? 1 : 0);
+Eigen::Vector3d query_velocity(const MotionLayout& out,
+                               const std::vector<QueryFrameInput>& query_frames, std::size_t h,
+                               double dt) {
+  const int steps = (query_frames[h].prev ? 1 : 0) + (query_frames[h].next ? 1 : 0);
   if (steps == 0) return Eigen::Vector3d::Zero();
-  return horizontal_root_velocity(q.before, q.after, steps * dt);
+  return horizontal_root_velocity(out.queries[h].before, out.queries[h].after, steps * dt);
+}
+
+// Query frame h gives its root's ground position under this placement (in
+// world mode clips keep their coordinates: nothing moves).
+bool gives_root_xz(FramePlacement placement, const std::vector<QueryFrameInput>& query_frames,
+                   std::size_t h) {
+  if (placement == FramePlacement::world) return false;
+  const auto& p = query_frames[h].pose.given.root_position_m;
+  return p[0].has_value() && p[2].has_value();
 }
 
 void translate(SynthFrame& f, const Eigen::Vector3d& d) {
@@ -100,15 +111,8 @@ void add_travel(FramePlacement placement, const std::vector<QueryFrameInput>& qu
   const std::size_t pairs = out.pieces.size();
   out.merged_in.assign(pairs, 0);
   out.merged_out.assign(pairs, 0);
-  auto gives_xz = [&](std::size_t h) {
-    if (placement == FramePlacement::world) return false;  // clips keep their coordinates
-    const auto& p = query_frames[h].pose.given.root_position_m;
-    return p[0].has_value() && p[2].has_value();
-  };
-  auto velocity = [&](std::size_t h) {
-    return query_velocity(out.queries[h], query_frames[h].prev.has_value(),
-                          query_frames[h].next.has_value(), dt);
-  };
+  auto gives_xz = [&](std::size_t h) { return gives_root_xz(placement, query_frames, h); };
+  auto velocity = [&](std::size_t h) { return query_velocity(out, query_frames, h, dt); };
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
   for (std::size_t h = 0; h < pairs; ++h) {
     auto& pc = out.pieces[h];
@@ -135,15 +139,8 @@ void add_timed_travel(FramePlacement placement, const std::vector<QueryFrameInpu
   const std::size_t pairs = out.pieces.size();
   out.merged_in.assign(pairs, 0);
   out.merged_out.assign(pairs, 0);
-  auto gives_xz = [&](std::size_t h) {
-    if (placement == FramePlacement::world) return false;
-    const auto& p = query_frames[h].pose.given.root_position_m;
-    return p[0].has_value() && p[2].has_value();
-  };
-  auto velocity = [&](std::size_t h) {
-    return query_velocity(out.queries[h], query_frames[h].prev.has_value(),
-                          query_frames[h].next.has_value(), dt);
-  };
+  auto gives_xz = [&](std::size_t h) { return gives_root_xz(placement, query_frames, h); };
+  auto velocity = [&](std::size_t h) { return query_velocity(out, query_frames, h, dt); };
   for (std::size_t h = 0; h < pairs; ++h) {
     if (timed[h].direct) continue;
     auto& pc = out.pieces[h];
