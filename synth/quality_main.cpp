@@ -204,9 +204,11 @@ int main(int argc, char** argv) {
       const mocap::MotionMeasures src_y = mocap::measure_motion(sk, after_gap, dt);
       const double n_x = static_cast<double>(before_gap.size() - 1);
       const double n_y = static_cast<double>(after_gap.size() - 1);
-      const double src_ratio =
-          n_x + n_y > 0 ? (src_x.skating_ratio * n_x + src_y.skating_ratio * n_y) / (n_x + n_y)
-                        : 0.0;
+      // A ratio over both windows' steps together.
+      const auto over_both = [&](double mocap::MotionMeasures::*ratio) {
+        return n_x + n_y > 0 ? (src_x.*ratio * n_x + src_y.*ratio * n_y) / (n_x + n_y) : 0.0;
+      };
+      const double src_ratio = over_both(&mocap::MotionMeasures::skating_ratio);
       skate_a += ma.skating_ratio;
       skate_s += ms_.skating_ratio;
       skate_i += mi.skating_ratio;
@@ -214,9 +216,7 @@ int main(int argc, char** argv) {
       air_a += ma.airborne_ratio;
       air_s += ms_.airborne_ratio;
       air_i += mi.airborne_ratio;
-      air_src += n_x + n_y > 0
-                     ? (src_x.airborne_ratio * n_x + src_y.airborne_ratio * n_y) / (n_x + n_y)
-                     : 0.0;
+      air_src += over_both(&mocap::MotionMeasures::airborne_ratio);
       // Their contact-based sliding per as many steps as the transition has
       // (the mean of the two windows).
       const double src_slide = 0.5 * (src_x.foot_sliding_m + src_y.foot_sliding_m);
