@@ -39,16 +39,15 @@ class LegSteps {
            std::size_t swing_frames)
       : leg_(leg), w_(w), p_(p), swing_frames_(swing_frames), ground_(ground) {
     const auto hip = static_cast<std::size_t>(leg.hip), knee = static_cast<std::size_t>(leg.knee),
-               ankle = static_cast<std::size_t>(leg.ankle);
+               a = static_cast<std::size_t>(leg.ankle);
     length_ = (w[0].positions_m[knee] - w[0].positions_m[hip]).norm() +
-              (w[0].positions_m[ankle] - w[0].positions_m[knee]).norm();
+              (w[0].positions_m[a] - w[0].positions_m[knee]).norm();
     const std::size_t last = w.size() - 1;
-    const auto a = static_cast<std::size_t>(leg.ankle);
     start_on_ground_ =
-        lowest(w[0], ground) < p.plant_height_m &&
+        lowest(w[0]) < p.plant_height_m &&
         horizontal_distance(before.positions_m[a], w[0].positions_m[a]) < p.plant_speed_mps * dt;
     goal_on_ground_ =
-        lowest(w[last], ground) < p.plant_height_m &&
+        lowest(w[last]) < p.plant_height_m &&
         horizontal_distance(w[last].positions_m[a], after.positions_m[a]) < p.plant_speed_mps * dt;
     goal_ = own(last);
     // The foot's joints in the ankle's frame, and the ankle's rotation on
@@ -122,10 +121,11 @@ class LegSteps {
     const auto a = static_cast<std::size_t>(leg_.ankle);
     return {w_[i].positions_m[a], w_[i].rotations[a]};
   }
-  double lowest(const WorldPose& w, double ground) const {
+  // Height of the leg's lowest foot joint in `w` above the ground.
+  double lowest(const WorldPose& w) const {
     double y = 1e300;
     for (int f : leg_.feet) y = std::min(y, w.positions_m[static_cast<std::size_t>(f)].y());
-    return y - ground;
+    return y - ground_;
   }
   // How far from the hip (horizontally) the planted ankle can stay at frame
   // i: the leg at reach_fraction of its length down to the ankle's height.
