@@ -64,8 +64,8 @@ std::vector<QueryOutcome> run_collection_batch(
   const CollectionManifest m = read_collection_manifest(manifest);
   if (const auto problems = collection_shard_problems(manifest, m); !problems.empty())
     throw InputError(manifest.string(), 0, problems.front());
-  std::vector<std::vector<QueryOutcome>> per_shard;
-  std::vector<std::size_t> offsets;
+  // The shards searched so far, merged (their clip indices the collection's).
+  std::vector<QueryOutcome> merged;
   // Per query and pair, the r-th best score of the shards searched so far:
   // a later shard's clips rank after theirs at equal scores, so it need not
   // find results at or above it (SearchEngine::run's ceilings).
@@ -82,20 +82,22 @@ std::vector<QueryOutcome> run_collection_batch(
     std::function<void(std::size_t, std::size_t)> shard_progress;
     if (progress)
       shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
-    per_shard.push_back(run_query_batch(engine, batch, options, shard_progress, &ceilings));
-    offsets.push_back(offset);
+    std::vector<QueryOutcome> shard =
+        run_query_batch(engine, batch, options, shard_progress, &ceilings);
+    merged = merged.empty()
+                 ? merge_shard_outcomes({std::move(shard)}, {offset}, batch)
+                 : merge_shard_outcomes({std::move(merged), std::move(shard)}, {0, offset}, batch);
     offset += s.clips;
     done_before += batch.size();
-    const std::vector<QueryOutcome> so_far = merge_shard_outcomes(per_shard, offsets, batch);
     for (std::size_t q = 0; q < batch.size(); ++q) {
-      ceilings[q].assign(so_far[q].pairs.size(), std::numeric_limits<double>::infinity());
+      ceilings[q].assign(merged[q].pairs.size(), std::numeric_limits<double>::infinity());
       const std::size_t top = batch[q].query ? batch[q].query->top : 0;
-      for (std::size_t h = 0; h < so_far[q].pairs.size(); ++h)
-        if (top > 0 && so_far[q].pairs[h].results.size() >= top)
-          ceilings[q][h] = so_far[q].pairs[h].results[top - 1].score_J;
+      for (std::size_t h = 0; h < merged[q].pairs.size(); ++h)
+        if (top > 0 && merged[q].pairs[h].results.size() >= top)
+          ceilings[q][h] = merged[q].pairs[h].results[top - 1].score_J;
     }
   }
-  return merge_shard_outcomes(per_shard, offsets, batch);
+  return merged;
 }
 
 }  // namespace mocap
