@@ -446,9 +446,10 @@ double output_frame_time(const Query& query, const SynthOptions& options, QueryB
       throw InputError("--fps", 0, "must be in (0, 1000] frames per second");
     return 1.0 / *options.fps;
   }
+  // The unit option resolve_query_frame read the file with: the cached file.
   for (const QueryFrameSpec& f : query.frames)
     if (f.bvh) try {
-        return cache.get(*f.bvh, "")->motion.frame_time_s;
+        return cache.get(*f.bvh, "auto")->motion.frame_time_s;
       } catch (const InputError& e) {
         throw InputError(source, 0, e.what());
       }
