@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <stdexcept>
 
 #include "energy_fixtures.hpp"
@@ -506,6 +507,42 @@ TEST(HScan, RootTranslationQueryMatchesPartialReference) {
       EXPECT_LE(d2, ref * (1.0 + 1e-5) + 1e-6);
     }
   }
+}
+
+// A frame's value does not depend on the range it is scanned in: the exact
+// search evaluates the end frames its bounds leave, brute force all of them,
+// and both must rank by the same numbers. (With fused multiply-adds the
+// vectorised loop body and its scalar remainder round differently: the
+// build turns contraction off.)
+TEST(HScan, ValueOfAFrameDoesNotDependOnTheRangeScanned) {
+  const std::size_t segments = 21, n = 203;
+  std::vector<float> values(segments * HScanTable::kFields * n), roots(3 * n);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (float& v : values) v = u(rng);
+  for (float& v : roots) v = u(rng);
+  const HScanView table{values.data(), roots.data(), n, n, segments};
+  HScanQuery q;
+  q.segment_count = segments;
+  q.constants.resize(segments * HScanQuery::kConstants);
+  for (float& c : q.constants) c = u(rng);
+  HScanRootQuery rq;
+  rq.position = {0.3f, 0.9f, -0.2f};
+  rq.given = {1.0f, 0.0f, 1.0f};
+  rq.inv_t2 = 4.0f;
+  rq.gravity = 9.81f;
+  for (std::size_t s = 0; s < segments; ++s) rq.masses.push_back(1.0f + u(rng));
+  std::vector<float> whole(n), root_whole(n), part(n);
+  scan_approximate_energy(table, q, 0, n, whole.data());
+  scan_root_translation_energy(table, rq, 0, n, root_whole.data());
+  for (std::size_t b = 0; b < n; b += 5)
+    for (std::size_t len : {std::size_t{1}, std::size_t{3}, std::size_t{17}, n - b}) {
+      const std::size_t e = std::min(n, b + len);
+      scan_approximate_energy(table, q, b, e, part.data());
+      for (std::size_t f = b; f < e; ++f) ASSERT_EQ(part[f - b], whole[f]) << "frame " << f;
+      scan_root_translation_energy(table, rq, b, e, part.data());
+      for (std::size_t f = b; f < e; ++f) ASSERT_EQ(part[f - b], root_whole[f]) << "frame " << f;
+    }
 }
 
 TEST(EnergyTermNames, SegmentsAndJoints) {
