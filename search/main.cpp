@@ -4,6 +4,9 @@
 //                [--mode exact|approx|brute] [--threads N] [--quiet] ...
 //       answers a batch of queries (docs/queries.md, docs/search.md), one JSON
 //       object per query per line, in input order (stdout without --out).
+//   mpirun -np K mocap-search --index COLLECTION.json ... [--distribute auto|shards|queries]
+//       the same batch spread over K MPI ranks (docs/search.md "Many machines:
+//       MPI"); rank 0 writes the output, identical to one process's.
 //   mocap-search energy --from FILE:FRAME --to FILE:FRAME [--transition-time S]
 //                [--character C.json] [--unit U] [--json]
 // Exit status (docs/cli.md): 0 success; 1 some queries failed (their lines
@@ -20,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 
 #include "mocap/common/atomic_file.hpp"
@@ -30,8 +34,12 @@
 #include "mocap/common/output_path.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/collection_search.hpp"
+#include "mocap/search/distributed.hpp"
 #include "mocap/search/energy_command.hpp"
 #include "mocap/search/search.hpp"
+#ifdef MOCAP_HAVE_MPI
+#include "mpi_search.hpp"
+#endif
 
 #ifndef MOCAP_VERSION
 #define MOCAP_VERSION "dev"
@@ -66,7 +74,18 @@ struct SearchArgs {
   int trees = 4;
   bool no_recall = false;
   bool force = false;
+  std::string distribute = "auto";
 };
+
+// The MPI session when started by an MPI launcher (one rank of several), else null.
+#ifdef MOCAP_HAVE_MPI
+using MpiSession = mocap::mpi::Session;
+#else
+struct MpiSession {
+  int rank() const { return 0; }
+  int size() const { return 1; }
+};
+#endif
 
 void add_search_options(CLI::App& app, SearchArgs& a) {
   app.add_option("--index", a.index,
@@ -101,6 +120,12 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
   app.add_option("--trees", a.trees, "approx: randomised kd-trees per skeleton (default 4)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--no-recall", a.no_recall, "approx: do not run exact to measure recall");
+  app.add_option("--distribute", a.distribute,
+                 "Under mpirun: spread the shards of a collection over the ranks (shards), or the "
+                 "queries over ranks that each open the whole index (queries); auto (default) "
+                 "takes queries when every rank of a node can hold the whole collection in half "
+                 "its memory. Without an MPI launcher the search runs in this one process.")
+      ->check(CLI::IsMember({"auto", "shards", "queries"}));
 }
 
 void add_energy_command(CLI::App& app, EnergyArgs& args) {
@@ -143,7 +168,8 @@ int run_energy(const EnergyArgs& args) {
   return kExitOk;
 }
 
-int run_search(const SearchArgs& a) {
+int run_search(const SearchArgs& a, const MpiSession* mpi) {
+  const bool rank0 = !mpi || mpi->rank() == 0;
   if (a.index.empty())
     throw mocap::InputError("--index", 0, "required (an index built by mocap-index build)");
   if (a.queries.empty() == a.query.empty())
@@ -161,33 +187,45 @@ int run_search(const SearchArgs& a) {
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;
   std::optional<mocap::AtomicFile> out_file;
-  if (!a.out.empty()) {
-    mocap::check_distinct_outputs({{"--index", a.index},
-                                   {"--queries", a.queries.empty() ? a.query : a.queries},
-                                   {"--out", a.out}});
-    out_file.emplace(mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
-  }
-  const auto batch =
-      a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+  std::vector<mocap::BatchEntry> batch;
+  std::ofstream file;
+  // Under MPI every rank reads the batch, rank 0 alone checks and opens the
+  // output; any rank's failure ends every rank (mpi_search.hpp).
+  const auto prepare = [&] {
+    if (!a.out.empty() && rank0) {
+      mocap::check_distinct_outputs({{"--index", a.index},
+                                     {"--queries", a.queries.empty() ? a.query : a.queries},
+                                     {"--out", a.out}});
+      out_file.emplace(
+          mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
+    }
+    batch =
+        a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+    if (out_file) {
+      file.open(out_file->temporary_path(), std::ios::binary);
+      if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+    }
+  };
+#ifdef MOCAP_HAVE_MPI
+  if (mpi)
+    mocap::mpi::on_every_rank(*mpi, prepare);
+  else
+#endif
+    prepare();
   const auto t0 = std::chrono::steady_clock::now();
   const bool collection = mocap::is_collection_manifest(a.index);
   std::optional<mocap::Index> index;
   std::optional<mocap::SearchEngine> engine;
-  if (!collection) {
+  if (!collection && !mpi) {
     index.emplace(mocap::Index::open(a.index));
     engine.emplace(*index);
   }
   const double load_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::ofstream file;
-  if (out_file) {
-    file.open(out_file->temporary_path(), std::ios::binary);
-    if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
-  }
   const bool tty = isatty(fileno(stderr)) != 0;
   std::size_t last_line = 0;
   auto progress = [&](std::size_t done, std::size_t total) {
-    if (a.quiet || total < 2) return;
+    if (a.quiet || total < 2 || !rank0) return;
     if (tty) {
       const int width = 40;
       const int filled = static_cast<int>(width * done / total);
@@ -203,8 +241,21 @@ int run_search(const SearchArgs& a) {
   const auto t1 = std::chrono::steady_clock::now();
   // A collection manifest: every shard answers, the top-r lists merged
   // (docs/search.md "Collections").
-  const auto outcomes = collection ? mocap::run_collection_batch(a.index, batch, opt, progress)
-                                   : mocap::run_query_batch(*engine, batch, opt, progress);
+  std::vector<mocap::QueryOutcome> outcomes;
+  std::string where = "one process";
+#ifdef MOCAP_HAVE_MPI
+  if (mpi) {
+    const auto r = mocap::mpi::run_distributed_batch(
+        *mpi, a.index, batch, opt,
+        a.distribute == "auto" ? std::nullopt : mocap::parse_distribution(a.distribute), progress);
+    outcomes = r.outcomes;
+    where = fmt::format("{} ranks, distributed by {}", mpi->size(),
+                        mocap::distribution_name(r.distribution));
+    if (!rank0) return kExitOk;
+  } else
+#endif
+    outcomes = collection ? mocap::run_collection_batch(a.index, batch, opt, progress)
+                          : mocap::run_query_batch(*engine, batch, opt, progress);
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   std::ostream& os = a.out.empty() ? std::cout : file;
   std::size_t failed = 0;
@@ -224,15 +275,25 @@ int run_search(const SearchArgs& a) {
   }
   if (!a.quiet)
     fmt::print(stderr,
-               "mocap-search: {} queries ({} failed), mode {}, index loaded in {:.2f} s, answered "
-               "in {:.3f} s\n",
-               outcomes.size(), failed, a.mode, load_s, run_s);
+               "mocap-search: {} queries ({} failed), mode {}, {}, index loaded in {:.2f} s, "
+               "answered in {:.3f} s\n",
+               outcomes.size(), failed, a.mode, where, load_s, run_s);
   return failed > 0 ? kExitSomeFailed : kExitOk;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifdef MOCAP_HAVE_MPI
+  // Under an MPI launcher every rank runs this command line; only rank 0 speaks.
+  std::optional<mocap::mpi::Session> mpi;
+  if (mocap::mpi::launched_by_mpi()) mpi.emplace(&argc, &argv);
+  const MpiSession* session = mpi ? &*mpi : nullptr;
+#else
+  const MpiSession* session = nullptr;
+#endif
+  const bool rank0 = !session || session->rank() == 0;
+  std::ostringstream silent;
   CLI::App app{"mocap-search: retrieval of partial motions by energy change, and energy tools"};
   app.set_version_flag("--version", MOCAP_VERSION);
   app.require_subcommand(0, 1);
@@ -246,7 +307,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return rank0 ? app.exit(e) : app.exit(e, silent, silent);
   }
   try {
     if (app.got_subcommand("energy")) {
@@ -254,12 +315,17 @@ int main(int argc, char** argv) {
       return run_energy(energy);
     }
     mocap::apply_input_limits(search_limits);
-    return run_search(search);
+    return run_search(search, session);
   } catch (const mocap::InputError& e) {
-    fmt::print(stderr, "mocap-search: {}\n", e.what());
+    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
     return kExitFatal;
+#ifdef MOCAP_HAVE_MPI
+  } catch (const mocap::mpi::RankFailure& e) {
+    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
+    return kExitFatal;
+#endif
   } catch (const std::exception& e) {
-    fmt::print(stderr, "mocap-search: error: {}\n", e.what());
+    if (rank0) fmt::print(stderr, "mocap-search: error: {}\n", e.what());
     return kExitFatal;
   }
 }

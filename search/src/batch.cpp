@@ -94,6 +94,14 @@ std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
     const std::function<void(std::size_t, std::size_t)>& progress,
     const std::vector<std::vector<double>>* ceilings) {
+  BatchControl control;
+  if (ceilings) control.ceilings = [ceilings](std::size_t i) { return (*ceilings)[i]; };
+  return run_query_batch(engine, batch, options, control, progress);
+}
+
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const BatchControl& control, const std::function<void(std::size_t, std::size_t)>& progress) {
   validate_search_options(options);
   bool whole_body = false;
   for (const BatchEntry& e : batch)
@@ -104,23 +112,28 @@ std::vector<QueryOutcome> run_query_batch(
   std::vector<QueryOutcome> out(batch.size());
   std::mutex progress_mutex;
   std::size_t done = 0;
-  tbb::parallel_for(std::size_t{0}, batch.size(), [&](std::size_t i) {
+  const std::size_t n = batch.size();
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    const std::size_t i = (k + control.first) % n;
     const BatchEntry& e = batch[i];
     if (!e.query) {
       out[i].id = e.id;
       out[i].error = e.error;
     } else {
       try {
-        out[i] = engine.run(*e.query, options, ceilings ? &(*ceilings)[i] : nullptr);
+        std::vector<double> ceilings;
+        if (control.ceilings) ceilings = control.ceilings(i);
+        out[i] = engine.run(*e.query, options, ceilings.empty() ? nullptr : &ceilings);
       } catch (const std::exception& err) {
         out[i] = QueryOutcome{};
         out[i].id = e.id;
         out[i].error = err.what();
       }
     }
+    if (control.answered) control.answered(i, out[i]);
     if (progress) {
       std::lock_guard lock(progress_mutex);
-      progress(++done, batch.size());
+      progress(++done, n);
     }
   });
   return out;

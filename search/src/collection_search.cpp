@@ -7,8 +7,13 @@
 #include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/search/distributed.hpp"
 
 namespace mocap {
+
+namespace {
+constexpr double kNoCeiling = std::numeric_limits<double>::infinity();
+}  // namespace
 
 std::vector<QueryOutcome> merge_shard_outcomes(
     const std::vector<std::vector<QueryOutcome>>& per_shard,
@@ -58,46 +63,80 @@ std::vector<QueryOutcome> merge_shard_outcomes(
   return out;
 }
 
+std::vector<ShardSource> manifest_shards(const std::filesystem::path& manifest,
+                                         const CollectionManifest& m,
+                                         const std::vector<std::size_t>* which) {
+  std::vector<ShardSource> out;
+  std::size_t offset = 0;
+  for (std::size_t k = 0; k < m.shards.size(); ++k) {
+    const CollectionShard& s = m.shards[k];
+    if (!which || std::find(which->begin(), which->end(), k) != which->end())
+      out.push_back({shard_file(manifest, s), s.path, s.clips, offset});
+    offset += s.clips;
+  }
+  return out;
+}
+
+std::vector<QueryOutcome> search_shards(
+    const std::vector<ShardSource>& shards, const std::vector<BatchEntry>& batch,
+    const SearchOptions& options, const ShardHooks& hooks,
+    const std::function<void(std::size_t, std::size_t)>& progress) {
+  // The shards searched so far, merged (their clip indices the collection's).
+  std::vector<QueryOutcome> merged;
+  // Per query and pair, the r-th best score of the shards searched so far:
+  // a later shard's clips rank after theirs at equal scores, so it need not
+  // find results at or above it (SearchEngine::run's ceilings).
+  std::vector<std::vector<double>> own(batch.size());
+  std::size_t done_before = 0;
+  const std::size_t total = batch.size() * shards.size();
+  for (const ShardSource& s : shards) {
+    const Index index = Index::open(s.file);
+    if (s.clips && index.clips().size() != *s.clips)
+      throw InputError(s.file.string(), 0,
+                       "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +
+                           " clips, the manifest says " + std::to_string(*s.clips));
+    const SearchEngine engine(index);
+    BatchControl control;
+    control.first = hooks.first;
+    control.ceilings = [&](std::size_t i) {
+      std::vector<double> c = own[i];
+      if (hooks.shared) {
+        const std::vector<double> elsewhere = hooks.shared(i);
+        c.resize(std::max(c.size(), elsewhere.size()), kNoCeiling);
+        for (std::size_t h = 0; h < elsewhere.size(); ++h)
+          c[h] = shared_ceiling(c[h], elsewhere[h]);
+      }
+      return c;
+    };
+    if (hooks.reached)
+      control.answered = [&](std::size_t i, const QueryOutcome& o) {
+        std::vector<double> r = rth_best_scores(o, batch[i].query ? batch[i].query->top : 0);
+        for (std::size_t h = 0; h < r.size() && h < own[i].size(); ++h)
+          r[h] = std::min(r[h], own[i][h]);
+        hooks.reached(i, r);
+      };
+    std::function<void(std::size_t, std::size_t)> shard_progress;
+    if (progress)
+      shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
+    std::vector<QueryOutcome> shard =
+        run_query_batch(engine, batch, options, control, shard_progress);
+    merged = merged.empty() ? merge_shard_outcomes({std::move(shard)}, {s.clip_offset}, batch)
+                            : merge_shard_outcomes({std::move(merged), std::move(shard)},
+                                                   {0, s.clip_offset}, batch);
+    done_before += batch.size();
+    for (std::size_t q = 0; q < batch.size(); ++q)
+      own[q] = rth_best_scores(merged[q], batch[q].query ? batch[q].query->top : 0);
+  }
+  return merged;
+}
+
 std::vector<QueryOutcome> run_collection_batch(
     const std::filesystem::path& manifest, const std::vector<BatchEntry>& batch,
     const SearchOptions& options, const std::function<void(std::size_t, std::size_t)>& progress) {
   const CollectionManifest m = read_collection_manifest(manifest);
   if (const auto problems = collection_shard_problems(manifest, m); !problems.empty())
     throw InputError(manifest.string(), 0, problems.front());
-  // The shards searched so far, merged (their clip indices the collection's).
-  std::vector<QueryOutcome> merged;
-  // Per query and pair, the r-th best score of the shards searched so far:
-  // a later shard's clips rank after theirs at equal scores, so it need not
-  // find results at or above it (SearchEngine::run's ceilings).
-  std::vector<std::vector<double>> ceilings(batch.size());
-  std::size_t offset = 0, done_before = 0;
-  const std::size_t total = batch.size() * m.shards.size();
-  for (const CollectionShard& s : m.shards) {
-    const Index index = Index::open(shard_file(manifest, s));
-    if (index.clips().size() != s.clips)
-      throw InputError(manifest.string(), 0,
-                       "shard " + s.path + ": holds " + std::to_string(index.clips().size()) +
-                           " clips, the manifest says " + std::to_string(s.clips));
-    const SearchEngine engine(index);
-    std::function<void(std::size_t, std::size_t)> shard_progress;
-    if (progress)
-      shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
-    std::vector<QueryOutcome> shard =
-        run_query_batch(engine, batch, options, shard_progress, &ceilings);
-    merged = merged.empty()
-                 ? merge_shard_outcomes({std::move(shard)}, {offset}, batch)
-                 : merge_shard_outcomes({std::move(merged), std::move(shard)}, {0, offset}, batch);
-    offset += s.clips;
-    done_before += batch.size();
-    for (std::size_t q = 0; q < batch.size(); ++q) {
-      ceilings[q].assign(merged[q].pairs.size(), std::numeric_limits<double>::infinity());
-      const std::size_t top = batch[q].query ? batch[q].query->top : 0;
-      for (std::size_t h = 0; h < merged[q].pairs.size(); ++h)
-        if (top > 0 && merged[q].pairs[h].results.size() >= top)
-          ceilings[q][h] = merged[q].pairs[h].results[top - 1].score_J;
-    }
-  }
-  return merged;
+  return search_shards(manifest_shards(manifest, m), batch, options, {}, progress);
 }
 
 }  // namespace mocap

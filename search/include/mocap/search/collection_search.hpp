@@ -8,8 +8,11 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <optional>
+#include <string>
 #include <vector>
 
+#include "mocap/common/collection_manifest.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
@@ -21,6 +24,45 @@ namespace mocap {
 std::vector<QueryOutcome> merge_shard_outcomes(
     const std::vector<std::vector<QueryOutcome>>& per_shard,
     const std::vector<std::size_t>& clip_offsets, const std::vector<BatchEntry>& batch);
+
+/// One index to search as part of a collection: its file, the manifest's
+/// name and clip count for it (checked when it is opened; nullopt: not
+/// checked, a plain index), and the collection index of its first clip.
+struct ShardSource {
+  std::filesystem::path file;
+  std::string name;
+  std::optional<std::size_t> clips;
+  std::size_t clip_offset = 0;
+};
+
+/// How search_shards shares thresholds with searches elsewhere (other MPI
+/// ranks). Optional members; the results do not depend on them.
+struct ShardHooks {
+  /// Per entry, per pair, the r-th best score found elsewhere (+inf: none),
+  /// asked when the entry starts on a shard (shared_ceiling, distributed.hpp).
+  std::function<std::vector<double>(std::size_t)> shared;
+  /// Told, per entry and pair, an r-th best score found here (after each
+  /// shard): a ceiling valid for the whole collection. From worker threads.
+  std::function<void(std::size_t, const std::vector<double>&)> reached;
+  /// BatchControl::first.
+  std::size_t first = 0;
+};
+
+/// Opens the shards one at a time, in the order given (which must be their
+/// clip order), answers the batch on each (run_query_batch) pruning against
+/// the r-th best of the shards before it, and merges. Throws InputError for
+/// a shard that cannot be opened or whose clip count is not the manifest's.
+/// `progress(done, total)` counts the queries of every shard.
+std::vector<QueryOutcome> search_shards(
+    const std::vector<ShardSource>& shards, const std::vector<BatchEntry>& batch,
+    const SearchOptions& options, const ShardHooks& hooks = {},
+    const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+/// The manifest's shards as sources, in manifest order (all of them, or
+/// those listed in `which`).
+std::vector<ShardSource> manifest_shards(const std::filesystem::path& manifest,
+                                         const CollectionManifest& m,
+                                         const std::vector<std::size_t>* which = nullptr);
 
 /// Opens every shard of the manifest (InputError naming a missing or
 /// changed shard, before any query runs) and runs the batch on each

@@ -220,6 +220,23 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path);
 /// Reads one query from a JSON file (default id: the file stem).
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path);
 
+/// How a caller that shares pruning thresholds with other searches of the
+/// same batch (the shards of a collection, other MPI ranks) steers
+/// run_query_batch. The outcomes are the same whatever it does: a ceiling
+/// only lets exact mode skip what cannot be among the merged top r.
+struct BatchControl {
+  /// Asked when entry i starts: its per-pair ceilings (SearchEngine::run;
+  /// an empty vector: none). Called from worker threads, concurrently.
+  std::function<std::vector<double>(std::size_t)> ceilings;
+  /// Told once entry i is answered (or failed). Called from worker threads,
+  /// concurrently.
+  std::function<void(std::size_t, const QueryOutcome&)> answered;
+  /// The entry the batch starts from, wrapping around: ranks that start
+  /// from different entries find each other's thresholds for the entries
+  /// they reach last. Order only: outcomes stay in input order.
+  std::size_t first = 0;
+};
+
 /// Runs a batch in parallel (TBB over queries, and over clips inside each);
 /// outcomes are in input order. A query that fails (InputError or another
 /// exception) gets its `error` and the batch goes on; invalid options throw
@@ -230,6 +247,10 @@ std::vector<QueryOutcome> run_query_batch(
     const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
     const std::function<void(std::size_t, std::size_t)>& progress = {},
     const std::vector<std::vector<double>>* ceilings = nullptr);
+/// The same, steered by `control`.
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const BatchControl& control, const std::function<void(std::size_t, std::size_t)>& progress);
 
 /// The contract line: {"id", "pairs": [...], "stats": {...}} or {"id", "error"}.
 std::string query_outcome_json(const QueryOutcome& outcome);

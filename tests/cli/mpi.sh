@@ -1,0 +1,113 @@
+#!/usr/bin/env bash
+# mocap-search under mpirun (docs/search.md "Many machines: MPI"): 2 ranks
+# over 2- and 3-shard collections of set 1, distributed by shards and by
+# queries, give rank 0 an output equal to the single index's (but for the
+# stats) on held-out queries of every kind; a failing rank (a missing shard,
+# a changed shard, an output path refused on rank 0, an unreadable batch)
+# ends the whole job with exit 2 and a message naming the rank and the file,
+# never a hang.
+#   bash tests/cli/mpi.sh BUILD_DIR DATA_DIR
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup mpi "$@"
+set1="$data/bandai-namco-1"
+command -v mpirun >/dev/null || missing_tool scripts/setup "mpirun (Open MPI) is not installed"
+ldd "$search" | grep -q libmpi ||
+  missing_tool scripts/setup "mocap-search was built without MPI"
+# Open MPI refuses root without these (CI runs as root); --oversubscribe lets
+# 2 ranks share fewer cores.
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+# Each run is bounded: a hang fails the test instead of stalling CI.
+mpi() { timeout 300 mpirun -np "$1" "${@:2}"; }
+
+"$indexer" build -q --out "$tmp/one.h5" "$set1" >/dev/null
+for n in 2 3; do "$indexer" build -q --shards "$n" --out "$tmp/c$n.json" "$set1" >/dev/null; done
+python3 "$(dirname "${BASH_SOURCE[0]}")/../../bench/search_queries.py" "$(cd "$set1/data" && pwd)" 40 11 >"$tmp/q.jsonl"
+# A line that cannot be parsed: every rank reports it the same way.
+echo '{"id": "broken", "frames": 3}' >>"$tmp/q.jsonl"
+status=0
+"$search" -q --threads 1 --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --out "$tmp/r1.jsonl" || status=$?
+[ "$status" -eq 1 ] || fail "one process: exit $status (expected 1: one line fails)"
+
+same() {  # same RESULTS_A RESULTS_B WHAT
+  python3 - "$1" "$2" <<'PY' || fail "$3: results differ from the single index"
+import json, sys
+a = [json.loads(l) for l in open(sys.argv[1])]
+b = [json.loads(l) for l in open(sys.argv[2])]
+assert len(a) == len(b) == 41, (len(a), len(b))
+results = 0
+for x, y in zip(a, b):
+    x.pop("stats", None)
+    y.pop("stats", None)
+    assert x == y, (x.get("id"), json.dumps(x)[:300], json.dumps(y)[:300])
+    results += sum(len(p["results"]) for p in x.get("pairs", []))
+assert results > 300, results
+assert a[-1]["id"] == "broken" and "error" in a[-1]
+PY
+}
+for n in 2 3; do
+  for d in shards queries auto; do
+    status=0
+    mpi 2 "$search" --threads 1 --index "$tmp/c$n.json" --queries "$tmp/q.jsonl" \
+      --out "$tmp/r$n$d.jsonl" --distribute "$d" >"$tmp/out.txt" 2>"$tmp/err.txt" || status=$?
+    [ "$status" -eq 1 ] || fail "$n shards, $d: exit $status: $(cat "$tmp/err.txt")"
+    same "$tmp/r1.jsonl" "$tmp/r$n$d.jsonl" "$n shards over 2 ranks, --distribute $d"
+    # Rank 0 alone speaks: one summary line, naming the ranks and the distribution.
+    [ "$(grep -c "41 queries (1 failed)" "$tmp/err.txt")" -eq 1 ] || fail "summary: $(cat "$tmp/err.txt")"
+    grep -q "2 ranks, distributed by" "$tmp/err.txt" || fail "summary: $(cat "$tmp/err.txt")"
+    [ ! -s "$tmp/out.txt" ] || fail "stdout was written besides --out"
+  done
+done
+# Three ranks over two shards: one rank idles under shards, all work under queries.
+for d in shards queries; do
+  status=0
+  mpi 3 "$search" -q --threads 1 --index "$tmp/c2.json" --queries "$tmp/q.jsonl" \
+    --out "$tmp/r3r$d.jsonl" --distribute "$d" 2>"$tmp/err.txt" || status=$?
+  [ "$status" -eq 1 ] || fail "3 ranks, $d: exit $status: $(cat "$tmp/err.txt")"
+  same "$tmp/r1.jsonl" "$tmp/r3r$d.jsonl" "2 shards over 3 ranks, --distribute $d"
+done
+# A plain index: queries (the default), and shards refused.
+mpi 2 "$search" -q --threads 1 --index "$tmp/one.h5" --queries "$tmp/q.jsonl" \
+  --out "$tmp/rplain.jsonl" || true
+same "$tmp/r1.jsonl" "$tmp/rplain.jsonl" "a plain index over 2 ranks"
+status=0
+mpi 2 "$search" -q --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --distribute shards \
+  2>"$tmp/err.txt" || status=$?
+[ "$status" -eq 2 ] && grep -q "needs a collection manifest" "$tmp/err.txt" ||
+  fail "shards over a plain index: exit $status: $(cat "$tmp/err.txt")"
+[ "$(grep -c "needs a collection manifest" "$tmp/err.txt")" -eq 1 ] ||
+  fail "the message was printed by more than rank 0: $(cat "$tmp/err.txt")"
+
+# Failures: exit 2, the rank and the file named, the output left alone.
+echo "keep me" >"$tmp/keep.jsonl"
+echo "my notes" >"$tmp/notes.txt"
+expect_failure() {  # expect_failure WHAT PATTERN mpirun-args...
+  local what="$1" pattern="$2"
+  shift 2
+  status=0
+  mpi 2 "$search" "$@" >/dev/null 2>"$tmp/err.txt" || status=$?
+  [ "$status" -eq 2 ] || fail "$what: exit $status (expected 2): $(cat "$tmp/err.txt")"
+  grep -q "$pattern" "$tmp/err.txt" || fail "$what: unclear: $(cat "$tmp/err.txt")"
+  [ "$(cat "$tmp/keep.jsonl")" = "keep me" ] && [ "$(cat "$tmp/notes.txt")" = "my notes" ] ||
+    fail "$what: an output was replaced"
+}
+# rank 0 refuses to replace a file that is not a results file: every rank stops.
+expect_failure "an output path refused on rank 0" "rank 0: .*notes.txt" \
+  -q --index "$tmp/c2.json" --queries "$tmp/q.jsonl" --out "$tmp/notes.txt"
+expect_failure "a missing batch" "rank 1: .*nothing.jsonl" \
+  -q --index "$tmp/c2.json" --queries "$tmp/nothing.jsonl" --out "$tmp/keep.jsonl" --force
+# A shard changed after the manifest was written: the rank holding it names it.
+cp "$tmp/c3.shard-3-of-3.h5" "$tmp/saved.h5"
+printf 'x' >>"$tmp/c3.shard-3-of-3.h5"
+expect_failure "a changed shard" "rank .: .*c3.shard-3-of-3.h5: changed since the manifest" \
+  -q --index "$tmp/c3.json" --queries "$tmp/q.jsonl" --out "$tmp/keep.jsonl" --force \
+  --distribute shards
+mv "$tmp/saved.h5" "$tmp/c3.shard-3-of-3.h5"
+rm "$tmp/c2.shard-2-of-2.h5"
+expect_failure "a missing shard" "rank .: .*c2.shard-2-of-2.h5: cannot read" \
+  -q --index "$tmp/c2.json" --queries "$tmp/q.jsonl" --out "$tmp/keep.jsonl" --force \
+  --distribute shards
+expect_failure "a missing shard (queries)" "c2.shard-2-of-2.h5" \
+  -q --index "$tmp/c2.json" --queries "$tmp/q.jsonl" --out "$tmp/keep.jsonl" --force \
+  --distribute queries
+echo "PASS"
