@@ -1,7 +1,6 @@
 // mocap-synth: query -> target motion (docs/synthesis.md).
-//   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json [--results R.jsonl] [--pick
-//   PAIR:RANK ...]
-//               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
+//   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json [--results R.jsonl]
+//               [--pick PAIR:RANK ...] --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
 //               [--refine-polish-window W] [--refine-polish-segments]

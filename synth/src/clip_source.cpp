@@ -64,8 +64,8 @@ void ClipSource::number() {
     s.skeleton_numbers.clear();
     const auto& tables = s.index->skeletons();
     for (std::uint32_t local = 0; local < tables.size(); ++local) {
-      auto [it, added] = by_id.try_emplace(tables[local].id,
-                                           static_cast<std::uint32_t>(skeletons_.size()));
+      auto [it, added] =
+          by_id.try_emplace(tables[local].id, static_cast<std::uint32_t>(skeletons_.size()));
       if (added) skeletons_.push_back({k, local, {}});
       s.skeleton_numbers.push_back(it->second);
     }

@@ -31,9 +31,8 @@ struct Built {
 
 std::string inputs() {
   std::string s;
-  for (const char* name :
-       {"dataset-1_bow_active_001.bvh", "dataset-1_dash_proud_001.bvh",
-        "dataset-1_walk_musical_001.bvh", "dataset-1_walk-left_happy_001.bvh"})
+  for (const char* name : {"dataset-1_bow_active_001.bvh", "dataset-1_dash_proud_001.bvh",
+                           "dataset-1_walk_musical_001.bvh", "dataset-1_walk-left_happy_001.bvh"})
     s += " '" + (test::data_dir() / "bandai-namco-1" / "data" / name).string() + "'";
   return s + " '" + (test::data_dir() / "cmu").string() + "'";
 }
@@ -56,16 +55,17 @@ const Built* built() {
   return b.get();
 }
 
-#define REQUIRE_BUILT(b)                                     \
-  MOCAP_REQUIRE_DATA();                                      \
-  const Built* b = built();                                  \
+#define REQUIRE_BUILT(b)    \
+  MOCAP_REQUIRE_DATA();     \
+  const Built* b = built(); \
   ASSERT_NE(b, nullptr) << "mocap-index build failed";
 
 // A copy of the collection (manifest and shards) in a fresh folder, to damage.
 fs::path copy_collection(const Built& b, const std::string& tag) {
   const fs::path dir = test::temp_dir(tag);
   for (const auto& e : fs::directory_iterator(b.dir))
-    if (e.path().filename().string().starts_with("c2")) fs::copy_file(e.path(), dir / e.path().filename());
+    if (e.path().filename().string().starts_with("c2"))
+      fs::copy_file(e.path(), dir / e.path().filename());
   return dir / "c2.json";
 }
 

@@ -42,7 +42,7 @@ class ClipSource {
 
   /// One open index (not owned: it must outlive the source). Implicit: a
   /// function taking a ClipSource takes an Index as it is.
-  ClipSource(const Index& index);  // NOLINT(google-explicit-constructor)
+  ClipSource(const Index& index);
 
   /// Opens an index file, or every shard of a collection manifest (its first
   /// non-blank byte is '{'). A collection's shards are checked first: a
