@@ -1,6 +1,6 @@
 // mocap-synth: query -> target motion (docs/synthesis.md).
-//   mocap-synth --index INDEX.h5 --query Q.json [--results R.jsonl] [--pick PAIR:RANK ...]
-//               --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
+//   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json [--results R.jsonl]
+//               [--pick PAIR:RANK ...] --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
 //               [--refine-polish-window W] [--refine-polish-segments]
@@ -17,14 +17,14 @@
 #include <sstream>
 
 #include "mocap/common/atomic_file.hpp"
-#include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
-#include "mocap/common/index.hpp"
 #include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/output_path.hpp"
+#include "mocap/search/collection_search.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/synth/clip_source.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 
@@ -50,7 +50,9 @@ int main(int argc, char** argv) {
       method = "astar";
   std::vector<std::string> picks;
   mocap::SynthOptions options;
-  app.add_option("--index", index_path, "index file (mocap-index build)")->required();
+  app.add_option("--index", index_path,
+                 "index file or collection manifest (mocap-index build [--shards N])")
+      ->required();
   app.add_option("--query", query_path, "query file (one JSON query)")->required();
   app.add_option("--results", results_path,
                  "search results (mocap-search JSONL); without it the search runs here");
@@ -131,36 +133,41 @@ int main(int argc, char** argv) {
     const std::filesystem::path qp(query_path);
     const mocap::Query query =
         mocap::parse_query_text(qs.str(), query_path, 0, qp.parent_path(), qp.stem().string());
-    if (mocap::is_collection_manifest(index_path))
-      throw mocap::InputError(
-          index_path, 0,
-          "a collection manifest: mocap-synth reads one index (give it an index "
-          "file; docs/index-format.md \"Collections\")");
-    const mocap::Index index = mocap::Index::open(index_path);
+    // An index file, or a collection manifest's shards numbered as one index
+    // (a missing or changed shard is an error naming it, before any work).
+    const mocap::ClipSource clips = mocap::ClipSource::open(index_path);
 
     std::vector<mocap::PairResults> ranked;
     double search_ms = 0.0;
     if (!results_path.empty()) {
-      ranked = mocap::read_search_results(results_path, query.id, index);
+      ranked = mocap::read_search_results(results_path, query.id, clips);
     } else {
       const auto ts = std::chrono::steady_clock::now();
-      const mocap::SearchEngine engine(index);
-      mocap::QueryOutcome outcome = engine.run(query, mocap::SearchOptions{});
+      mocap::QueryOutcome outcome;
+      if (clips.is_collection()) {
+        // The collection search (each shard in turn, merged as one index).
+        std::vector<mocap::QueryOutcome> outcomes = mocap::run_collection_batch(
+            index_path, {mocap::BatchEntry{query.id, query, ""}}, mocap::SearchOptions{});
+        outcome = std::move(outcomes.front());
+      } else {
+        const mocap::SearchEngine engine(clips.index(0));
+        outcome = engine.run(query, mocap::SearchOptions{});
+      }
       if (outcome.error) throw mocap::InputError(query_path, 0, "search failed: " + *outcome.error);
       ranked = std::move(outcome.pairs);
       search_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count();
     }
     std::optional<mocap::SynthSkeleton> skeleton;
-    const mocap::SynthResult result = mocap::synthesize(index, query, ranked, options, skeleton);
+    const mocap::SynthResult result = mocap::synthesize(clips, query, ranked, options, skeleton);
     mocap::write_motion_bvh(result, bvh_file);
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!report_path.empty())
-      write_text(report_file, mocap::synth_report_json(index, query, query_path, ranked, result,
+      write_text(report_file, mocap::synth_report_json(clips, query, query_path, ranked, result,
                                                        options, search_ms, total_ms, out_path));
     if (!html_path.empty())
-      write_text(html_file, mocap::synth_report_html(index, query, ranked, result, options));
+      write_text(html_file, mocap::synth_report_html(clips, query, ranked, result, options));
     std::size_t inserted = 0;
     for (const auto& t : result.transitions) inserted += t.measures.frames;
     std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " ("

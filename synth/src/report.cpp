@@ -28,10 +28,10 @@ std::string fmt(int digits, double v) {
 
 }  // namespace
 
-std::string synth_report_json(const Index& index, const Query& query, const std::string& query_path,
-                              const std::vector<PairResults>& ranked, const SynthResult& result,
-                              const SynthOptions& options, double search_ms, double total_ms,
-                              const std::string& bvh_path) {
+std::string synth_report_json(const ClipSource& clips, const Query& query,
+                              const std::string& query_path, const std::vector<PairResults>& ranked,
+                              const SynthResult& result, const SynthOptions& options,
+                              double search_ms, double total_ms, const std::string& bvh_path) {
   nlohmann::json j;
   j["query"] = {{"id", query.id},
                 {"file", query_path},
@@ -39,7 +39,7 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
                 {"transition_time_s", query.transition_time_s},
                 {"relative", query.relative()},
                 {"placement", placement_name(query.placement)}};
-  j["index"] = index.path().string();
+  j["index"] = clips.path().string();
   nlohmann::json chosen = nlohmann::json::array();
   for (std::size_t h = 0; h < result.chosen.size(); ++h) {
     const SearchResult& m = result.chosen[h];
@@ -127,7 +127,7 @@ std::string synth_report_json(const Index& index, const Query& query, const std:
   return json_text(j, 2) + "\n";
 }
 
-std::string synth_report_html(const Index& index, const Query& query,
+std::string synth_report_html(const ClipSource& clips, const Query& query,
                               const std::vector<PairResults>& ranked, const SynthResult& result,
                               const SynthOptions& options) {
   const SynthSkeleton& sk = *result.skeleton;
@@ -152,13 +152,13 @@ std::string synth_report_html(const Index& index, const Query& query,
   for (std::size_t h = 0; h < ranked.size(); ++h)
     for (const SearchResult& m : ranked[h].results) {
       if (m.rank > 5) continue;
-      const std::uint32_t k = index.clips()[m.clip_index].skeleton;
+      const std::uint32_t k = clips.skeleton_of(m.clip_index);
       if (k != sk.index_skeleton && !others.count(k))
-        others.emplace(k, make_synth_skeleton(index, k, m.clip_index));
+        others.emplace(k, make_synth_skeleton(clips, k, m.clip_index));
       const SynthSkeleton& own = k == sk.index_skeleton ? sk : others.at(k);
       std::vector<SynthFrame> fr;
       for (std::size_t f = m.start_frame; f <= m.end_frame; ++f)
-        fr.push_back(clip_frame(index, m.clip_index, f));
+        fr.push_back(clip_frame(clips, m.clip_index, f));
       filmstrip(o, "filmstrip-pair" + std::to_string(h + 1) + "-rank" + std::to_string(m.rank),
                 "Pair " + std::to_string(h + 1) + ", rank " + std::to_string(m.rank) + ": " +
                     base_name(m.clip) + " frames " + std::to_string(m.start_frame) + "-" +

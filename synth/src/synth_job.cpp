@@ -41,10 +41,10 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 // library's resolver, mocap/search/query_pose.hpp), and for a BVH frame its
 // file's previous and next frames (the frame itself at the file's ends);
 // errors naming the query file.
-synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i, const Index& index,
-                                                  const SynthSkeleton& sk, QueryBvhCache& cache,
-                                                  const std::string& source) {
-  const IndexSkeleton& isk = index.skeletons()[sk.index_skeleton];
+synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
+                                                  const ClipSource& clips, const SynthSkeleton& sk,
+                                                  QueryBvhCache& cache, const std::string& source) {
+  const IndexSkeleton& isk = clips.skeleton(sk.index_skeleton);
   synth_detail::QueryFrameInput out;
   try {
     out.pose = resolve_query_pose(q, i, isk, sk.model, cache);
@@ -73,14 +73,14 @@ synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
 // InputError ("--pick") for a pick of a pair out of range, of a rank the
 // pair lacks or of a partial motion shorter than the minimum; InputError
 // (`source`) for a pair with no result long enough.
-std::vector<SearchResult> chosen_results(const Index& index, const Query& query,
+std::vector<SearchResult> chosen_results(const ClipSource& clips, const Query& query,
                                          const std::vector<PairResults>& ranked,
                                          const std::vector<Pick>& picks,
                                          const std::string& source) {
   const std::size_t pairs = ranked.size();
   const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
   auto long_enough = [&](const SearchResult& m) {
-    const double dt = index.clips()[m.clip_index].frame_time_s;
+    const double dt = clips.clip(m.clip_index).frame_time_s;
     const auto frames =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
     return m.end_frame - m.start_frame >= frames;
@@ -130,21 +130,23 @@ std::vector<SearchResult> chosen_results(const Index& index, const Query& query,
 // counterpart for a target joint that rotates.
 class TargetPieces {
  public:
-  TargetPieces(const Index& index, const std::vector<SearchResult>& chosen,
+  TargetPieces(const ClipSource& clips, const std::vector<SearchResult>& chosen,
                const std::string& source)
-      : index_(index),
-        c0_(index.clips()[chosen[0].clip_index]),
-        target_(index.skeletons()[c0_.skeleton].skeleton) {
+      : clips_(clips),
+        c0_(clips.clip(chosen[0].clip_index)),
+        k0_(clips.skeleton_of(chosen[0].clip_index)),
+        target_(clips.skeleton(k0_).skeleton) {
     for (const SearchResult& m : chosen) {
-      const IndexClip& c = index.clips()[m.clip_index];
+      const IndexClip& c = clips.clip(m.clip_index);
+      const std::uint32_t k = clips.skeleton_of(m.clip_index);
       if (std::abs(c.frame_time_s - c0_.frame_time_s) > 1e-9)
         throw InputError(source, 0,
                          "clip \"" + base_name(c.path) + "\" has frame time " +
                              std::to_string(c.frame_time_s) + " s, the target (\"" +
                              base_name(c0_.path) + "\") " + std::to_string(c0_.frame_time_s) +
                              " s: pick clips of one frame rate");
-      if (c.skeleton == c0_.skeleton || joint_maps_.count(c.skeleton)) continue;
-      const Skeleton& other = index.skeletons()[c.skeleton].skeleton;
+      if (k == k0_ || joint_maps_.count(k)) continue;
+      const Skeleton& other = clips.skeleton(k).skeleton;
       std::vector<int> map(target_.joint_count(), -1);
       std::string missing;
       for (std::size_t j = 0; j < target_.joint_count(); ++j) {
@@ -155,21 +157,22 @@ class TargetPieces {
           missing += (missing.empty() ? "" : ", ") + target_.names[j];
       }
       if (!missing.empty())
-        throw InputError(
-            source, 0,
-            "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(c.skeleton) +
-                ", which cannot be mapped to the target skeleton " + std::to_string(c0_.skeleton) +
-                " (from \"" + base_name(c0_.path) + "\"): no joint for " + missing);
-      joint_maps_[c.skeleton] = std::move(map);
+        throw InputError(source, 0,
+                         "clip \"" + base_name(c.path) + "\" uses skeleton " + std::to_string(k) +
+                             ", which cannot be mapped to the target skeleton " +
+                             std::to_string(k0_) + " (from \"" + base_name(c0_.path) +
+                             "\"): no joint for " + missing);
+      joint_maps_[k] = std::move(map);
     }
   }
 
   // Frame f of a chosen clip, on the target skeleton (joints without a
   // counterpart: identity).
   SynthFrame frame(std::size_t clip, std::size_t f) const {
-    SynthFrame fr = clip_frame(index_, clip, f);
-    const auto it = joint_maps_.find(index_.clips()[clip].skeleton);
-    if (index_.clips()[clip].skeleton == c0_.skeleton || it == joint_maps_.end()) return fr;
+    SynthFrame fr = clip_frame(clips_, clip, f);
+    const std::uint32_t k = clips_.skeleton_of(clip);
+    const auto it = joint_maps_.find(k);
+    if (k == k0_ || it == joint_maps_.end()) return fr;
     SynthFrame mapped;
     mapped.root_position_m = fr.root_position_m;
     mapped.local_rotations.assign(target_.joint_count(), Eigen::Quaterniond::Identity());
@@ -180,8 +183,9 @@ class TargetPieces {
   }
 
  private:
-  const Index& index_;
+  const ClipSource& clips_;
   const IndexClip& c0_;
+  const std::uint32_t k0_;  // the target skeleton (source number)
   const Skeleton& target_;
   std::map<std::uint32_t, std::vector<int>> joint_maps_;
 };
@@ -348,7 +352,7 @@ std::vector<Channel> parse_channels(const std::string& s) {
 }  // namespace
 
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
-                                             const std::string& query_id, const Index& index) {
+                                             const std::string& query_id, const ClipSource& clips) {
   try {
     (void)check_input_file(path, input_limits().batch_bytes);
   } catch (const InputError& e) {
@@ -395,14 +399,15 @@ std::vector<PairResults> read_search_results(const std::filesystem::path& path,
           r.h_in_J = jr.value("h_in_J", 0.0);
           r.h_out_J = jr.value("h_out_J", 0.0);
           r.path_cost_J = jr.value("path_cost_J", 0.0);
-          if (r.clip_index >= index.clips().size() ||
-              (index.clips()[r.clip_index].path != r.clip &&
-               base_name(index.clips()[r.clip_index].path) != base_name(r.clip)))
+          if (r.clip_index >= clips.clip_count() ||
+              (clips.clip(r.clip_index).path != r.clip &&
+               base_name(clips.clip(r.clip_index).path) != base_name(r.clip)))
             throw InputError(path.string(), n,
                              "unknown clip \"" + r.clip + "\" (clip_index " +
-                                 std::to_string(r.clip_index) + ") in index " +
-                                 index.path().string());
-          const std::size_t fc = index.clips()[r.clip_index].frame_count;
+                                 std::to_string(r.clip_index) + ") in " +
+                                 (clips.is_collection() ? "collection " : "index ") +
+                                 clips.path().string());
+          const std::size_t fc = clips.clip(r.clip_index).frame_count;
           if (!(r.start_frame < r.end_frame && r.end_frame < fc))
             throw InputError(path.string(), n,
                              "frames " + std::to_string(r.start_frame) + ".." +
@@ -502,7 +507,7 @@ std::vector<synth_detail::TimedPair> time_pairs(const Query& query, double dt, d
   return out;
 }
 
-SynthResult synthesize(const Index& index, const Query& query,
+SynthResult synthesize(const ClipSource& clips, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -514,22 +519,23 @@ SynthResult synthesize(const Index& index, const Query& query,
                      "the search results have " + std::to_string(ranked.size()) +
                          " pairs, the query " + std::to_string(H - 1));
   SynthResult res;
-  res.chosen = chosen_results(index, query, ranked, options.picks, src);
+  res.chosen = chosen_results(clips, query, ranked, options.picks, src);
   // Target skeleton: the first chosen clip's.
   const std::size_t first_clip = res.chosen[0].clip_index;
-  const std::uint32_t target = index.clips()[first_clip].skeleton;
-  const TargetPieces source(index, res.chosen, src);
-  skeleton_out.emplace(make_synth_skeleton(index, target, first_clip));
+  const std::uint32_t target = clips.skeleton_of(first_clip);
+  const TargetPieces source(clips, res.chosen, src);
+  skeleton_out.emplace(make_synth_skeleton(clips, target, first_clip));
   const SynthSkeleton& sk = *skeleton_out;
   res.skeleton = &sk;
-  const double dt = index.clips()[first_clip].frame_time_s;
+  const double dt = clips.clip(first_clip).frame_time_s;
   res.frame_time_s = dt;
-  // Range of motion: union over every clip of the target skeleton in the index.
-  const RangeOfMotion rom = range_of_motion(index, sk, index.skeletons()[target].clips);
+  // Range of motion: union over every clip of the target skeleton in the
+  // index (every shard of a collection).
+  const RangeOfMotion rom = range_of_motion(clips, sk, clips.skeleton_clips(target));
   std::vector<synth_detail::QueryFrameInput> qf;
   QueryBvhCache bvh_cache;
   for (std::size_t i = 0; i < H; ++i)
-    qf.push_back(resolve_query_frame(query, i, index, sk, bvh_cache, src));
+    qf.push_back(resolve_query_frame(query, i, clips, sk, bvh_cache, src));
   std::vector<std::vector<SynthFrame>> raw(H - 1);
   for (std::size_t h = 0; h + 1 < H; ++h)
     for (std::size_t f = res.chosen[h].start_frame; f <= res.chosen[h].end_frame; ++f)

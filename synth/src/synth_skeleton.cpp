@@ -45,22 +45,31 @@ bool channel_fits(double v, double lo, double hi, double slack) {
 
 SynthSkeleton make_synth_skeleton(const Index& index, std::uint32_t skeleton,
                                   std::size_t reference_clip) {
-  if (skeleton >= index.skeletons().size())
+  return make_synth_skeleton(ClipSource(index), skeleton, reference_clip);
+}
+
+// The skeleton's table comes from the first index holding it (in a
+// collection: the table one index of the same files stores, written from
+// the first clip of that skeleton), the translations from the reference
+// clip's own index.
+SynthSkeleton make_synth_skeleton(const ClipSource& clips, std::uint32_t skeleton,
+                                  std::size_t reference_clip) {
+  if (skeleton >= clips.skeleton_count())
     throw std::invalid_argument("make_synth_skeleton: skeleton " + std::to_string(skeleton) +
                                 " out of range");
-  if (reference_clip >= index.clips().size() || index.clips()[reference_clip].skeleton != skeleton)
+  if (reference_clip >= clips.clip_count() || clips.skeleton_of(reference_clip) != skeleton)
     throw std::invalid_argument("make_synth_skeleton: reference clip not of skeleton " +
                                 std::to_string(skeleton));
-  const IndexSkeleton& isk = index.skeletons()[skeleton];
+  const IndexSkeleton& isk = clips.skeleton(skeleton);
   SynthSkeleton sk;
   sk.index_skeleton = skeleton;
   sk.skeleton = isk.skeleton;
   sk.channels = isk.channels;
-  sk.model = index.dynamics_model(skeleton);
+  sk.model = clips.dynamics_model(skeleton);
   sk.root_joint = isk.root_joint;
   const std::size_t n = sk.skeleton.joint_count();
-  const auto positions = index.clip_frames(reference_clip, "joint_positions_m");
-  const auto rotations = index.clip_frames(reference_clip, "world_rotations");
+  const auto positions = clips.clip_frames(reference_clip, "joint_positions_m");
+  const auto rotations = clips.clip_frames(reference_clip, "world_rotations");
   sk.local_translations_m.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
     const int p = sk.skeleton.parents[j];
@@ -90,20 +99,25 @@ SynthSkeleton make_synth_skeleton(const Index& index, std::uint32_t skeleton,
 
 RangeOfMotion range_of_motion(const Index& index, const SynthSkeleton& sk,
                               const std::vector<std::size_t>& clips) {
+  return range_of_motion(ClipSource(index), sk, clips);
+}
+
+// Each clip's row from its own index (min and max do not depend on the
+// order: a collection gives one index's range).
+RangeOfMotion range_of_motion(const ClipSource& source, const SynthSkeleton& sk,
+                              const std::vector<std::size_t>& clips) {
   const std::size_t n = sk.joint_count();
   RangeOfMotion rom;
   rom.min_deg.assign(n, {0.0, 0.0, 0.0});
   rom.max_deg.assign(n, {0.0, 0.0, 0.0});
   rom.has_range.assign(n, 0);
-  const IndexArray& lo = index.array(sk.index_skeleton, "clip_bounds", "rotation_channel_min_deg");
-  const IndexArray& hi = index.array(sk.index_skeleton, "clip_bounds", "rotation_channel_max_deg");
   bool first = true;
   for (std::size_t c : clips) {
-    if (c >= index.clips().size() || index.clips()[c].skeleton != sk.index_skeleton)
+    if (c >= source.clip_count() || source.skeleton_of(c) != sk.index_skeleton)
       throw std::invalid_argument("range_of_motion: clip " + std::to_string(c) +
                                   " is not of the target skeleton");
-    const auto row_lo = lo.rows_f32(index.clips()[c].row, 1);
-    const auto row_hi = hi.rows_f32(index.clips()[c].row, 1);
+    const auto row_lo = source.clip_bounds_row(c, "rotation_channel_min_deg");
+    const auto row_hi = source.clip_bounds_row(c, "rotation_channel_max_deg");
     for (std::size_t j = 0; j < n; ++j)
       for (std::size_t k = 0; k < 3; ++k) {
         const double a = row_lo[3 * j + k], b = row_hi[3 * j + k];
@@ -116,6 +130,11 @@ RangeOfMotion range_of_motion(const Index& index, const SynthSkeleton& sk,
     for (std::size_t j = 0; j < n; ++j)
       rom.has_range[j] = !sk.is_root_chain[j] && sk.skeleton.channels[j].rotation_count == 3;
   return rom;
+}
+
+SynthFrame clip_frame(const ClipSource& clips, std::size_t clip, std::size_t f) {
+  const ClipSource::Location at = clips.locate(clip);
+  return clip_frame(*at.index, at.clip, f);
 }
 
 SynthFrame clip_frame(const Index& index, std::size_t clip, std::size_t f) {

@@ -4,8 +4,9 @@
 # shards hold together exactly the clips of one index, in its order; a
 # rebuild reuses them; verify and info read the manifest; a changed or
 # missing shard, a bad shard count or an --out of another kind are clear
-# errors and leave the manifest alone; mocap-search over a manifest answers
-# as the single index does.
+# errors and leave the manifest alone; mocap-search and mocap-synth over a
+# manifest answer as the single index does, and refuse a missing or changed
+# shard by name.
 #   bash tests/cli/shards.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -89,12 +90,64 @@ assert results > 300, results
 PY
 done
 
-# mocap-synth reads one index: a manifest is refused clearly.
-printf '{"frames": [{"root_position": [0, null, 0]}, {"root_position": [0, null, 1]}]}\n' >"$tmp/s.json"
-status=0
-"$synth" --index "$tmp/c2.json" --query "$tmp/s.json" --out "$tmp/m.bvh" >/dev/null 2>"$tmp/err.txt" ||
-  status=$?
-[ "$status" -ne 0 ] && grep -q "a collection manifest" "$tmp/err.txt" || fail "mocap-synth: $(cat "$tmp/err.txt")"
+# mocap-synth over a manifest makes the single index's motion: the same BVH
+# and HTML bytes, the same REPORT.json but for the paths (index, bvh) and the
+# timings. Three held-out key poses; the two chosen partial motions lie in
+# different shards of both collections (checked by their clip_index against
+# the manifest's clip counts).
+d="$(cd "$set1/data" && pwd)"
+cat >"$tmp/sq.json" <<EOF
+{"id": "walk-bye-run", "relative": false,
+ "frames": [{"bvh": "$d/dataset-1_walk_normal_001.bvh", "frame": 20},
+            {"bvh": "$d/dataset-1_bye_normal_001.bvh", "frame": 60},
+            {"bvh": "$d/dataset-1_run_normal_001.bvh", "frame": 12}],
+ "filter": {"exclude": ["dataset-1_walk_normal_001*", "dataset-1_bye_normal_001*",
+                        "dataset-1_run_normal_001*"]},
+ "top": 5}
+EOF
+# synth_run NAME INDEX [ARGS...]: mocap-synth into $tmp/NAME.{bvh,json,html}.
+synth_run() {
+  local name="$1" index="$2"
+  shift 2
+  "$synth" --index "$index" --query "$tmp/sq.json" --out "$tmp/$name.bvh" \
+    --report "$tmp/$name.json" --html "$tmp/$name.html" "$@" >/dev/null 2>"$tmp/err.txt" ||
+    fail "mocap-synth $name: $(cat "$tmp/err.txt")"
+}
+# same_motion A B MANIFEST: A and B are the same motion and reports, and B's
+# chosen partial motions come from two different shards of MANIFEST.
+same_motion() {
+  cmp -s "$tmp/$1.bvh" "$tmp/$2.bvh" || fail "$2: the BVH differs from $1's"
+  cmp -s "$tmp/$1.html" "$tmp/$2.html" || fail "$2: the HTML report differs from $1's"
+  python3 - "$tmp/$1.json" "$tmp/$2.json" "$3" <<'PY' || fail "$2: the report differs from $1's"
+import bisect, json, sys
+def load(path):
+    r = json.load(open(path))
+    del r["timings_ms"], r["index"], r["motion"]["bvh"]
+    for t in r["transitions"]:
+        del t["time_ms"]
+    return r
+a, b = load(sys.argv[1]), load(sys.argv[2])
+assert a == b, (json.dumps(a["chosen"])[:300], json.dumps(b["chosen"])[:300])
+starts = [0]
+for s in json.load(open(sys.argv[3]))["shards"]:
+    starts.append(starts[-1] + s["clips"])
+clips = [c["clip_index"] for c in b["chosen"]]
+assert len(clips) == 2 and len({bisect.bisect_right(starts, c) for c in clips}) == 2, (clips, starts)
+PY
+}
+synth_run m1 "$tmp/one.h5"
+for n in 2 3; do
+  synth_run "m$n" "$tmp/c$n.json"
+  same_motion m1 "m$n" "$tmp/c$n.json"
+done
+# A results file of the collection search (collection clip numbers) with
+# picks gives the single index's motion for its own results file.
+"$search" -q --index "$tmp/c3.json" --query "$tmp/sq.json" --out "$tmp/sr3.jsonl"
+"$search" -q --index "$tmp/one.h5" --query "$tmp/sq.json" --out "$tmp/sr1.jsonl"
+synth_run p1 "$tmp/one.h5" --results "$tmp/sr1.jsonl" --pick 1:2 --pick 2:3
+synth_run p3 "$tmp/c3.json" --results "$tmp/sr3.jsonl" --pick 1:2 --pick 2:3
+cmp -s "$tmp/p1.bvh" "$tmp/p3.bvh" || fail "--results of the collection: the BVH differs"
+cmp -s "$tmp/m1.bvh" "$tmp/p1.bvh" && fail "the picks changed nothing"
 
 # A rebuild with nothing changed reuses every shard.
 "$indexer" build -q --json --shards 3 --out "$tmp/c3.json" "$set1" >"$tmp/again.json"
@@ -126,4 +179,18 @@ status=0
 "$search" -q --index "$tmp/c3.json" --queries "$tmp/q.jsonl" >/dev/null 2>"$tmp/err.txt" || status=$?
 [ "$status" -eq 2 ] || fail "search over a changed shard: exit $status (expected 2)"
 grep -q "c3.shard-2-of-3.h5" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
+# So does the synthesis (exit 1, docs/cli.md), with and without a results
+# file, naming the shard, and it writes no motion.
+for index in c3 c2; do
+  for results in "" "$tmp/sr3.jsonl"; do
+    status=0
+    "$synth" --index "$tmp/$index.json" --query "$tmp/sq.json" --out "$tmp/bad.bvh" \
+      ${results:+--results "$results"} >/dev/null 2>"$tmp/err.txt" || status=$?
+    [ "$status" -eq 1 ] || fail "mocap-synth over a damaged $index: exit $status (expected 1)"
+    shard="c3.shard-2-of-3.h5: changed since the manifest was written"
+    [ "$index" = c2 ] && shard="c2.shard-1-of-2.h5"
+    grep -q "^mocap-synth: .*$shard" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
+    [ ! -e "$tmp/bad.bvh" ] || fail "a motion was written over a damaged $index"
+  done
+done
 echo "PASS"

@@ -45,6 +45,7 @@
 #include "mocap/common/dynamics.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/skeleton.hpp"
+#include "mocap/synth/clip_source.hpp"
 
 namespace mocap {
 
@@ -67,6 +68,8 @@ struct RangeOfMotion {
 
 /// The target skeleton with everything synthesis needs (immutable).
 struct SynthSkeleton {
+  /// The skeleton's number in the index, or in the ClipSource it was made
+  /// from (a collection's numbers are one index's: clip_source.hpp).
   std::uint32_t index_skeleton = 0;
   Skeleton skeleton;
   /// Per joint "Xposition ... Yrotation" as in the source files.
@@ -92,13 +95,23 @@ struct SynthSkeleton {
 /// that skeleton); the others are the skeleton's OFFSETs.
 SynthSkeleton make_synth_skeleton(const Index& index, std::uint32_t skeleton,
                                   std::size_t reference_clip);
+/// The same for skeleton k and a reference clip of a clip source (its numbers).
+SynthSkeleton make_synth_skeleton(const ClipSource& clips, std::uint32_t skeleton,
+                                  std::size_t reference_clip);
 
-/// Union of the clips' rotation_channel_min/max_deg (clips of the skeleton).
+/// Union of the clips' rotation_channel_min/max_deg (clips of the skeleton:
+/// std::invalid_argument otherwise). With a ClipSource, clip and skeleton
+/// numbers are the source's; a collection's clips are read from their shards.
 RangeOfMotion range_of_motion(const Index& index, const SynthSkeleton& sk,
                               const std::vector<std::size_t>& clips);
+RangeOfMotion range_of_motion(const ClipSource& source, const SynthSkeleton& sk,
+                              const std::vector<std::size_t>& clips);
 
-/// Frame f (0-based, within the clip) of an index clip.
+/// Frame f (0-based, within the clip) of an index clip
+/// (std::invalid_argument for f out of range).
 SynthFrame clip_frame(const Index& index, std::size_t clip, std::size_t f);
+/// The same for clip `clip` of a clip source (read from its own index).
+SynthFrame clip_frame(const ClipSource& clips, std::size_t clip, std::size_t f);
 
 /// World pose of a frame (joint origins, world rotations), reusing `out`.
 void synth_world_pose(const SynthSkeleton& sk, const SynthFrame& frame, WorldPose& out);

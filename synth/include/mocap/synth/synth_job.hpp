@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/index.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/synth/clip_source.hpp"
 #include "mocap/synth/synth.hpp"
 
 namespace mocap {
@@ -26,9 +26,11 @@ namespace mocap {
 /// "id" is `query_id` (the results as SearchEngine::run gives them; their
 /// labels are not read: synthesis does not use them). InputError (file:line)
 /// for unreadable files, bad JSON, a missing id, an error line, or results
-/// that do not fit `index` (unknown clip, frames out of range).
+/// that do not fit `clips` (unknown clip, frames out of range). clip_index
+/// is the source's number: a collection's results (mocap-search over its
+/// manifest) number clips as one index.
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
-                                             const std::string& query_id, const Index& index);
+                                             const std::string& query_id, const ClipSource& clips);
 
 /// A user's choice: pair h (1-based, joins Q^h and Q^h+1) takes rank r.
 struct Pick {
@@ -96,11 +98,13 @@ struct SynthResult {
   double synth_ms = 0.0;
 };
 
-/// Runs the job. `ranked` are the search results per pair (H - 1 of them).
-/// Throws InputError for picks out of range, pairs without results, clips of
-/// a skeleton or frame rate other than the target's (the first chosen clip's),
-/// query joints the skeleton lacks. `skeleton_out` receives the target skeleton.
-SynthResult synthesize(const Index& index, const Query& query,
+/// Runs the job on the clips of `clips` (one index, or a collection's shards:
+/// the same motion as one index of the same files). `ranked` are the search
+/// results per pair (H - 1 of them). Throws InputError for picks out of
+/// range, pairs without results, clips of a skeleton or frame rate other
+/// than the target's (the first chosen clip's), query joints the skeleton
+/// lacks. `skeleton_out` receives the target skeleton.
+SynthResult synthesize(const ClipSource& clips, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out);
 
@@ -114,17 +118,17 @@ SynthResult synthesize(const Index& index, const Query& query,
 /// OFFSET (three.js BVHLoader): docs/synthesis.md "Output".
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path);
 
-/// REPORT.json text.
-std::string synth_report_json(const Index& index, const Query& query, const std::string& query_path,
-                              const std::vector<PairResults>& ranked, const SynthResult& result,
-                              const SynthOptions& options, double search_ms, double total_ms,
-                              const std::string& bvh_path);
+/// REPORT.json text ("index": the index file or manifest of `clips`).
+std::string synth_report_json(const ClipSource& clips, const Query& query,
+                              const std::string& query_path, const std::vector<PairResults>& ranked,
+                              const SynthResult& result, const SynthOptions& options,
+                              double search_ms, double total_ms, const std::string& bvh_path);
 
 /// REPORT.html text: one self-contained page (inline SVG, no scripts, no
 /// network) with filmstrips of the query frames, the ranked partial motions
 /// and the synthesised motion, the ranking table and the energy curve. Each
 /// figure carries data-figure="..." (tests look for them).
-std::string synth_report_html(const Index& index, const Query& query,
+std::string synth_report_html(const ClipSource& clips, const Query& query,
                               const std::vector<PairResults>& ranked, const SynthResult& result,
                               const SynthOptions& options);
 
