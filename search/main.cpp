@@ -249,8 +249,9 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
         *mpi, a.index, batch, opt,
         a.distribute == "auto" ? std::nullopt : mocap::parse_distribution(a.distribute), progress);
     outcomes = r.outcomes;
-    where = fmt::format("{} ranks, distributed by {}", mpi->size(),
-                        mocap::distribution_name(r.distribution));
+    where = fmt::format("{} ranks, distributed by {}, peak memory per rank {:.0f}-{:.0f} MB",
+                        mpi->size(), mocap::distribution_name(r.distribution), r.peak_rss_min_MB,
+                        r.peak_rss_max_MB);
     if (!rank0) return kExitOk;
   } else
 #endif

@@ -2,6 +2,7 @@
 #include "mpi_search.hpp"
 
 #include <mpi.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -38,6 +39,12 @@ std::uint64_t node_memory_bytes() {
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
   return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page)
                                : 0;
+}
+
+double peak_rss_MB() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;  // kB on Linux
 }
 
 void atomic_min(std::atomic<double>& a, double v) {
@@ -279,6 +286,9 @@ DistributedResult run_distributed_batch(const Session& session, const std::files
 
   // Rank 0 gathers and merges; the entries come back in batch order.
   const std::vector<std::string> bytes = gather_bytes(session, encode_outcomes(answered));
+  const double rss = peak_rss_MB();
+  result.peak_rss_max_MB = session.max(rss);
+  result.peak_rss_min_MB = -session.max(-rss);
   if (rank != 0) return result;
   if (!by_shards) {
     result.outcomes.resize(batch.size());

@@ -81,6 +81,8 @@ struct DistributedResult {
   Distribution distribution = Distribution::queries;
   /// Indexes (shards, or the one index) this rank opened.
   std::size_t shards_here = 0;
+  /// Peak resident memory of the ranks (getrusage), least and greatest, MB.
+  double peak_rss_min_MB = 0.0, peak_rss_max_MB = 0.0;
 };
 
 /// Answers `batch` on all ranks (a collective). `index` is a collection
