@@ -1,6 +1,7 @@
 // Building a skeleton's bound tables (bound_tables.hpp).
 #include "bound_tables.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -12,7 +13,76 @@
 
 namespace mocap::search_detail {
 
-// Block and clip bound tables from the scan table (parallel over clips).
+void init_scan_tiles(SkeletonTables& tables) {
+  const std::size_t blocks = tables.clips.empty()
+                                 ? 0
+                                 : tables.clips.back().block_start +
+                                       (tables.clips.back().frame_count + kBlock - 1) / kBlock;
+  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
+  constexpr std::size_t kLine = 64 / sizeof(float);
+  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
+  auto line_offset = [](const std::vector<float>& v) {
+    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
+    return (kLine - a % kLine) % kLine;
+  };
+  tables.tile_floats = tables.segments * HScanTable::kFields * kBlock;
+  assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
+  assign_huge(tables.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
+  tables.tile_offset = line_offset(tables.tile_values);
+  tables.root_offset = line_offset(tables.tile_roots);
+  tables.root_positions.assign(3 * tables.frame_count, 0.0f);
+}
+
+void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
+                   const float* rows) {
+  const std::size_t w = tables.segments * HScanTable::kFields;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
+                    [&](const tbb::blocked_range<std::size_t>& rg) {
+                      for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+                        const std::size_t g = first + i;
+                        const ClipInfo& ci = tables.clips[tables.frame_row[g]];
+                        const std::size_t local = g - ci.frame_start;
+                        float* tile = tables.tile_values.data() + tables.tile_offset +
+                                      (ci.block_start + local / kBlock) * tables.tile_floats +
+                                      local % kBlock;
+                        const float* row = rows + i * w;
+                        for (std::size_t f = 0; f < w; ++f) tile[f * kBlock] = row[f];
+                      }
+                    });
+}
+
+void set_root_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
+                   const float* rows) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t g = first + i;
+    const ClipInfo& ci = tables.clips[tables.frame_row[g]];
+    const std::size_t local = g - ci.frame_start;
+    float* tile = tables.tile_roots.data() + tables.root_offset +
+                  (ci.block_start + local / kBlock) * 3 * kBlock + local % kBlock;
+    for (std::size_t a = 0; a < 3; ++a) {
+      tables.root_positions[a * tables.frame_count + g] = rows[i * 3 + a];
+      tile[a * kBlock] = rows[i * 3 + a];
+    }
+  }
+}
+
+void set_tiles_from_table(SkeletonTables& tables, const HScanTable& table) {
+  const std::size_t w = tables.segments * HScanTable::kFields;
+  tbb::parallel_for(std::size_t{0}, tables.clips.size(), [&](std::size_t r) {
+    const ClipInfo& ci = tables.clips[r];
+    std::vector<float> rows(ci.frame_count * w), roots(ci.frame_count * 3);
+    for (std::size_t f = 0; f < w; ++f)
+      for (std::size_t i = 0; i < ci.frame_count; ++i)
+        rows[i * w + f] = table.values[f * table.stride + ci.frame_start + i];
+    for (std::size_t a = 0; a < 3; ++a)
+      for (std::size_t i = 0; i < ci.frame_count; ++i)
+        roots[i * 3 + a] = table.root_positions[a * table.stride + ci.frame_start + i];
+    set_tile_rows(tables, ci.frame_start, ci.frame_count, rows.data());
+    set_root_rows(tables, ci.frame_start, ci.frame_count, roots.data());
+  });
+}
+
+// Block and clip bound tables from the scan tiles (parallel over clips).
 void build_bound_tables(SkeletonTables& tables) {
   // Rows of `padded` floats; the padding stays 0 (a zero box and zero query
   // constants make a zero term).
@@ -25,21 +95,8 @@ void build_bound_tables(SkeletonTables& tables) {
   tables.block_root.assign(blocks * 6, 0.0f);
   tables.clip_bounds.assign(tables.clips.size() * w, 0.0f);
   tables.clip_root.assign(tables.clips.size() * 6, 0.0f);
-  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
-  constexpr std::size_t kLine = 64 / sizeof(float);
-  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
-  auto line_offset = [](const std::vector<float>& v) {
-    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
-    return (kLine - a % kLine) % kLine;
-  };
-  tables.tile_floats = real * HScanTable::kFields * kBlock;
-  assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
-  assign_huge(tables.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
-  tables.tile_offset = line_offset(tables.tile_values);
-  tables.root_offset = line_offset(tables.tile_roots);
   assign_huge(tables.sketch, blocks * kSketchFields * kBlock, 0.0f);
   assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock, 0.0f);
-  const HScanTable& tb = tables.table;
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
     for (std::size_t f = 0; f < 3; ++f)
@@ -77,26 +134,21 @@ void build_bound_tables(SkeletonTables& tables) {
       init(row, root);
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
-      float* tile_values = tables.tile_values.data() + tables.tile_offset +
-                           (ci.block_start + bl) * tables.tile_floats;
-      float* tile_roots =
+      const std::size_t count = g1 - g0;
+      const float* tile = tables.tile_data(ci.block_start + bl);
+      const float* tile_roots =
           tables.tile_roots.data() + tables.root_offset + (ci.block_start + bl) * 3 * kBlock;
-      for (std::size_t f = 0; f < real * HScanTable::kFields; ++f)
-        std::copy(tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g0),
-                  tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g1),
-                  tile_values + f * kBlock);
-      for (std::size_t a = 0; a < 3; ++a)
-        std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
-                  tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
-                  tile_roots + a * kBlock);
+      auto value = [&](std::size_t b, std::size_t q, std::size_t l) {
+        return tile[(b * HScanTable::kFields + q) * kBlock + l];
+      };
       float* sketch = tables.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
       float* chain = tables.chain_sketch.data() +
                      (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
       for (std::size_t l = 0; l < kBlock; ++l) {
-        const std::size_t g = std::min(g0 + l, g1 - 1);
-        auto com = [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; };
-        auto ke = [&](std::size_t b) { return tb.field(b, 3)[g]; };
-        auto rot = [&](std::size_t b) { return tb.field(b, 8)[g]; };
+        const std::size_t g = std::min(l, count - 1);
+        auto com = [&](std::size_t b, std::size_t a) { return value(b, a, g); };
+        auto ke = [&](std::size_t b) { return value(b, 3, g); };
+        auto rot = [&](std::size_t b) { return value(b, 8, g); };
         const auto v = whole_body_sketch(tables, com, ke, rot);
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
@@ -110,17 +162,16 @@ void build_bound_tables(SkeletonTables& tables) {
                             hi_f[5] = {3, 4, 5, 7, 9};
       for (std::size_t b = 0; b < real; ++b)
         for (std::size_t i = 0; i < 5; ++i) {
-          const float* v = tb.field(b, src[i]);
           float& lo = row[lo_f[i] * s + b];
           float& hi = row[hi_f[i] * s + b];
-          for (std::size_t g = g0; g < g1; ++g) {
-            lo = std::min(lo, v[g]);
-            hi = std::max(hi, v[g]);
+          for (std::size_t l = 0; l < count; ++l) {
+            lo = std::min(lo, value(b, src[i], l));
+            hi = std::max(hi, value(b, src[i], l));
           }
         }
       for (std::size_t a = 0; a < 3; ++a)
-        for (std::size_t g = g0; g < g1; ++g) {
-          const float v = tb.root_positions[a * tb.stride + g];
+        for (std::size_t l = 0; l < count; ++l) {
+          const float v = tile_roots[a * kBlock + l];
           root[a] = std::min(root[a], v);
           root[a + 3] = std::max(root[a + 3], v);
         }

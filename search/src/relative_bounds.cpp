@@ -53,26 +53,30 @@ void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& ta
                            std::size_t g0, std::size_t n, RelativeBoundFrames& out) {
   for (auto* v : {&out.fixed, &out.height, &out.ke, &out.cx, &out.cy, &out.cz}) v->assign(n, 0.0);
   for (std::size_t f = 0; f < n; ++f) out.ke[f] = q.ke_total;
-  const HScanTable& table = tables.table;
   for (std::size_t b = 0; b < q.mass.size(); ++b) {
-    const float* x = table.field(b, 0) + g0;
-    const float* y = table.field(b, 1) + g0;
-    const float* z = table.field(b, 2) + g0;
-    const float* ke = table.field(b, 3) + g0;
-    const float* kr = table.field(b, 8) + g0;
     const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
     const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
-    for (std::size_t f = 0; f < n; ++f) {
-      const double dy = static_cast<double>(y[f]) - yq;
-      const double k = ke[f];
-      out.fixed[f] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[f]) - rq);
-      const double d = std::abs(k - kq), v = mh * dy * dy - k - kq;
-      out.height[f] += d > v ? d : v;
-      out.ke[f] += k;
-      out.cx[f] += m * static_cast<double>(x[f]);
-      out.cy[f] += m * static_cast<double>(y[f]);
-      out.cz[f] += m * static_cast<double>(z[f]);
-    }
+    tables.for_each_tile_piece(
+        g0, g0 + n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+          const float* t = tables.tile_data(row) + b * HScanTable::kFields * kBlock + lane;
+          const float* x = t;
+          const float* y = t + kBlock;
+          const float* z = t + 2 * kBlock;
+          const float* ke = t + 3 * kBlock;
+          const float* kr = t + 8 * kBlock;
+          for (std::size_t i = 0; i < count; ++i) {
+            const std::size_t f = offset + i;
+            const double dy = static_cast<double>(y[i]) - yq;
+            const double k = ke[i];
+            out.fixed[f] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[i]) - rq);
+            const double d = std::abs(k - kq), v = mh * dy * dy - k - kq;
+            out.height[f] += d > v ? d : v;
+            out.ke[f] += k;
+            out.cx[f] += m * static_cast<double>(x[i]);
+            out.cy[f] += m * static_cast<double>(y[i]);
+            out.cz[f] += m * static_cast<double>(z[i]);
+          }
+        });
   }
   if (q.total_mass > 0.0)
     for (std::size_t f = 0; f < n; ++f) {
@@ -99,18 +103,19 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
 void ensure_frame_kinetic(const SkeletonData& skeleton) {
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.kinetic_once, [&] {
-    const HScanTable& table = skeleton.tables.table;
-    const std::size_t n = table.frame_count;
+    const SkeletonTables& tables = skeleton.tables;
+    const std::size_t n = tables.frame_count;
     caches.kinetic.assign(n, 0.0f);
     caches.kinetic_rot.assign(n, 0.0f);
-    for (std::size_t b = 0; b < table.segment_count; ++b) {
-      const float* ke = table.field(b, 3);
-      const float* kr = table.field(b, 8);
-      for (std::size_t f = 0; f < n; ++f) {
-        caches.kinetic[f] += ke[f];
-        caches.kinetic_rot[f] += kr[f];
-      }
-    }
+    for (std::size_t b = 0; b < tables.segments; ++b)
+      tables.for_each_tile_piece(
+          0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+            const float* t = tables.tile_data(row) + b * HScanTable::kFields * kBlock + lane;
+            for (std::size_t i = 0; i < count; ++i) {
+              caches.kinetic[offset + i] += t[3 * kBlock + i];
+              caches.kinetic_rot[offset + i] += t[8 * kBlock + i];
+            }
+          });
     RootBlocks whole;
     for (const ClipInfo& ci : skeleton.tables.clips) {
       whole.build(skeleton, ci.frame_start, ci.frame_count, ci.frame_count);
@@ -127,12 +132,12 @@ void RootBlocks::build(const SkeletonData& skeleton, std::size_t g0, std::size_t
   const std::size_t blocks = n == 0 ? 0 : (n + block - 1) / block;
   for (auto* v : {&x0, &y0, &z0, &k0, &r0}) v->assign(blocks, kInf);
   for (auto* v : {&x1, &y1, &z1, &k1}) v->assign(blocks, -kInf);
-  const HScanTable& table = skeleton.tables.table;
+  const SkeletonTables& tables = skeleton.tables;
   const float* k = skeleton.caches.kinetic.data() + g0;
   const float* r = skeleton.caches.kinetic_rot.data() + g0;
-  const float* px = table.root_positions.data() + g0;
-  const float* py = px + table.stride;
-  const float* pz = py + table.stride;
+  const float* px = tables.root_positions.data() + g0;
+  const float* py = px + tables.frame_count;
+  const float* pz = py + tables.frame_count;
   for (std::size_t f = 0; f < n; ++f) {
     const std::size_t j = f / block;
     x0[j] = std::min(x0[j], static_cast<double>(px[f]));
