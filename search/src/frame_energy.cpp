@@ -69,45 +69,36 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
   return r;
 }
 
-// The scan values of skeleton frames [g0, g1) as one field-major view
-// (scratch.gathered): the frames of their clip, copied from the tiles once
-// per clip and thread, or of [g0, g1) alone when they span clips. Returns
-// the position of g0 in the view. The scan kernel's value for a frame
-// depends on its position in the scanned range (vector body or remainder),
-// so a range is scanned whole, as one contiguous run, whatever tiles it
-// touches: exact and brute, which scan the same ranges, see the same values.
-std::size_t gather_frames(const SkeletonTables& tables, std::size_t g0, std::size_t g1,
-                          Scratch& scratch) {
-  const ClipInfo& ci = tables.clips[tables.frame_row[g0]];
-  const bool one_clip = g1 <= ci.frame_start + ci.frame_count;
-  if (one_clip && scratch.gathered_uid == tables.uid && scratch.gathered_start == ci.frame_start &&
-      scratch.gathered.frame_count == ci.frame_count)
-    return g0 - ci.frame_start;
-  const std::size_t first = one_clip ? ci.frame_start : g0;
-  const std::size_t n = one_clip ? ci.frame_count : g1 - g0;
+// The scan values of skeleton frames [g0, g1) copied out of the tiles into
+// one field-major view (scratch.gathered, stride g1 - g0). The scan
+// kernel's value for a frame depends on its position in the scanned range
+// (vector body or remainder), so a range is scanned whole, as one
+// contiguous run, whatever tiles it touches: exact and brute, which scan
+// the same ranges, see the same values. With `kinetic_only` only the rows
+// the root scan reads (each segment's KE and KE_rot) are copied.
+void gather_frames(const SkeletonTables& tables, std::size_t g0, std::size_t g1, bool kinetic_only,
+                   Scratch& scratch) {
+  const std::size_t n = g1 - g0;
   const std::size_t rows = tables.segments * HScanTable::kFields;
   scratch.gathered_values.resize(rows * n);
   scratch.gathered_roots.resize(3 * n);
   float* values = scratch.gathered_values.data();
   float* roots = scratch.gathered_roots.data();
   tables.for_each_tile_piece(
-      first, first + n,
-      [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+      g0, g1, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
         const float* t = tables.tile_data(row) + lane;
-        for (std::size_t r = 0; r < rows; ++r)
+        for (std::size_t r = 0; r < rows; ++r) {
+          const std::size_t field = r % HScanTable::kFields;
+          if (kinetic_only && field != 3 && field != 8) continue;
           std::copy(t + r * kBlock, t + r * kBlock + count, values + r * n + offset);
-        for (std::size_t a = 0; a < 3; ++a)
-          std::copy(
-              tables.root_positions.begin() +
-                  static_cast<std::ptrdiff_t>(a * tables.frame_count + first + offset),
-              tables.root_positions.begin() +
-                  static_cast<std::ptrdiff_t>(a * tables.frame_count + first + offset + count),
-              roots + a * n + offset);
+        }
       });
+  for (std::size_t a = 0; a < 3; ++a)
+    std::copy(
+        tables.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tables.frame_count + g0),
+        tables.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tables.frame_count + g1),
+        roots + a * n);
   scratch.gathered = {values, roots, n, n, tables.segments};
-  scratch.gathered_uid = one_clip ? tables.uid : 0;
-  scratch.gathered_start = first;
-  return g0 - first;
 }
 
 }  // namespace
@@ -148,8 +139,8 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
       const std::size_t local = g0 - ci.frame_start;
       scan(tables.tile(ci.block_start + local / kBlock, local % kBlock + 1), local % kBlock, 1, 0);
     } else {
-      const std::size_t at = gather_frames(tables, g0, g1, scratch);
-      scan(scratch.gathered, at, n, 0);
+      gather_frames(tables, g0, g1, q.kind == FrameKind::root_only, scratch);
+      scan(scratch.gathered, 0, n, 0);
     }
     for (std::size_t i = 0; i < n; ++i) out[i] = scratch.fbuf[i];
     return;

@@ -52,32 +52,44 @@ double clip_relative_bound(const RelativeBoundQuery& q, const SkeletonTables& ta
 void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& tables,
                            std::size_t g0, std::size_t n, RelativeBoundFrames& out) {
   for (auto* v : {&out.fixed, &out.height, &out.ke, &out.cx, &out.cy, &out.cz}) v->assign(n, 0.0);
-  for (std::size_t f = 0; f < n; ++f) out.ke[f] = q.ke_total;
-  for (std::size_t b = 0; b < q.mass.size(); ++b) {
-    const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
-    const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
-    tables.for_each_tile_piece(
-        g0, g0 + n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
-          const float* t = tables.tile_data(row) + b * HScanTable::kFields * kBlock + lane;
-          const float* x = t;
-          const float* y = t + kBlock;
-          const float* z = t + 2 * kBlock;
-          const float* ke = t + 3 * kBlock;
-          const float* kr = t + 8 * kBlock;
-          for (std::size_t i = 0; i < count; ++i) {
-            const std::size_t f = offset + i;
-            const double dy = static_cast<double>(y[i]) - yq;
-            const double k = ke[i];
-            out.fixed[f] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[i]) - rq);
+  // Tile by tile, all kBlock lanes at once (fixed-length loops; lanes
+  // outside [lane, lane + count) are computed and dropped); per frame the
+  // segments are summed in order, as in one pass over the clip.
+  tables.for_each_tile_piece(
+      g0, g0 + n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+        double fixed[kBlock] = {}, height[kBlock] = {}, ke_sum[kBlock], cx[kBlock] = {},
+               cy[kBlock] = {}, cz[kBlock] = {};
+        for (std::size_t l = 0; l < kBlock; ++l) ke_sum[l] = q.ke_total;
+        const float* tile = tables.tile_data(row);
+        for (std::size_t b = 0; b < q.mass.size(); ++b) {
+          const float* x = tile + b * HScanTable::kFields * kBlock;
+          const float* y = x + kBlock;
+          const float* z = x + 2 * kBlock;
+          const float* ke = x + 3 * kBlock;
+          const float* kr = x + 8 * kBlock;
+          const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
+          const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
+          for (std::size_t l = 0; l < kBlock; ++l) {
+            const double dy = static_cast<double>(y[l]) - yq;
+            const double k = ke[l];
+            fixed[l] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[l]) - rq);
             const double d = std::abs(k - kq), v = mh * dy * dy - k - kq;
-            out.height[f] += d > v ? d : v;
-            out.ke[f] += k;
-            out.cx[f] += m * static_cast<double>(x[i]);
-            out.cy[f] += m * static_cast<double>(y[i]);
-            out.cz[f] += m * static_cast<double>(z[i]);
+            height[l] += d > v ? d : v;
+            ke_sum[l] += k;
+            cx[l] += m * static_cast<double>(x[l]);
+            cy[l] += m * static_cast<double>(y[l]);
+            cz[l] += m * static_cast<double>(z[l]);
           }
-        });
-  }
+        }
+        for (std::size_t i = 0; i < count; ++i) {
+          out.fixed[offset + i] = fixed[lane + i];
+          out.height[offset + i] = height[lane + i];
+          out.ke[offset + i] = ke_sum[lane + i];
+          out.cx[offset + i] = cx[lane + i];
+          out.cy[offset + i] = cy[lane + i];
+          out.cz[offset + i] = cz[lane + i];
+        }
+      });
   if (q.total_mass > 0.0)
     for (std::size_t f = 0; f < n; ++f) {
       out.cx[f] /= q.total_mass;

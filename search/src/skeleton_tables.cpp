@@ -8,7 +8,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cstdint>
 
 #include "bound_tables.hpp"
@@ -19,8 +18,6 @@ namespace mocap::search_detail {
 void init_skeleton_data(const Index& index, std::uint32_t k, DynamicsModel model,
                         SkeletonData& skeleton) {
   SkeletonTables& tables = skeleton.tables;
-  static std::atomic<std::uint64_t> next_uid{1};
-  tables.uid = next_uid++;
   tables.k = k;
   tables.sk = &index.skeletons()[k];
   tables.model = std::move(model);

@@ -68,7 +68,6 @@ struct FrameArrays {
 
 // The immutable tables of one skeleton for one character.
 struct SkeletonTables {
-  std::uint64_t uid = 0;              // unique among the tables of a process (never 0)
   std::uint32_t k = 0;                // skeleton index in the Index
   const IndexSkeleton* sk = nullptr;  // the index's, or CharacterFrames::skeleton
   DynamicsModel model;
