@@ -96,7 +96,8 @@ void build_bound_tables(SkeletonTables& tables) {
   tables.clip_bounds.assign(tables.clips.size() * w, 0.0f);
   tables.clip_root.assign(tables.clips.size() * 6, 0.0f);
   assign_huge(tables.sketch, blocks * kSketchFields * kBlock, 0.0f);
-  assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock, 0.0f);
+  assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock,
+              std::uint16_t{0});
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
     for (std::size_t f = 0; f < 3; ++f)
@@ -142,8 +143,8 @@ void build_bound_tables(SkeletonTables& tables) {
         return tile[(b * HScanTable::kFields + q) * kBlock + l];
       };
       float* sketch = tables.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
-      float* chain = tables.chain_sketch.data() +
-                     (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
+      std::uint16_t* chain = tables.chain_sketch.data() +
+                             (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
       for (std::size_t l = 0; l < kBlock; ++l) {
         const std::size_t g = std::min(l, count - 1);
         auto com = [&](std::size_t b, std::size_t a) { return value(b, a, g); };
@@ -155,7 +156,8 @@ void build_bound_tables(SkeletonTables& tables) {
         chain_sketches(tables, com, ke, rot, chain_values.data());
         for (std::size_t ch = 0; ch < tables.chains; ++ch)
           for (std::size_t i = 0; i < kSketchFields; ++i)
-            chain[(ch * kSketchFields + i) * kBlock + l] = static_cast<float>(chain_values[ch][i]);
+            chain[(ch * kSketchFields + i) * kBlock + l] =
+                float_to_half_nearest(static_cast<float>(chain_values[ch][i]));
       }
       // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
       constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},

@@ -168,11 +168,14 @@ struct SkeletonTables {
   // per kinematic chain (a maximal run of joints without branching; the
   // chains with segments, `chains` of them, chain_of_segment[b] in
   // [0, chains)), per frame, per block: [block][chains][kSketchFields][kBlock]
-  // floats; chain_mass[c] = the chain's total segment mass (kg).
+  // IEEE halves rounded to nearest (float_to_half_nearest: each value lies
+  // within half_nearest_radius of its half, and the bound is evaluated on
+  // those intervals, so it stays a lower bound; half the bytes of floats);
+  // chain_mass[c] = the chain's total segment mass (kg).
   std::size_t chains = 0;
   std::vector<std::uint32_t> chain_of_segment;
   std::vector<double> chain_mass;
-  std::vector<float> chain_sketch;
+  std::vector<std::uint16_t> chain_sketch;
   // kd features [N][S*3] of a query character (CharacterFrames::kd_features);
   // null for the index's character: ensure_forest reads the index's on first use.
   const float* kd = nullptr;
