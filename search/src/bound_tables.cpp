@@ -27,9 +27,7 @@ void init_scan_tiles(SkeletonTables& tables) {
   };
   tables.tile_floats = tables.segments * HScanTable::kFields * kBlock;
   assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
-  assign_huge(tables.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
   tables.tile_offset = line_offset(tables.tile_values);
-  tables.root_offset = line_offset(tables.tile_roots);
   tables.root_positions.assign(3 * tables.frame_count, 0.0f);
 }
 
@@ -53,17 +51,9 @@ void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
 
 void set_root_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
                    const float* rows) {
-  for (std::size_t i = 0; i < count; ++i) {
-    const std::size_t g = first + i;
-    const ClipInfo& ci = tables.clips[tables.frame_row[g]];
-    const std::size_t local = g - ci.frame_start;
-    float* tile = tables.tile_roots.data() + tables.root_offset +
-                  (ci.block_start + local / kBlock) * 3 * kBlock + local % kBlock;
-    for (std::size_t a = 0; a < 3; ++a) {
-      tables.root_positions[a * tables.frame_count + g] = rows[i * 3 + a];
-      tile[a * kBlock] = rows[i * 3 + a];
-    }
-  }
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t a = 0; a < 3; ++a)
+      tables.root_positions[a * tables.frame_count + first + i] = rows[i * 3 + a];
 }
 
 void set_tiles_from_table(SkeletonTables& tables, const HScanTable& table) {
@@ -137,8 +127,6 @@ void build_bound_tables(SkeletonTables& tables) {
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
       const std::size_t count = g1 - g0;
       const float* tile = tables.tile_data(ci.block_start + bl);
-      const float* tile_roots =
-          tables.tile_roots.data() + tables.root_offset + (ci.block_start + bl) * 3 * kBlock;
       auto value = [&](std::size_t b, std::size_t q, std::size_t l) {
         return tile[(b * HScanTable::kFields + q) * kBlock + l];
       };
@@ -173,7 +161,7 @@ void build_bound_tables(SkeletonTables& tables) {
         }
       for (std::size_t a = 0; a < 3; ++a)
         for (std::size_t l = 0; l < count; ++l) {
-          const float v = tile_roots[a * kBlock + l];
+          const float v = tables.root_position(a, g0 + l);
           root[a] = std::min(root[a], v);
           root[a + 3] = std::max(root[a + 3], v);
         }

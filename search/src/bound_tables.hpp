@@ -18,8 +18,8 @@ void init_scan_tiles(SkeletonTables& tables);
 // count rows of S x 9 scan values, frame-major (the index's h_scan layout).
 void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count, const float* rows);
 
-// Writes the root positions of skeleton frames [first, first + count) (into
-// root_positions and the tiles) from count rows of x, y, z.
+// Writes the root positions of skeleton frames [first, first + count) into
+// root_positions from count rows of x, y, z.
 void set_root_rows(SkeletonTables& tables, std::size_t first, std::size_t count, const float* rows);
 
 // Every frame's scan values and root position from a field-major table of

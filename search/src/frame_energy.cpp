@@ -137,7 +137,8 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
     } else if (n == 1) {
       const ClipInfo& ci = tables.clips[tables.frame_row[g0]];
       const std::size_t local = g0 - ci.frame_start;
-      scan(tables.tile(ci.block_start + local / kBlock, local % kBlock + 1), local % kBlock, 1, 0);
+      const std::size_t lane = local % kBlock;
+      scan(tables.tile(ci.block_start + local / kBlock, g0 - lane, lane + 1), lane, 1, 0);
     } else {
       gather_frames(tables, g0, g1, q.kind == FrameKind::root_only, scratch);
       scan(scratch.gathered, 0, n, 0);

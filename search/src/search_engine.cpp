@@ -238,7 +238,7 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
           out.chain_lower[g] = chain[l];
         }
       }
-      const HScanView tile = tables.tile(row, g1 - g0);
+      const HScanView tile = tables.tile(row, g0, g1 - g0);
       evaluate_h(f, skeleton, *m.index, q.transition_time_s, g0, g1, h.data() + g0, scratch,
                  std::nullopt, nullptr, &tile);
     }

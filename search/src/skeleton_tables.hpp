@@ -86,19 +86,22 @@ struct SkeletonTables {
   // contiguous, so scanning a block reads 12 KB in one stream instead of
   // S x 9 rows far apart. Block `row`'s tile is HScanTable's layout with
   // stride kBlock at tile_values[tile_offset + row * tile_floats] (64-byte
-  // aligned, on huge pages: assign_huge), its root rows at
-  // tile_roots[root_offset + row * 3 kBlock]; lanes past a clip's last frame
-  // are zero. Every reader of the scan values (scans, bounds, relative
-  // placements, partial bounds, the subtree kernel) reads these very floats,
-  // so exact and brute see the same values. scan_value and
-  // for_each_tile_piece find a skeleton frame's tile and lane.
-  std::vector<float> tile_values, tile_roots;
-  std::size_t tile_floats = 0, tile_offset = 0, root_offset = 0;
-  // Block `row`'s tile, `frames` frames of it (<= kBlock).
-  HScanView tile(std::size_t row, std::size_t frames) const {
+  // aligned, on huge pages: assign_huge); lanes past a clip's last frame
+  // are zero. Its root rows are those of root_positions (below). Every reader of the scan values
+  // (scans, bounds, relative placements, partial bounds, the subtree kernel) reads these very
+  // floats, so exact and brute see the same values. scan_value and for_each_tile_piece find a
+  // skeleton frame's tile and lane.
+  std::vector<float> tile_values;
+  std::size_t tile_floats = 0, tile_offset = 0;
+  // Block `row`'s tile, `frames` frames of it (<= kBlock); g0 is the
+  // skeleton frame of its lane 0.
+  HScanView tile(std::size_t row, std::size_t g0, std::size_t frames) const {
     return {tile_values.data() + tile_offset + row * tile_floats,
-            tile_roots.data() + root_offset + row * 3 * kBlock, frames, kBlock,
-            model.segments.size()};
+            root_positions.data() + g0,
+            frames,
+            kBlock,
+            model.segments.size(),
+            frame_count};
   }
   // Block `row`'s tile values: field (b, q) of lane l at [(b * 9 + q) * kBlock + l].
   const float* tile_data(std::size_t row) const {
