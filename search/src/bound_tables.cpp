@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 
 #include "mocap/common/half.hpp"
 #include "mocap/common/memory.hpp"
@@ -18,15 +19,30 @@ void init_scan_tiles(SkeletonTables& tables) {
                                  ? 0
                                  : tables.clips.back().block_start +
                                        (tables.clips.back().frame_count + kBlock - 1) / kBlock;
-  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
+  // Tiles: rows of `stride` floats (kBlock: whole 64-byte lines), each tile
+  // starting on a line; the first one aligned. A clip's last block has its
+  // frame count as its stride. A line more at the end: the relative bounds
+  // read whole kBlock-lane rows (the lanes past a short tile's are dropped).
   constexpr std::size_t kLine = 64 / sizeof(float);
   static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
   auto line_offset = [](const std::vector<float>& v) {
     const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
     return (kLine - a % kLine) % kLine;
   };
-  tables.tile_floats = tables.segments * HScanTable::kFields * kBlock;
-  assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
+  const std::size_t rows = tables.segments * HScanTable::kFields;
+  tables.tile_lines.assign(blocks, 0);
+  tables.tile_strides.assign(blocks, 0);
+  std::size_t lines = 0;
+  for (const ClipInfo& ci : tables.clips)
+    for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+      const std::size_t stride = std::min(kBlock, ci.frame_count - bl * kBlock);
+      if (lines > std::numeric_limits<std::uint32_t>::max())
+        throw std::length_error("search tables: more than 2^32 tile lines");
+      tables.tile_lines[ci.block_start + bl] = static_cast<std::uint32_t>(lines);
+      tables.tile_strides[ci.block_start + bl] = static_cast<std::uint8_t>(stride);
+      lines += (rows * stride + kLine - 1) / kLine;
+    }
+  assign_huge(tables.tile_values, (lines + 2) * kLine, 0.0f);
   tables.tile_offset = line_offset(tables.tile_values);
   tables.root_positions.assign(3 * tables.frame_count, 0.0f);
 }
@@ -40,11 +56,11 @@ void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
                         const std::size_t g = first + i;
                         const ClipInfo& ci = tables.clips[tables.frame_row[g]];
                         const std::size_t local = g - ci.frame_start;
-                        float* tile = tables.tile_values.data() + tables.tile_offset +
-                                      (ci.block_start + local / kBlock) * tables.tile_floats +
-                                      local % kBlock;
+                        const std::size_t block = ci.block_start + local / kBlock;
+                        const std::size_t stride = tables.tile_stride(block);
+                        float* tile = tables.tile_data(block) + local % kBlock;
                         const float* row = rows + i * w;
-                        for (std::size_t f = 0; f < w; ++f) tile[f * kBlock] = row[f];
+                        for (std::size_t f = 0; f < w; ++f) tile[f * stride] = row[f];
                       }
                     });
 }
@@ -127,8 +143,9 @@ void build_bound_tables(SkeletonTables& tables) {
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
       const std::size_t count = g1 - g0;
       const float* tile = tables.tile_data(ci.block_start + bl);
+      const std::size_t stride = tables.tile_stride(ci.block_start + bl);
       auto value = [&](std::size_t b, std::size_t q, std::size_t l) {
-        return tile[(b * HScanTable::kFields + q) * kBlock + l];
+        return tile[(b * HScanTable::kFields + q) * stride + l];
       };
       float* sketch = tables.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
       std::uint16_t* chain = tables.chain_sketch.data() +

@@ -87,10 +87,11 @@ void gather_frames(const SkeletonTables& tables, std::size_t g0, std::size_t g1,
   tables.for_each_tile_piece(
       g0, g1, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
         const float* t = tables.tile_data(row) + lane;
+        const std::size_t stride = tables.tile_stride(row);
         for (std::size_t r = 0; r < rows; ++r) {
           const std::size_t field = r % HScanTable::kFields;
           if (kinetic_only && field != 3 && field != 8) continue;
-          std::copy(t + r * kBlock, t + r * kBlock + count, values + r * n + offset);
+          std::copy(t + r * stride, t + r * stride + count, values + r * n + offset);
         }
       });
   for (std::size_t a = 0; a < 3; ++a)

@@ -60,13 +60,16 @@ void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& ta
         double fixed[kBlock] = {}, height[kBlock] = {}, ke_sum[kBlock], cx[kBlock] = {},
                cy[kBlock] = {}, cz[kBlock] = {};
         for (std::size_t l = 0; l < kBlock; ++l) ke_sum[l] = q.ke_total;
+        // Lanes past a short tile's stride read the next rows (finite
+        // values, dropped below; the tiles end with a spare line).
         const float* tile = tables.tile_data(row);
+        const std::size_t stride = tables.tile_stride(row);
         for (std::size_t b = 0; b < q.mass.size(); ++b) {
-          const float* x = tile + b * HScanTable::kFields * kBlock;
-          const float* y = x + kBlock;
-          const float* z = x + 2 * kBlock;
-          const float* ke = x + 3 * kBlock;
-          const float* kr = x + 8 * kBlock;
+          const float* x = tile + b * HScanTable::kFields * stride;
+          const float* y = x + stride;
+          const float* z = x + 2 * stride;
+          const float* ke = x + 3 * stride;
+          const float* kr = x + 8 * stride;
           const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
           const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
           for (std::size_t l = 0; l < kBlock; ++l) {
@@ -122,10 +125,11 @@ void ensure_frame_kinetic(const SkeletonData& skeleton) {
     for (std::size_t b = 0; b < tables.segments; ++b)
       tables.for_each_tile_piece(
           0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
-            const float* t = tables.tile_data(row) + b * HScanTable::kFields * kBlock + lane;
+            const std::size_t stride = tables.tile_stride(row);
+            const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
             for (std::size_t i = 0; i < count; ++i) {
-              caches.kinetic[offset + i] += t[3 * kBlock + i];
-              caches.kinetic_rot[offset + i] += t[8 * kBlock + i];
+              caches.kinetic[offset + i] += t[3 * stride + i];
+              caches.kinetic_rot[offset + i] += t[8 * stride + i];
             }
           });
     RootBlocks whole;

@@ -182,7 +182,8 @@ void ensure_segment_columns(const SkeletonData& skeleton,
       tables.for_each_tile_piece(
           0, tables.frame_count,
           [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
-            const float* v = tables.tile_data(row) + (b * HScanTable::kFields + q) * kBlock + lane;
+            const float* v = tables.tile_data(row) +
+                             (b * HScanTable::kFields + q) * tables.tile_stride(row) + lane;
             std::copy(v, v + count, out + offset);
           });
     }

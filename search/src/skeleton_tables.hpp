@@ -85,28 +85,33 @@ struct SkeletonTables {
   // block (the blocks of block_bounds): a block's 16 x S x 9 values are
   // contiguous, so scanning a block reads 12 KB in one stream instead of
   // S x 9 rows far apart. Block `row`'s tile is HScanTable's layout with
-  // stride kBlock at tile_values[tile_offset + row * tile_floats] (64-byte
-  // aligned, on huge pages: assign_huge); lanes past a clip's last frame
-  // are zero. Its root rows are those of root_positions (below). Every reader of the scan values
+  // stride tile_stride(row) at tile_data(row) (64-byte aligned, on huge
+  // pages: assign_huge): kBlock, or for a clip's last block its frame count
+  // (a short tile holds no unused lanes). Its root rows are those of
+  // root_positions (below). Every reader of the scan values
   // (scans, bounds, relative placements, partial bounds, the subtree kernel) reads these very
   // floats, so exact and brute see the same values. scan_value and for_each_tile_piece find a
   // skeleton frame's tile and lane.
   std::vector<float> tile_values;
-  std::size_t tile_floats = 0, tile_offset = 0;
-  // Block `row`'s tile, `frames` frames of it (<= kBlock); g0 is the
+  std::size_t tile_offset = 0;
+  // Per block: where its tile starts, in 64-byte lines after tile_offset,
+  // and its stride (its frame count, kBlock but for a clip's last block).
+  std::vector<std::uint32_t> tile_lines;
+  std::vector<std::uint8_t> tile_strides;
+  // Block `row`'s tile, `frames` frames of it (<= its stride); g0 is the
   // skeleton frame of its lane 0.
   HScanView tile(std::size_t row, std::size_t g0, std::size_t frames) const {
-    return {tile_values.data() + tile_offset + row * tile_floats,
-            root_positions.data() + g0,
-            frames,
-            kBlock,
-            model.segments.size(),
-            frame_count};
+    return {tile_data(row),   root_positions.data() + g0, frames,
+            tile_stride(row), model.segments.size(),      frame_count};
   }
-  // Block `row`'s tile values: field (b, q) of lane l at [(b * 9 + q) * kBlock + l].
+  // Block `row`'s tile values: field (b, q) of lane l at [(b * 9 + q) * tile_stride(row) + l].
   const float* tile_data(std::size_t row) const {
-    return tile_values.data() + tile_offset + row * tile_floats;
+    return tile_values.data() + tile_offset + std::size_t{tile_lines[row]} * 16;
   }
+  float* tile_data(std::size_t row) {
+    return tile_values.data() + tile_offset + std::size_t{tile_lines[row]} * 16;
+  }
+  std::size_t tile_stride(std::size_t row) const { return tile_strides[row]; }
   // The tile row and lane of skeleton frame g.
   std::size_t block_of(std::size_t g) const {
     const ClipInfo& ci = clips[frame_row[g]];
@@ -116,8 +121,8 @@ struct SkeletonTables {
   float scan_value(std::size_t b, std::size_t q, std::size_t g) const {
     const ClipInfo& ci = clips[frame_row[g]];
     const std::size_t local = g - ci.frame_start;
-    return tile_data(ci.block_start +
-                     local / kBlock)[(b * HScanTable::kFields + q) * kBlock + local % kBlock];
+    const std::size_t row = ci.block_start + local / kBlock;
+    return tile_data(row)[(b * HScanTable::kFields + q) * tile_stride(row) + local % kBlock];
   }
   // Calls fn(row, lane, count, offset) for the pieces of skeleton frames
   // [g0, g1) that lie in one tile each, in frame order: frames
