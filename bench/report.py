@@ -247,6 +247,11 @@ def main():
         w("are always compressed.")
         w("")
     search_sections(w, se)
+    # Measured by hand, kept verbatim: bench/search_memory.md.
+    with open(os.path.join(HERE, "search_memory.md")) as f:
+        for line in f.read().rstrip().split("\n"):
+            w(line)
+    w("")
     if sy:
         w("## Synthesis (mocap-synth-quality on set-1 gaps)")
         w("")

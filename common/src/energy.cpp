@@ -473,16 +473,16 @@ void scan_kernel(const float* __restrict values, std::size_t stride, std::size_t
 
 MOCAP_MULTIVERSION_V4
 void root_scan_kernel(const float* __restrict values, const float* __restrict roots,
-                      std::size_t stride, std::size_t segments, const float* __restrict masses,
-                      const HScanRootQuery& q, std::size_t first, std::size_t n,
-                      float* __restrict out) {
+                      std::size_t stride, std::size_t root_stride, std::size_t segments,
+                      const float* __restrict masses, const HScanRootQuery& q, std::size_t first,
+                      std::size_t n, float* __restrict out) {
   const float px = q.position[0], py = q.position[1], pz = q.position[2];
   const float gx = q.given[0], gy = q.given[1], gz = q.given[2];
   float total_mass = 0.0f;
   for (std::size_t s = 0; s < segments; ++s) total_mass += masses[s];
   const float* __restrict rx = roots + first;
-  const float* __restrict ry = roots + stride + first;
-  const float* __restrict rz = roots + 2 * stride + first;
+  const float* __restrict ry = roots + root_stride + first;
+  const float* __restrict rz = roots + 2 * root_stride + first;
   for (std::size_t i = 0; i < n; ++i) {
     const float dy = gy * (py - ry[i]);
     out[i] = total_mass * q.gravity * std::fabs(dy);
@@ -537,7 +537,8 @@ void scan_root_translation_energy(const HScanView& table, const HScanRootQuery& 
     throw std::invalid_argument("scan query and table were made for different character models");
   if (begin > end || end > table.frame_count)
     throw std::out_of_range("scan frame range out of the table");
-  root_scan_kernel(table.values, table.root_positions, table.stride, table.segment_count,
+  root_scan_kernel(table.values, table.root_positions, table.stride,
+                   table.root_stride != 0 ? table.root_stride : table.stride, table.segment_count,
                    query.masses.data(), query, begin, end - begin, out);
 }
 

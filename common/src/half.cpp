@@ -44,6 +44,14 @@ std::uint16_t float_to_half(float x, bool up) {
   return away ? static_cast<std::uint16_t>(h + 1) : h;
 }
 
+std::uint16_t float_to_half_nearest(float x) {
+  if (std::isnan(x)) return 0x7e00u;
+  if (x >= 65504.0f) return 0x7bffu;
+  if (x <= -65504.0f) return 0xfbffu;
+  const std::uint16_t down = float_to_half(x, false), up = float_to_half(x, true);
+  return x - half_to_float(down) <= half_to_float(up) - x ? down : up;
+}
+
 #if defined(__x86_64__) && defined(__GNUC__)
 namespace {
 __attribute__((target("avx,f16c"))) void halves_to_floats_f16c(const std::uint16_t* in,

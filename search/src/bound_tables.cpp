@@ -1,18 +1,94 @@
 // Building a skeleton's bound tables (bound_tables.hpp).
 #include "bound_tables.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 
 #include "mocap/common/half.hpp"
 #include "mocap/common/memory.hpp"
 
 namespace mocap::search_detail {
 
-// Block and clip bound tables from the scan table (parallel over clips).
+void init_scan_tiles(SkeletonTables& tables) {
+  const std::size_t blocks = tables.clips.empty()
+                                 ? 0
+                                 : tables.clips.back().block_start +
+                                       (tables.clips.back().frame_count + kBlock - 1) / kBlock;
+  // Tiles: rows of `stride` floats (kBlock: whole 64-byte lines), each tile
+  // starting on a line; the first one aligned. A clip's last block has its
+  // frame count as its stride. A line more at the end: the relative bounds
+  // read whole kBlock-lane rows (the lanes past a short tile's are dropped).
+  constexpr std::size_t kLine = 64 / sizeof(float);
+  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
+  auto line_offset = [](const std::vector<float>& v) {
+    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
+    return (kLine - a % kLine) % kLine;
+  };
+  const std::size_t rows = tables.segments * HScanTable::kFields;
+  tables.tile_lines.assign(blocks, 0);
+  tables.tile_strides.assign(blocks, 0);
+  std::size_t lines = 0;
+  for (const ClipInfo& ci : tables.clips)
+    for (std::size_t bl = 0; bl * kBlock < ci.frame_count; ++bl) {
+      const std::size_t stride = std::min(kBlock, ci.frame_count - bl * kBlock);
+      if (lines > std::numeric_limits<std::uint32_t>::max())
+        throw std::length_error("search tables: more than 2^32 tile lines");
+      tables.tile_lines[ci.block_start + bl] = static_cast<std::uint32_t>(lines);
+      tables.tile_strides[ci.block_start + bl] = static_cast<std::uint8_t>(stride);
+      lines += (rows * stride + kLine - 1) / kLine;
+    }
+  assign_huge(tables.tile_values, (lines + 2) * kLine, 0.0f);
+  tables.tile_offset = line_offset(tables.tile_values);
+  tables.root_positions.assign(3 * tables.frame_count, 0.0f);
+}
+
+void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
+                   const float* rows) {
+  const std::size_t w = tables.segments * HScanTable::kFields;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
+                    [&](const tbb::blocked_range<std::size_t>& rg) {
+                      for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+                        const std::size_t g = first + i;
+                        const ClipInfo& ci = tables.clips[tables.frame_row[g]];
+                        const std::size_t local = g - ci.frame_start;
+                        const std::size_t block = ci.block_start + local / kBlock;
+                        const std::size_t stride = tables.tile_stride(block);
+                        float* tile = tables.tile_data(block) + local % kBlock;
+                        const float* row = rows + i * w;
+                        for (std::size_t f = 0; f < w; ++f) tile[f * stride] = row[f];
+                      }
+                    });
+}
+
+void set_root_rows(SkeletonTables& tables, std::size_t first, std::size_t count,
+                   const float* rows) {
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t a = 0; a < 3; ++a)
+      tables.root_positions[a * tables.frame_count + first + i] = rows[i * 3 + a];
+}
+
+void set_tiles_from_table(SkeletonTables& tables, const HScanTable& table) {
+  const std::size_t w = tables.segments * HScanTable::kFields;
+  tbb::parallel_for(std::size_t{0}, tables.clips.size(), [&](std::size_t r) {
+    const ClipInfo& ci = tables.clips[r];
+    std::vector<float> rows(ci.frame_count * w), roots(ci.frame_count * 3);
+    for (std::size_t f = 0; f < w; ++f)
+      for (std::size_t i = 0; i < ci.frame_count; ++i)
+        rows[i * w + f] = table.values[f * table.stride + ci.frame_start + i];
+    for (std::size_t a = 0; a < 3; ++a)
+      for (std::size_t i = 0; i < ci.frame_count; ++i)
+        roots[i * 3 + a] = table.root_positions[a * table.stride + ci.frame_start + i];
+    set_tile_rows(tables, ci.frame_start, ci.frame_count, rows.data());
+    set_root_rows(tables, ci.frame_start, ci.frame_count, roots.data());
+  });
+}
+
+// Block and clip bound tables from the scan tiles (parallel over clips).
 void build_bound_tables(SkeletonTables& tables) {
   // Rows of `padded` floats; the padding stays 0 (a zero box and zero query
   // constants make a zero term).
@@ -25,21 +101,9 @@ void build_bound_tables(SkeletonTables& tables) {
   tables.block_root.assign(blocks * 6, 0.0f);
   tables.clip_bounds.assign(tables.clips.size() * w, 0.0f);
   tables.clip_root.assign(tables.clips.size() * 6, 0.0f);
-  // Tiles: rows of kBlock floats, whole 64-byte lines; the first one aligned.
-  constexpr std::size_t kLine = 64 / sizeof(float);
-  static_assert(kBlock % kLine == 0, "a tile row is whole cache lines");
-  auto line_offset = [](const std::vector<float>& v) {
-    const auto a = reinterpret_cast<std::uintptr_t>(v.data()) / sizeof(float);
-    return (kLine - a % kLine) % kLine;
-  };
-  tables.tile_floats = real * HScanTable::kFields * kBlock;
-  assign_huge(tables.tile_values, blocks * tables.tile_floats + kLine, 0.0f);
-  assign_huge(tables.tile_roots, blocks * 3 * kBlock + kLine, 0.0f);
-  tables.tile_offset = line_offset(tables.tile_values);
-  tables.root_offset = line_offset(tables.tile_roots);
   assign_huge(tables.sketch, blocks * kSketchFields * kBlock, 0.0f);
-  assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock, 0.0f);
-  const HScanTable& tb = tables.table;
+  assign_huge(tables.chain_sketch, blocks * tables.chains * kSketchFields * kBlock,
+              std::uint16_t{0});
   constexpr float inf = std::numeric_limits<float>::infinity();
   auto init = [&](float* row, float* root) {
     for (std::size_t f = 0; f < 3; ++f)
@@ -77,50 +141,44 @@ void build_bound_tables(SkeletonTables& tables) {
       init(row, root);
       const std::size_t g0 = ci.frame_start + bl * kBlock,
                         g1 = ci.frame_start + std::min(ci.frame_count, bl * kBlock + kBlock);
-      float* tile_values = tables.tile_values.data() + tables.tile_offset +
-                           (ci.block_start + bl) * tables.tile_floats;
-      float* tile_roots =
-          tables.tile_roots.data() + tables.root_offset + (ci.block_start + bl) * 3 * kBlock;
-      for (std::size_t f = 0; f < real * HScanTable::kFields; ++f)
-        std::copy(tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g0),
-                  tb.values.begin() + static_cast<std::ptrdiff_t>(f * tb.stride + g1),
-                  tile_values + f * kBlock);
-      for (std::size_t a = 0; a < 3; ++a)
-        std::copy(tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g0),
-                  tb.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tb.stride + g1),
-                  tile_roots + a * kBlock);
+      const std::size_t count = g1 - g0;
+      const float* tile = tables.tile_data(ci.block_start + bl);
+      const std::size_t stride = tables.tile_stride(ci.block_start + bl);
+      auto value = [&](std::size_t b, std::size_t q, std::size_t l) {
+        return tile[(b * HScanTable::kFields + q) * stride + l];
+      };
       float* sketch = tables.sketch.data() + (ci.block_start + bl) * kSketchFields * kBlock;
-      float* chain = tables.chain_sketch.data() +
-                     (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
+      std::uint16_t* chain = tables.chain_sketch.data() +
+                             (ci.block_start + bl) * tables.chains * kSketchFields * kBlock;
       for (std::size_t l = 0; l < kBlock; ++l) {
-        const std::size_t g = std::min(g0 + l, g1 - 1);
-        auto com = [&](std::size_t b, std::size_t a) { return tb.field(b, a)[g]; };
-        auto ke = [&](std::size_t b) { return tb.field(b, 3)[g]; };
-        auto rot = [&](std::size_t b) { return tb.field(b, 8)[g]; };
+        const std::size_t g = std::min(l, count - 1);
+        auto com = [&](std::size_t b, std::size_t a) { return value(b, a, g); };
+        auto ke = [&](std::size_t b) { return value(b, 3, g); };
+        auto rot = [&](std::size_t b) { return value(b, 8, g); };
         const auto v = whole_body_sketch(tables, com, ke, rot);
         for (std::size_t i = 0; i < kSketchFields; ++i)
           sketch[i * kBlock + l] = static_cast<float>(v[i]);
         chain_sketches(tables, com, ke, rot, chain_values.data());
         for (std::size_t ch = 0; ch < tables.chains; ++ch)
           for (std::size_t i = 0; i < kSketchFields; ++i)
-            chain[(ch * kSketchFields + i) * kBlock + l] = static_cast<float>(chain_values[ch][i]);
+            chain[(ch * kSketchFields + i) * kBlock + l] =
+                float_to_half_nearest(static_cast<float>(chain_values[ch][i]));
       }
       // Scan fields COM x y z, KE, KE_rot -> (min, max) bound fields.
       constexpr std::size_t src[5] = {0, 1, 2, 3, 8}, lo_f[5] = {0, 1, 2, 6, 8},
                             hi_f[5] = {3, 4, 5, 7, 9};
       for (std::size_t b = 0; b < real; ++b)
         for (std::size_t i = 0; i < 5; ++i) {
-          const float* v = tb.field(b, src[i]);
           float& lo = row[lo_f[i] * s + b];
           float& hi = row[hi_f[i] * s + b];
-          for (std::size_t g = g0; g < g1; ++g) {
-            lo = std::min(lo, v[g]);
-            hi = std::max(hi, v[g]);
+          for (std::size_t l = 0; l < count; ++l) {
+            lo = std::min(lo, value(b, src[i], l));
+            hi = std::max(hi, value(b, src[i], l));
           }
         }
       for (std::size_t a = 0; a < 3; ++a)
-        for (std::size_t g = g0; g < g1; ++g) {
-          const float v = tb.root_positions[a * tb.stride + g];
+        for (std::size_t l = 0; l < count; ++l) {
+          const float v = tables.root_position(a, g0 + l);
           root[a] = std::min(root[a], v);
           root[a + 3] = std::max(root[a + 3], v);
         }

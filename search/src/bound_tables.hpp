@@ -9,10 +9,27 @@
 
 namespace mocap::search_detail {
 
-// Fills the block and clip bound tables, the 16-frame scan tiles, the
-// whole-body and chain sketches, the lane-major clip and group tables of
-// `tables` from its scan table (SkeletonTables documents each; parallel
-// over clips). The float rows used only while building are released.
+// Allocates the 16-frame scan tiles (zeroed) and the root positions of
+// `tables` for its clips' blocks (init_skeleton_data first). They are then
+// filled by set_tile_rows and set_root_rows, or set_tiles_from_table.
+void init_scan_tiles(SkeletonTables& tables);
+
+// Writes skeleton frames [first, first + count) into the tiles from `rows`:
+// count rows of S x 9 scan values, frame-major (the index's h_scan layout).
+void set_tile_rows(SkeletonTables& tables, std::size_t first, std::size_t count, const float* rows);
+
+// Writes the root positions of skeleton frames [first, first + count) into
+// root_positions from count rows of x, y, z.
+void set_root_rows(SkeletonTables& tables, std::size_t first, std::size_t count, const float* rows);
+
+// Every frame's scan values and root position from a field-major table of
+// the skeleton's frames (a query character's, built by set_h_scan_frame).
+void set_tiles_from_table(SkeletonTables& tables, const HScanTable& table);
+
+// Fills the block and clip bound tables, the whole-body and chain
+// sketches, the lane-major clip and group tables of `tables` from its
+// scan tiles (SkeletonTables documents each; parallel over clips). The
+// float rows used only while building are released.
 void build_bound_tables(SkeletonTables& tables);
 
 // Sketches of groups of segments (kSketchFields values each: mass-weighted

@@ -91,19 +91,6 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
   out_b = vb[0];
 }
 
-MOCAP_SEARCH_MULTIVERSION
-void chain_sketch_bounds(const float* __restrict k, const float* __restrict blk, std::size_t chains,
-                         float* __restrict out) {
-  for (std::size_t l = 0; l < kBlock; ++l) out[l] = 0.0f;
-  for (std::size_t ch = 0; ch < chains; ++ch) {
-    const float* kc = k + ch * kSketchConstants;
-    const float* v = blk + ch * kSketchFields * kBlock;
-    for (std::size_t l = 0; l < kBlock; ++l)
-      out[l] += sketch_term(kc, v[l], v[kBlock + l], v[2 * kBlock + l], v[3 * kBlock + l],
-                            v[4 * kBlock + l]);
-  }
-}
-
 namespace {
 
 // Lower bound of the scanned h(Q -> F) for a full query frame over the
@@ -119,6 +106,31 @@ inline float sketch_range_term(const float* k, const float* lo, const float* hi)
       std::max(dist(k[3], lo[3], hi[3]), k[6] * ((dx * dx + dy * dy) + dz * dz) - k[3] - hi[3]);
   return (k[5] * dy + trans) + dist(k[4], lo[4], hi[4]);
 }
+
+}  // namespace
+
+MOCAP_SEARCH_MULTIVERSION
+void chain_sketch_bounds(const float* __restrict k, const std::uint16_t* __restrict blk,
+                         std::size_t chains, float* __restrict out) {
+  constexpr std::size_t kChainRow = kSketchFields * kBlock;
+  float v[kChainRow];
+  for (std::size_t l = 0; l < kBlock; ++l) out[l] = 0.0f;
+  for (std::size_t ch = 0; ch < chains; ++ch) {
+    halves_to_floats(blk + ch * kChainRow, kChainRow, v);
+    const float* kc = k + ch * kSketchConstants;
+    for (std::size_t l = 0; l < kBlock; ++l) {
+      float lo[kSketchFields], hi[kSketchFields];
+      for (std::size_t i = 0; i < kSketchFields; ++i) {
+        const float x = v[i * kBlock + l], r = half_nearest_radius(x);
+        lo[i] = x - r;
+        hi[i] = x + r;
+      }
+      out[l] += sketch_range_term(kc, lo, hi);
+    }
+  }
+}
+
+namespace {
 
 // sketch_range_term for the kLanes clips of one lane-major tile
 // (SkeletonTables::clip_sketch_soa), vectorised over the clips.

@@ -183,12 +183,14 @@ void sketch_block_bounds(const float* __restrict ka, const float* __restrict kb,
 
 // Per-frame lower bounds of the scanned h(Q -> F) for the kBlock frames of
 // one block from their chain sketches (`blk`: [chains][kSketchFields][kBlock]
-// of SkeletonTables::chain_sketch) and the query's chain constants k
-// (BoundQuery::chain_sketch): out[l] = sum over the chains of sketch_term
-// (docs/search.md "Chain sketches": h is a sum over segments, and each
+// halves of SkeletonTables::chain_sketch) and the query's chain constants k
+// (BoundQuery::chain_sketch): out[l] = sum over the chains of the sketch
+// term's least value over the fields' intervals [v - r, v + r] (v a stored
+// half, r = half_nearest_radius(v): the interval holds the frame's value;
+// docs/search.md "Chain sketches": h is a sum over segments, and each
 // chain's segments obey the whole-body lemma).
-void chain_sketch_bounds(const float* __restrict k, const float* __restrict blk, std::size_t chains,
-                         float* __restrict out);
+void chain_sketch_bounds(const float* __restrict k, const std::uint16_t* __restrict blk,
+                         std::size_t chains, float* __restrict out);
 
 // The bounds of query frame q over the frames of each of group g's kLanes
 // clips (out[l]: clip row kLanes g + l): their box bounds and, for a full

@@ -116,6 +116,10 @@ std::unique_ptr<SkeletonData> make_character_skeleton(const Index& index, std::u
   own.segment_com_m.resize(n * nj * 3);
   own.segment_com_velocity_mps.resize(n * nj * 3);
   own.kd_features.resize(n * s * 3);
+  // The scan table field-major while the clips are computed in parallel,
+  // then moved into the tiles (the only copy kept).
+  HScanTable table;
+  init_h_scan_table(tables.model, n, table);
   const double t_index = index.info().transition_time_s;
   tbb::parallel_for(std::size_t{0}, tables.clips.size(), [&](std::size_t r) {
     const ClipInfo& ci = tables.clips[r];
@@ -145,11 +149,11 @@ std::unique_ptr<SkeletonData> make_character_skeleton(const Index& index, std::u
                           dyn);
     for (std::size_t f = 0; f < kf; ++f) {
       const std::size_t g = ci.frame_start + f;
-      set_h_scan_frame(tables.model, dyn.state(f), g, tables.table);
+      set_h_scan_frame(tables.model, dyn.state(f), g, table);
       const Eigen::Vector3d& root =
           dyn.joint_positions_m[f * nj + static_cast<std::size_t>(isk.root_joint)];
       for (std::size_t a = 0; a < 3; ++a)
-        tables.table.root_positions[a * tables.table.stride + g] =
+        table.root_positions[a * table.stride + g] =
             static_cast<float>(root[static_cast<Eigen::Index>(a)]);
       for (std::size_t j = 0; j < nj; ++j)
         for (std::size_t a = 0; a < 3; ++a) {
@@ -164,6 +168,8 @@ std::unique_ptr<SkeletonData> make_character_skeleton(const Index& index, std::u
     }
   });
   tables.kd = own.kd_features.data();
+  set_tiles_from_table(tables, table);
+  table = HScanTable();
   build_bound_tables(tables);
   return skeleton;
 }

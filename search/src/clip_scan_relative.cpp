@@ -122,8 +122,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   const float* kin = skeleton.caches.kinetic.data() + ci.frame_start;
   const float* kin_rot = skeleton.caches.kinetic_rot.data() + ci.frame_start;
   auto root_at = [&](std::size_t f) {
-    const float* r = skeleton.tables.table.root_positions.data() + ci.frame_start + f;
-    const std::size_t st = skeleton.tables.table.stride;
+    const float* r = skeleton.tables.root_positions.data() + ci.frame_start + f;
+    const std::size_t st = skeleton.tables.frame_count;
     return Eigen::Vector3d(r[0], r[st], r[2 * st]);
   };
   // A root-only frame's bound at frame f with its root placed at p (world).

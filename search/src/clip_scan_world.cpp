@@ -158,7 +158,7 @@ void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const Resolve
       return;
     }
   }
-  const HScanView tile = tables.tile(row, f1 - f0);
+  const HScanView tile = tables.tile(row, ci.frame_start + f0, f1 - f0);
   evaluate_h(q, skeleton, *pair.index, pair.t, ci.frame_start + f0, ci.frame_start + f1, dst + f0,
              scratch, std::nullopt, nullptr, &tile);
   counters.evaluated += f1 - f0;

@@ -2,6 +2,7 @@
 #include "frame_energy.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <vector>
 
 #include "relative_frames.hpp"
@@ -68,6 +69,39 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
   return r;
 }
 
+// The scan values of skeleton frames [g0, g1) copied out of the tiles into
+// one field-major view (scratch.gathered, stride g1 - g0). The scan
+// kernel's value for a frame depends on its position in the scanned range
+// (vector body or remainder), so a range is scanned whole, as one
+// contiguous run, whatever tiles it touches: exact and brute, which scan
+// the same ranges, see the same values. With `kinetic_only` only the rows
+// the root scan reads (each segment's KE and KE_rot) are copied.
+void gather_frames(const SkeletonTables& tables, std::size_t g0, std::size_t g1, bool kinetic_only,
+                   Scratch& scratch) {
+  const std::size_t n = g1 - g0;
+  const std::size_t rows = tables.segments * HScanTable::kFields;
+  scratch.gathered_values.resize(rows * n);
+  scratch.gathered_roots.resize(3 * n);
+  float* values = scratch.gathered_values.data();
+  float* roots = scratch.gathered_roots.data();
+  tables.for_each_tile_piece(
+      g0, g1, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+        const float* t = tables.tile_data(row) + lane;
+        const std::size_t stride = tables.tile_stride(row);
+        for (std::size_t r = 0; r < rows; ++r) {
+          const std::size_t field = r % HScanTable::kFields;
+          if (kinetic_only && field != 3 && field != 8) continue;
+          std::copy(t + r * stride, t + r * stride + count, values + r * n + offset);
+        }
+      });
+  for (std::size_t a = 0; a < 3; ++a)
+    std::copy(
+        tables.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tables.frame_count + g0),
+        tables.root_positions.begin() + static_cast<std::ptrdiff_t>(a * tables.frame_count + g1),
+        roots + a * n);
+  scratch.gathered = {values, roots, n, n, tables.segments};
+}
+
 }  // namespace
 
 // h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
@@ -78,26 +112,37 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   const SkeletonTables& tables = skeleton.tables;
   const std::size_t n = g1 - g0;
   if (n == 0) return;
-  // A whole block in world mode: scan its tile (same values, contiguous).
-  const HScanView table = tile != nullptr && !place ? *tile : tables.table.view();
-  const std::size_t b0 = tile != nullptr && !place ? 0 : g0;
   if (q.kind == FrameKind::full || q.kind == FrameKind::root_only) {
     scratch.fbuf.resize(n);
-    if (q.kind == FrameKind::full) {
-      const HScanQuery* sq = &q.scan;
-      if (place) {
-        place_h_scan_query(q.scan, *place, scratch.shifted_scan);
-        sq = &scratch.shifted_scan;
-      }
-      scan_approximate_energy(table, *sq, b0, b0 + n, scratch.fbuf.data());
+    const HScanQuery* sq = &q.scan;
+    const HScanRootQuery* rq = &q.root_scan;
+    if (place && q.kind == FrameKind::full) {
+      place_h_scan_query(q.scan, *place, scratch.shifted_scan);
+      sq = &scratch.shifted_scan;
+    } else if (place) {
+      scratch.shifted_root = q.root_scan;
+      move_given_root(*place, q, nullptr, &scratch.shifted_root);
+      rq = &scratch.shifted_root;
+    }
+    // Lanes [lane, lane + count) of a tile into fbuf[offset ...] (a frame's
+    // value does not depend on the lanes scanned with it).
+    auto scan = [&](const HScanView& view, std::size_t lane, std::size_t count,
+                    std::size_t offset) {
+      if (q.kind == FrameKind::full)
+        scan_approximate_energy(view, *sq, lane, lane + count, scratch.fbuf.data() + offset);
+      else
+        scan_root_translation_energy(view, *rq, lane, lane + count, scratch.fbuf.data() + offset);
+    };
+    if (tile != nullptr && !place) {
+      scan(*tile, 0, n, 0);  // a whole block in world mode: its tile
+    } else if (n == 1) {
+      const ClipInfo& ci = tables.clips[tables.frame_row[g0]];
+      const std::size_t local = g0 - ci.frame_start;
+      const std::size_t lane = local % kBlock;
+      scan(tables.tile(ci.block_start + local / kBlock, g0 - lane, lane + 1), lane, 1, 0);
     } else {
-      const HScanRootQuery* rq = &q.root_scan;
-      if (place) {
-        scratch.shifted_root = q.root_scan;
-        move_given_root(*place, q, nullptr, &scratch.shifted_root);
-        rq = &scratch.shifted_root;
-      }
-      scan_root_translation_energy(table, *rq, b0, b0 + n, scratch.fbuf.data());
+      gather_frames(tables, g0, g1, q.kind == FrameKind::root_only, scratch);
+      scan(scratch.gathered, 0, n, 0);
     }
     for (std::size_t i = 0; i < n; ++i) out[i] = scratch.fbuf[i];
     return;

@@ -76,7 +76,6 @@ void attach_columns(PartialBoundPlan& p, const SkeletonData& skeleton, const Ind
     if (p.sub_parent_slot[t] < 0 && !p.mq_fixed[t]) return;
   for (int sl : p.sub_slot)
     if (sl < 0) return;
-  const HScanTable& tb = tables.table;
   auto f4 = [](const Eigen::Quaterniond& q) {
     return std::array<float, 4>{static_cast<float>(q.w()), static_cast<float>(q.x()),
                                 static_cast<float>(q.y()), static_cast<float>(q.z())};
@@ -100,6 +99,7 @@ void attach_columns(PartialBoundPlan& p, const SkeletonData& skeleton, const Ind
     if (par >= 0) rot_joints.push_back(static_cast<std::size_t>(par));
   ensure_columns(index, skeleton, JointColumn::local_rotation, lrot_joints);
   ensure_columns(index, skeleton, JointColumn::world_rotation, rot_joints);
+  ensure_segment_columns(skeleton, p.segs);
   for (std::size_t t = 0; t < ns; ++t) {
     PartialBoundPlan::ColumnSlot c;
     if (needed[t])
@@ -118,8 +118,8 @@ void attach_columns(PartialBoundPlan& p, const SkeletonData& skeleton, const Ind
   for (std::size_t i = 0; i < p.segs.size(); ++i) {
     const std::size_t s = p.segs[i];
     PartialBoundPlan::ColumnSegment c;
-    c.kb = tb.field(s, 3);
-    c.kr = tb.field(s, 8);
+    c.kb = segment_column(skeleton, s, false);
+    c.kr = segment_column(skeleton, s, true);
     c.rot_coef = static_cast<float>(p.rot_coef[i]);
     c.slot = static_cast<std::size_t>(p.sub_slot[i]);
     while (!needed[c.slot]) c.slot = static_cast<std::size_t>(p.sub_parent_slot[c.slot]);
@@ -158,13 +158,13 @@ double quat_angle_sq_lower(const Eigen::Quaterniond& x, double nx, const Eigen::
 // m g |d_y| + max(K_B, 2 K_u - K_B), K_u = m / (2 T^2) |c_B - ca|^2 (mh the
 // last factor, K_B >= 0). The subtree kernel and the partial bound's top
 // segments both add it, so the bound is that very value.
-double static_translation_h(const HScanTable& tb, std::size_t b, std::size_t g,
+double static_translation_h(const SkeletonTables& tables, std::size_t b, std::size_t g,
                             const Eigen::Vector3d& ca, double mg, double mh) {
-  const double dx = static_cast<double>(tb.field(b, 0)[g]) - ca.x();
-  const double dy = static_cast<double>(tb.field(b, 1)[g]) - ca.y();
-  const double dz = static_cast<double>(tb.field(b, 2)[g]) - ca.z();
+  const double dx = static_cast<double>(tables.scan_value(b, 0, g)) - ca.x();
+  const double dy = static_cast<double>(tables.scan_value(b, 1, g)) - ca.y();
+  const double dz = static_cast<double>(tables.scan_value(b, 2, g)) - ca.z();
   const double ku = mh * (dx * dx + dy * dy + dz * dz);
-  const double kb = tb.field(b, 3)[g];
+  const double kb = tables.scan_value(b, 3, g);
   return mg * std::abs(dy) + std::max(kb, 2.0 * ku - kb);
 }
 
@@ -305,7 +305,6 @@ void partial_bounds_columns(const PartialBoundPlan& p, std::size_t g0, std::size
 void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkeletonTables& tables,
                                     const FrameArrays& fa, std::size_t g0, std::size_t g1,
                                     double* out, Scratch& scratch) {
-  const HScanTable& tb = tables.table;
   const std::size_t nj = tables.model.joint_count();
   const auto root = static_cast<std::size_t>(tables.model.root());
   scratch.mq.resize(p.sub_joints.size());
@@ -377,11 +376,11 @@ void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkeletonTab
         const Eigen::Quaterniond rq = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized() *
                                       *p.sub_given[static_cast<std::size_t>(p.sub_slot[i])];
         const Eigen::Vector3d ca = Eigen::Vector3d(x[0], x[1], x[2]) + rq * p.top_com[i];
-        kt += static_translation_h(tb, s, g, ca, p.top_mg[i], p.top_mh[i]);
+        kt += static_translation_h(tables, s, g, ca, p.top_mg[i], p.top_mh[i]);
       } else {
-        kt += static_cast<double>(tb.field(s, 3)[g]);
+        kt += static_cast<double>(tables.scan_value(s, 3, g));
       }
-      const double kr = tb.field(s, 8)[g];
+      const double kr = tables.scan_value(s, 8, g);
       // (theta - s)^2 >= theta^2 - 2 pi s for theta in [0, pi], s the slack.
       double theta2 = 0.0;
       if (p.turns[i]) {
@@ -402,10 +401,10 @@ void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkeletonTab
       for (std::size_t s = 0; s < tables.segments; ++s)
         for (std::size_t a = 0; a < 3; ++a)
           c[static_cast<Eigen::Index>(a)] +=
-              tables.masses[s] * static_cast<double>(tb.field(s, a)[g]);
+              tables.masses[s] * static_cast<double>(tables.scan_value(s, a, g));
       c /= p.mass;
-      const Eigen::Vector3d root_f(tb.root_positions[g], tb.root_positions[tb.stride + g],
-                                   tb.root_positions[2 * tb.stride + g]);
+      const Eigen::Vector3d root_f(tables.root_position(0, g), tables.root_position(1, g),
+                                   tables.root_position(2, g));
       Eigen::Vector3d v = c - root_f;
       if (p.heading) {
         const float* r = fa.rot + (g * nj + root) * 4;

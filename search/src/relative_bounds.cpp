@@ -52,28 +52,47 @@ double clip_relative_bound(const RelativeBoundQuery& q, const SkeletonTables& ta
 void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& tables,
                            std::size_t g0, std::size_t n, RelativeBoundFrames& out) {
   for (auto* v : {&out.fixed, &out.height, &out.ke, &out.cx, &out.cy, &out.cz}) v->assign(n, 0.0);
-  for (std::size_t f = 0; f < n; ++f) out.ke[f] = q.ke_total;
-  const HScanTable& table = tables.table;
-  for (std::size_t b = 0; b < q.mass.size(); ++b) {
-    const float* x = table.field(b, 0) + g0;
-    const float* y = table.field(b, 1) + g0;
-    const float* z = table.field(b, 2) + g0;
-    const float* ke = table.field(b, 3) + g0;
-    const float* kr = table.field(b, 8) + g0;
-    const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
-    const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
-    for (std::size_t f = 0; f < n; ++f) {
-      const double dy = static_cast<double>(y[f]) - yq;
-      const double k = ke[f];
-      out.fixed[f] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[f]) - rq);
-      const double d = std::abs(k - kq), v = mh * dy * dy - k - kq;
-      out.height[f] += d > v ? d : v;
-      out.ke[f] += k;
-      out.cx[f] += m * static_cast<double>(x[f]);
-      out.cy[f] += m * static_cast<double>(y[f]);
-      out.cz[f] += m * static_cast<double>(z[f]);
-    }
-  }
+  // Tile by tile, all kBlock lanes at once (fixed-length loops; lanes
+  // outside [lane, lane + count) are computed and dropped); per frame the
+  // segments are summed in order, as in one pass over the clip.
+  tables.for_each_tile_piece(
+      g0, g0 + n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+        double fixed[kBlock] = {}, height[kBlock] = {}, ke_sum[kBlock], cx[kBlock] = {},
+               cy[kBlock] = {}, cz[kBlock] = {};
+        for (std::size_t l = 0; l < kBlock; ++l) ke_sum[l] = q.ke_total;
+        // Lanes past a short tile's stride read the next rows (finite
+        // values, dropped below; the tiles end with a spare line).
+        const float* tile = tables.tile_data(row);
+        const std::size_t stride = tables.tile_stride(row);
+        for (std::size_t b = 0; b < q.mass.size(); ++b) {
+          const float* x = tile + b * HScanTable::kFields * stride;
+          const float* y = x + stride;
+          const float* z = x + 2 * stride;
+          const float* ke = x + 3 * stride;
+          const float* kr = x + 8 * stride;
+          const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
+          const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
+          for (std::size_t l = 0; l < kBlock; ++l) {
+            const double dy = static_cast<double>(y[l]) - yq;
+            const double k = ke[l];
+            fixed[l] += mg * std::abs(dy) + std::abs(static_cast<double>(kr[l]) - rq);
+            const double d = std::abs(k - kq), v = mh * dy * dy - k - kq;
+            height[l] += d > v ? d : v;
+            ke_sum[l] += k;
+            cx[l] += m * static_cast<double>(x[l]);
+            cy[l] += m * static_cast<double>(y[l]);
+            cz[l] += m * static_cast<double>(z[l]);
+          }
+        }
+        for (std::size_t i = 0; i < count; ++i) {
+          out.fixed[offset + i] = fixed[lane + i];
+          out.height[offset + i] = height[lane + i];
+          out.ke[offset + i] = ke_sum[lane + i];
+          out.cx[offset + i] = cx[lane + i];
+          out.cy[offset + i] = cy[lane + i];
+          out.cz[offset + i] = cz[lane + i];
+        }
+      });
   if (q.total_mass > 0.0)
     for (std::size_t f = 0; f < n; ++f) {
       out.cx[f] /= q.total_mass;
@@ -99,18 +118,20 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
 void ensure_frame_kinetic(const SkeletonData& skeleton) {
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.kinetic_once, [&] {
-    const HScanTable& table = skeleton.tables.table;
-    const std::size_t n = table.frame_count;
+    const SkeletonTables& tables = skeleton.tables;
+    const std::size_t n = tables.frame_count;
     caches.kinetic.assign(n, 0.0f);
     caches.kinetic_rot.assign(n, 0.0f);
-    for (std::size_t b = 0; b < table.segment_count; ++b) {
-      const float* ke = table.field(b, 3);
-      const float* kr = table.field(b, 8);
-      for (std::size_t f = 0; f < n; ++f) {
-        caches.kinetic[f] += ke[f];
-        caches.kinetic_rot[f] += kr[f];
-      }
-    }
+    for (std::size_t b = 0; b < tables.segments; ++b)
+      tables.for_each_tile_piece(
+          0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+            const std::size_t stride = tables.tile_stride(row);
+            const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
+            for (std::size_t i = 0; i < count; ++i) {
+              caches.kinetic[offset + i] += t[3 * stride + i];
+              caches.kinetic_rot[offset + i] += t[8 * stride + i];
+            }
+          });
     RootBlocks whole;
     for (const ClipInfo& ci : skeleton.tables.clips) {
       whole.build(skeleton, ci.frame_start, ci.frame_count, ci.frame_count);
@@ -127,12 +148,12 @@ void RootBlocks::build(const SkeletonData& skeleton, std::size_t g0, std::size_t
   const std::size_t blocks = n == 0 ? 0 : (n + block - 1) / block;
   for (auto* v : {&x0, &y0, &z0, &k0, &r0}) v->assign(blocks, kInf);
   for (auto* v : {&x1, &y1, &z1, &k1}) v->assign(blocks, -kInf);
-  const HScanTable& table = skeleton.tables.table;
+  const SkeletonTables& tables = skeleton.tables;
   const float* k = skeleton.caches.kinetic.data() + g0;
   const float* r = skeleton.caches.kinetic_rot.data() + g0;
-  const float* px = table.root_positions.data() + g0;
-  const float* py = px + table.stride;
-  const float* pz = py + table.stride;
+  const float* px = tables.root_positions.data() + g0;
+  const float* py = px + tables.frame_count;
+  const float* pz = py + tables.frame_count;
   for (std::size_t f = 0; f < n; ++f) {
     const std::size_t j = f / block;
     x0[j] = std::min(x0[j], static_cast<double>(px[f]));

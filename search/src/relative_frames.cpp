@@ -69,7 +69,7 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.headings_once, [&] {
     const SkeletonTables& tables = skeleton.tables;
-    const std::size_t n = tables.table.frame_count;
+    const std::size_t n = tables.frame_count;
     caches.headings.assign(n, 0.0);
     const int root = tables.model.root();
     if (root < 0) return;
@@ -77,12 +77,17 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
     const auto seg = static_cast<std::size_t>(tables.segment_of_joint[r]);
     // The table holds q = R P (the segment's principal frame): R = q P^-1.
     const Eigen::Quaterniond back = tables.model.principal_frames[r].conjugate();
-    const float* w = tables.table.field(seg, 4);
-    const float* x = tables.table.field(seg, 5);
-    const float* y = tables.table.field(seg, 6);
-    const float* z = tables.table.field(seg, 7);
-    for (std::size_t f = 0; f < n; ++f)
-      caches.headings[f] = heading_rad(Eigen::Quaterniond(w[f], x[f], y[f], z[f]) * back);
+    tables.for_each_tile_piece(
+        0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+          const std::size_t stride = tables.tile_stride(row);
+          const float* w = tables.tile_data(row) + (seg * HScanTable::kFields + 4) * stride + lane;
+          const float* x = w + stride;
+          const float* y = w + 2 * stride;
+          const float* z = w + 3 * stride;
+          for (std::size_t i = 0; i < count; ++i)
+            caches.headings[offset + i] =
+                heading_rad(Eigen::Quaterniond(w[i], x[i], y[i], z[i]) * back);
+        });
     caches.heading_cos_sin.resize(2 * n);
     for (std::size_t f = 0; f < n; ++f) {
       caches.heading_cos_sin[2 * f] = std::cos(caches.headings[f]);
@@ -94,8 +99,8 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
 
 Eigen::Vector3d place_point(const SkeletonData& skeleton, FramePlacement placement, std::size_t g,
                             const Eigen::Vector3d& p) {
-  const HScanTable& table = skeleton.tables.table;
-  const double x = table.root_positions[g], z = table.root_positions[2 * table.stride + g];
+  const SkeletonTables& tables = skeleton.tables;
+  const double x = tables.root_position(0, g), z = tables.root_position(2, g);
   if (placement != FramePlacement::relative) return {p.x() + x, p.y(), p.z() + z};
   const double* cs = skeleton.caches.heading_cos_sin.data() + 2 * g;
   // R_y(theta) (x, z) = (c x + s z, -s x + c z) (ground_pose.hpp).
@@ -103,10 +108,9 @@ Eigen::Vector3d place_point(const SkeletonData& skeleton, FramePlacement placeme
 }
 
 GroundPose frame_placement(const SkeletonData& skeleton, FramePlacement placement, std::size_t g) {
-  const HScanTable& table = skeleton.tables.table;
+  const SkeletonTables& tables = skeleton.tables;
   GroundPose start;
-  start.position_m =
-      Eigen::Vector2d(table.root_positions[g], table.root_positions[2 * table.stride + g]);
+  start.position_m = Eigen::Vector2d(tables.root_position(0, g), tables.root_position(2, g));
   if (placement == FramePlacement::relative) start.heading_rad = frame_headings(skeleton)[g];
   return partial_motion_placement(placement, start);
 }

@@ -15,6 +15,11 @@ namespace mocap::search_detail {
 
 struct Scratch {
   std::vector<float> fbuf;  // evaluate_h: the float scan's values
+  // evaluate_h: the scan values of a range of frames copied out of the
+  // tiles, HScanTable's layout with stride `gathered.stride` (the range's
+  // frame count), and their root positions.
+  std::vector<float> gathered_values, gathered_roots;
+  HScanView gathered;
   // A clip's h values of the pair's query frames a (into F^s) and b (out of
   // F^e), their per-frame lower bounds, and the frames skipped (clip scans).
   std::vector<double> a, b, la, lb;

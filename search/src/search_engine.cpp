@@ -69,10 +69,9 @@ SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>(in
   m.skeletons.resize(nk);
   tbb::task_group builds;
   for (std::uint32_t k = 0; k < nk; ++k) {
-    const IndexArray* root_positions = &index.array(k, "frames", "root_position_m");
     const double* prefix = index.array(k, "frames", "energy_prefix_J").f64.data();
-    builds.run([&m, &index, k, root_positions, prefix] {
-      m.skeletons[k] = search_detail::build_index_skeleton(index, k, *root_positions, prefix);
+    builds.run([&m, &index, k, prefix] {
+      m.skeletons[k] = search_detail::build_index_skeleton(index, k, prefix);
     });
   }
   builds.wait();
@@ -239,7 +238,7 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
           out.chain_lower[g] = chain[l];
         }
       }
-      const HScanView tile = tables.tile(row, g1 - g0);
+      const HScanView tile = tables.tile(row, g0, g1 - g0);
       evaluate_h(f, skeleton, *m.index, q.transition_time_s, g0, g1, h.data() + g0, scratch,
                  std::nullopt, nullptr, &tile);
     }

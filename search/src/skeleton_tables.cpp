@@ -24,9 +24,12 @@ void init_skeleton_data(const Index& index, std::uint32_t k, DynamicsModel model
   tables.segments = tables.model.segments.size();
   tables.padded = (tables.segments + 7) / 8 * 8;
   tables.segment_of_joint.assign(tables.model.joint_count(), -1);
-  tables.col_stride = (tables.sk->frame_count + 15) / 16 * 16;
+  tables.frame_count = tables.sk->frame_count;
+  tables.col_stride = (tables.frame_count + 15) / 16 * 16;
   skeleton.caches.columns =
       std::make_unique<std::unique_ptr<float[]>[]>(kJointColumnKinds * tables.model.joint_count());
+  skeleton.caches.segment_columns =
+      std::make_unique<std::unique_ptr<float[]>[]>(2 * tables.model.segments.size());
   for (int b : tables.model.segments) {
     const auto j = static_cast<std::size_t>(b);
     tables.masses.push_back(tables.model.masses_kg[j]);
@@ -72,35 +75,25 @@ void init_skeleton_data(const Index& index, std::uint32_t k, DynamicsModel model
   for (std::size_t row = 0; row < tables.clips.size(); ++row)
     for (std::size_t f = 0; f < tables.clips[row].frame_count; ++f)
       tables.frame_row[tables.clips[row].frame_start + f] = static_cast<std::uint32_t>(row);
-  init_h_scan_table(tables.model, n, tables.table);
+  init_scan_tiles(tables);
 }
 
 std::unique_ptr<SkeletonData> build_index_skeleton(const Index& index, std::uint32_t k,
-                                                   const IndexArray& root_positions,
                                                    const double* prefix) {
   auto skeleton = std::make_unique<SkeletonData>();
   init_skeleton_data(index, k, index.dynamics_model(k), *skeleton);
   SkeletonTables& tables = skeleton->tables;
-  const std::size_t n = tables.sk->frame_count, s = tables.segments;
-  // h_scan [N][S][9] (one row per frame) -> field-major HScanTable, read
-  // in blocks of rows (the array itself is not kept: 0.3 GB on set 2).
-  const std::size_t stride = tables.table.stride;
-  auto transpose = [&](std::uint64_t first, std::uint64_t count, const float* rows) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 2048),
-                      [&](const tbb::blocked_range<std::size_t>& rg) {
-                        for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-                          const float* row = rows + i * s * 9;
-                          const std::size_t f = first + i;
-                          for (std::size_t b = 0; b < s; ++b)
-                            for (std::size_t q = 0; q < 9; ++q)
-                              tables.table.values[(b * 9 + q) * stride + f] = row[b * 9 + q];
-                        }
-                      });
-  };
-  index.stream_rows(k, "frames", "h_scan", 8192, transpose);
-  for (std::size_t f = 0; f < n; ++f)
-    for (std::size_t a = 0; a < 3; ++a)
-      tables.table.root_positions[a * stride + f] = root_positions.f32[f * 3 + a];
+  // h_scan [N][S][9] (one row per frame) and root_position_m [N][3] go
+  // straight into the tiles, read in blocks of rows (the index keeps
+  // neither array: 0.3 GB on set 2).
+  index.stream_rows(k, "frames", "h_scan", 8192,
+                    [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+                      set_tile_rows(tables, first, count, rows);
+                    });
+  index.stream_rows(k, "frames", "root_position_m", 8192,
+                    [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+                      set_root_rows(tables, first, count, rows);
+                    });
   tables.prefix_index = prefix;
   build_bound_tables(tables);
   return skeleton;
@@ -172,6 +165,32 @@ const float* joint_column(const SkeletonData& skeleton, JointColumn kind, std::s
   return skeleton.caches
       .columns[static_cast<std::size_t>(kind) * skeleton.tables.model.joint_count() + j]
       .get();
+}
+
+void ensure_segment_columns(const SkeletonData& skeleton,
+                            const std::vector<std::size_t>& segments) {
+  const SkeletonTables& tables = skeleton.tables;
+  SkeletonCaches& caches = skeleton.caches;
+  std::lock_guard lock(caches.columns_mutex);
+  for (std::size_t b : segments)
+    for (std::size_t r = 0; r < 2; ++r) {
+      std::unique_ptr<float[]>& col = caches.segment_columns[2 * b + r];
+      if (col) continue;
+      col = std::make_unique<float[]>(tables.col_stride);  // zero past the last frame
+      float* out = col.get();
+      const std::size_t q = r == 0 ? 3 : 8;
+      tables.for_each_tile_piece(
+          0, tables.frame_count,
+          [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+            const float* v = tables.tile_data(row) +
+                             (b * HScanTable::kFields + q) * tables.tile_stride(row) + lane;
+            std::copy(v, v + count, out + offset);
+          });
+    }
+}
+
+const float* segment_column(const SkeletonData& skeleton, std::size_t b, bool rot) {
+  return skeleton.caches.segment_columns[2 * b + (rot ? 1 : 0)].get();
 }
 
 void ensure_forest(const Index& index, const SkeletonData& skeleton, const SearchOptions& options) {

@@ -3,8 +3,8 @@
 // parts with three lifetimes:
 //  - SkeletonTables: immutable once built (the engine's constructor, or a
 //    query character's first query): model constants, clip rows, the h scan
-//    table and its 16-frame tiles, box-bound and sketch tables
-//    (bound_tables.hpp); read concurrently without locks;
+//    table as 16-frame tiles, the root positions, box-bound and sketch
+//    tables (bound_tables.hpp); read concurrently without locks;
 //  - CharacterFrames: a query character's own per-frame arrays (positions,
 //    COMs, velocities, kd features recomputed for its bone lengths and body),
 //    also immutable; absent for the index's character;
@@ -12,6 +12,7 @@
 //    columns, a query character's energy prefix sums, the FLANN forest),
 //    each behind a once_flag or a mutex; the accessors below are thread-safe.
 // SkeletonData holds the three. Units: metres, joules, kg, seconds.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -70,7 +71,7 @@ struct SkeletonTables {
   std::uint32_t k = 0;                // skeleton index in the Index
   const IndexSkeleton* sk = nullptr;  // the index's, or CharacterFrames::skeleton
   DynamicsModel model;
-  HScanTable table;
+  std::size_t frame_count = 0;  // the skeleton's frames (N)
   std::size_t segments = 0;
   std::size_t padded = 0;      // segments rounded up to a multiple of 8 (bound tables)
   std::vector<double> masses;  // per segment
@@ -79,19 +80,70 @@ struct SkeletonTables {
   std::vector<int> segment_of_joint;     // joint -> segment index, -1 if massless
   std::vector<ClipInfo> clips;           // by row
   std::vector<std::uint32_t> frame_row;  // skeleton frame -> clip row
-  // The scan table again, one tile per 16-frame block (the blocks of
-  // block_bounds): a block's 16 x S x 9 values are contiguous, so scanning a
-  // block reads 12 KB in one stream instead of S x 9 rows far apart. Block
-  // `row`'s tile is HScanTable's layout with stride kBlock at
-  // tile_values[tile_offset + row * tile_floats] (64-byte aligned, on huge
-  // pages: assign_huge), its root rows at tile_roots[root_offset + row * 3 kBlock].
-  std::vector<float> tile_values, tile_roots;
-  std::size_t tile_floats = 0, tile_offset = 0, root_offset = 0;
-  // Block `row`'s tile, `frames` frames of it (<= kBlock).
-  HScanView tile(std::size_t row, std::size_t frames) const {
-    return {tile_values.data() + tile_offset + row * tile_floats,
-            tile_roots.data() + root_offset + row * 3 * kBlock, frames, kBlock,
-            model.segments.size()};
+  // The h scan table (energy.hpp HScanTable's values: per segment COM x y z,
+  // KE, orientation w x y z, KE_rot), held once, as one tile per 16-frame
+  // block (the blocks of block_bounds): a block's 16 x S x 9 values are
+  // contiguous, so scanning a block reads 12 KB in one stream instead of
+  // S x 9 rows far apart. Block `row`'s tile is HScanTable's layout with
+  // stride tile_stride(row) at tile_data(row) (64-byte aligned, on huge
+  // pages: assign_huge): kBlock, or for a clip's last block its frame count
+  // (a short tile holds no unused lanes). Its root rows are those of
+  // root_positions (below). Every reader of the scan values
+  // (scans, bounds, relative placements, partial bounds, the subtree kernel) reads these very
+  // floats, so exact and brute see the same values. scan_value and for_each_tile_piece find a
+  // skeleton frame's tile and lane.
+  std::vector<float> tile_values;
+  std::size_t tile_offset = 0;
+  // Per block: where its tile starts, in 64-byte lines after tile_offset,
+  // and its stride (its frame count, kBlock but for a clip's last block).
+  std::vector<std::uint32_t> tile_lines;
+  std::vector<std::uint8_t> tile_strides;
+  // Block `row`'s tile, `frames` frames of it (<= its stride); g0 is the
+  // skeleton frame of its lane 0.
+  HScanView tile(std::size_t row, std::size_t g0, std::size_t frames) const {
+    return {tile_data(row),   root_positions.data() + g0, frames,
+            tile_stride(row), model.segments.size(),      frame_count};
+  }
+  // Block `row`'s tile values: field (b, q) of lane l at [(b * 9 + q) * tile_stride(row) + l].
+  const float* tile_data(std::size_t row) const {
+    return tile_values.data() + tile_offset + std::size_t{tile_lines[row]} * 16;
+  }
+  float* tile_data(std::size_t row) {
+    return tile_values.data() + tile_offset + std::size_t{tile_lines[row]} * 16;
+  }
+  std::size_t tile_stride(std::size_t row) const { return tile_strides[row]; }
+  // The tile row and lane of skeleton frame g.
+  std::size_t block_of(std::size_t g) const {
+    const ClipInfo& ci = clips[frame_row[g]];
+    return ci.block_start + (g - ci.frame_start) / kBlock;
+  }
+  // Field q (HScanTable order) of segment b at skeleton frame g.
+  float scan_value(std::size_t b, std::size_t q, std::size_t g) const {
+    const ClipInfo& ci = clips[frame_row[g]];
+    const std::size_t local = g - ci.frame_start;
+    const std::size_t row = ci.block_start + local / kBlock;
+    return tile_data(row)[(b * HScanTable::kFields + q) * tile_stride(row) + local % kBlock];
+  }
+  // Calls fn(row, lane, count, offset) for the pieces of skeleton frames
+  // [g0, g1) that lie in one tile each, in frame order: frames
+  // [g0 + offset, g0 + offset + count) are lanes [lane, lane + count) of
+  // block `row`.
+  template <class Fn>
+  void for_each_tile_piece(std::size_t g0, std::size_t g1, Fn&& fn) const {
+    std::size_t g = g0;
+    while (g < g1) {
+      const ClipInfo& ci = clips[frame_row[g]];
+      const std::size_t local = g - ci.frame_start, lane = local % kBlock;
+      const std::size_t end = std::min({g1, ci.frame_start + ci.frame_count, g + (kBlock - lane)});
+      fn(ci.block_start + local / kBlock, lane, end - g, g - g0);
+      g = end;
+    }
+  }
+  // The root joint's world position of every frame, [3][frame_count]
+  // floats (x row, y row, z row; metres): root_position(a, g).
+  std::vector<float> root_positions;
+  float root_position(std::size_t a, std::size_t g) const {
+    return root_positions[a * frame_count + g];
   }
   // [row][kBoundFields][S] and root boxes [row][6] (min xyz, max xyz), metres / joules
   // (clip_bounds and clip_root only while the tables are built: clip_soa holds them).
@@ -124,11 +176,14 @@ struct SkeletonTables {
   // per kinematic chain (a maximal run of joints without branching; the
   // chains with segments, `chains` of them, chain_of_segment[b] in
   // [0, chains)), per frame, per block: [block][chains][kSketchFields][kBlock]
-  // floats; chain_mass[c] = the chain's total segment mass (kg).
+  // IEEE halves rounded to nearest (float_to_half_nearest: each value lies
+  // within half_nearest_radius of its half, and the bound is evaluated on
+  // those intervals, so it stays a lower bound; half the bytes of floats);
+  // chain_mass[c] = the chain's total segment mass (kg).
   std::size_t chains = 0;
   std::vector<std::uint32_t> chain_of_segment;
   std::vector<double> chain_mass;
-  std::vector<float> chain_sketch;
+  std::vector<std::uint16_t> chain_sketch;
   // kd features [N][S*3] of a query character (CharacterFrames::kd_features);
   // null for the index's character: ensure_forest reads the index's on first use.
   const float* kd = nullptr;
@@ -170,6 +225,12 @@ struct SkeletonCaches {
   // array, the array itself not kept), then read-only.
   std::mutex columns_mutex;
   std::unique_ptr<std::unique_ptr<float[]>[]> columns;
+  // Per segment b, its translational and rotational kinetic energy (scan
+  // fields 3 and 8, J) as one row each of col_stride floats, one value per
+  // skeleton frame, at segment_columns[2 b] and [2 b + 1]: the field-major
+  // reads of partial_bounds_columns. Copied from the tiles on first use
+  // (ensure_segment_columns, under columns_mutex), then read-only.
+  std::unique_ptr<std::unique_ptr<float[]>[]> segment_columns;
   // A query character's energy prefix sums (lambda > 0), built on first use.
   std::once_flag prefix_once;
   std::vector<double> prefix;
@@ -198,17 +259,16 @@ struct SkeletonData {
   mutable SkeletonCaches caches;
 };
 
-// Model-derived per-segment constants, chains, clip rows, frame -> clip row,
-// an empty scan table of the right size; the caches' column slots.
+// Model-derived per-segment constants, chains, clip rows, frame -> clip row;
+// the caches' column slots.
 void init_skeleton_data(const Index& index, std::uint32_t k, DynamicsModel model,
                         SkeletonData& skeleton);
 
-// The index character's data of skeleton k: the h scan table streamed from
-// the index (transposed), the root positions and energy prefix sums (the
-// skeleton's root_position_m and energy_prefix_J arrays, read by the caller:
-// one HDF5 reader at a time), then the bound tables. TBB-parallel inside.
+// The index character's data of skeleton k: the h scan table and the root
+// positions streamed from the index into the tiles (neither array is kept
+// by the index), the energy prefix sums (the skeleton's energy_prefix_J
+// array, read by the caller), then the bound tables. TBB-parallel inside.
 std::unique_ptr<SkeletonData> build_index_skeleton(const Index& index, std::uint32_t k,
-                                                   const IndexArray& root_positions,
                                                    const double* prefix);
 
 // The frame arrays of a skeleton (loaded once): what
@@ -228,6 +288,14 @@ void ensure_columns(const Index& index, const SkeletonData& skeleton, JointColum
 
 // Column `kind` of joint j (after ensure_columns).
 const float* joint_column(const SkeletonData& skeleton, JointColumn kind, std::size_t j);
+
+// Makes the kinetic-energy columns of `segments` available
+// (SkeletonCaches::segment_columns; copied from the tiles). Thread-safe.
+void ensure_segment_columns(const SkeletonData& skeleton, const std::vector<std::size_t>& segments);
+
+// Segment b's translational (rotational: `rot`) kinetic energy column
+// (after ensure_segment_columns).
+const float* segment_column(const SkeletonData& skeleton, std::size_t b, bool rot);
 
 // The FLANN forest of the frame features (approx mode), built once (the
 // index's kd_features, read then: exact and brute never need them).

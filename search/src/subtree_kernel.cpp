@@ -85,7 +85,6 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
                           std::size_t g1, double* out, double* lanes, const std::uint8_t* skip) {
   constexpr std::size_t W = kSubtreeLanes;
   const std::size_t cs = tables.col_stride;
-  const HScanTable& tb = tables.table;
   const std::size_t ns = q.subtree.size();
   // Per slot: the joint's position (3 W) and world rotation (4 W) in Q_F;
   // then scratch rows: the parent's rotation (4 W), the local rotation (4 W),
@@ -193,13 +192,25 @@ void subtree_energy_lanes(const ResolvedFrame& q, const SkeletonTables& tables, 
       }
     }
     for (std::size_t i = 0; i < W; ++i) total[i] = 0.0;
+    // Where the n frames' scan values lie in the tiles: lane i's segment b
+    // field k is tile[i][(b * 9 + k) * stride[i]].
+    const float* tile[W];
+    std::size_t stride[W];
+    tables.for_each_tile_piece(
+        g, g + n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+          for (std::size_t i = 0; i < count; ++i) {
+            tile[offset + i] = tables.tile_data(row) + lane + i;
+            stride[offset + i] = tables.tile_stride(row);
+          }
+        });
     for (const ResolvedFrame::SubtreeSegment& sg : q.subtree_segments) {
       const double* const x = lanes + sg.slot * 7 * W;
       const double* const r = x + 3 * W;
       const std::size_t b = sg.segment;
       for (std::size_t k = 0; k < HScanTable::kFields; ++k) {
-        const float* src = tb.field(b, k) + g;
-        for (std::size_t i = 0; i < n; ++i) fld[k * W + i] = static_cast<double>(src[i]);
+        const std::size_t at = b * HScanTable::kFields + k;
+        for (std::size_t i = 0; i < n; ++i)
+          fld[k * W + i] = static_cast<double>(tile[i][at * stride[i]]);
         for (std::size_t i = n; i < W; ++i) fld[k * W + i] = k == 4 ? 1.0 : 0.0;
       }
       const double cx = sg.com_local.x(), cy = sg.com_local.y(), cz = sg.com_local.z();

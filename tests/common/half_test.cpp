@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -76,6 +77,47 @@ TEST(Half, DirectedRoundingBracketsRandomFloats) {
                                          : half_to_float(static_cast<std::uint16_t>(lo - 1));
     ASSERT_EQ(next, u) << x;
   }
+}
+
+// Round to nearest: every finite half maps to itself; a float maps to the
+// nearer of its two directed roundings, and lies within
+// half_nearest_radius of it (the conservative-interval property the chain
+// sketches rely on), with v - r and v + r exact; the radius is at most a
+// half step of the binade (not vacuous). Clamped beyond the halves, where
+// the radius is infinite.
+TEST(Half, NearestRoundingLiesWithinItsRadius) {
+  for (std::uint32_t h = 0; h < 65536; ++h) {
+    const float f = half_to_float(static_cast<std::uint16_t>(h));
+    if (std::isnan(f) || std::isinf(f)) continue;
+    ASSERT_EQ(half_to_float(float_to_half_nearest(f)), f) << h;
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> mant(1.0f, 2.0f);
+  std::uniform_int_distribution<int> expo(-40, 17);
+  for (int i = 0; i < 400000; ++i) {
+    float x = std::ldexp(mant(rng), expo(rng));
+    if (i % 2) x = -x;
+    const float v = half_to_float(float_to_half_nearest(x));
+    const float r = half_nearest_radius(v);
+    ASSERT_LE(v - r, x) << x;
+    ASSERT_GE(v + r, x) << x;
+    const float l = half_to_float(float_to_half(x, false)),
+                u = half_to_float(float_to_half(x, true));
+    ASSERT_LE(std::fabs(v - x), std::fabs(x - l)) << x;
+    ASSERT_LE(std::fabs(v - x), std::fabs(u - x)) << x;
+    if (std::fabs(v) < 65504.0f) {
+      ASSERT_LE(r, std::max(std::fabs(v) * 0x1p-11f, 0x1p-25f)) << x;
+      // The interval's ends are exact: they differ from v by exactly r.
+      ASSERT_EQ((v + r) - v, r) << x;
+      ASSERT_EQ(v - (v - r), r) << x;
+    }
+  }
+  EXPECT_EQ(half_to_float(float_to_half_nearest(1e6f)), 65504.0f);
+  EXPECT_EQ(half_to_float(float_to_half_nearest(-kInf)), -65504.0f);
+  EXPECT_EQ(half_nearest_radius(65504.0f), kInf);
+  EXPECT_EQ(half_nearest_radius(-65504.0f), kInf);
+  EXPECT_EQ(half_nearest_radius(0.0f), 0x1p-25f);
+  EXPECT_TRUE(is_nan_half(float_to_half_nearest(std::numeric_limits<float>::quiet_NaN())));
 }
 
 }  // namespace

@@ -188,17 +188,20 @@ struct HScanTable {
 };
 
 /// HScanTable's layout over storage kept elsewhere (one block of a larger
-/// array, say): the same fields, rows of `stride` floats; read-only.
+/// array, say): the same fields, rows of `stride` floats; read-only. The
+/// root rows are `root_stride` floats apart (0: `stride`), so they may lie
+/// in another array of another length.
 struct HScanView {
   const float* values = nullptr;          // segment_count * kFields rows
   const float* root_positions = nullptr;  // 3 rows
   std::size_t frame_count = 0;
   std::size_t stride = 0;
   std::size_t segment_count = 0;
+  std::size_t root_stride = 0;
 };
 
 inline HScanView HScanTable::view() const {
-  return {values.data(), root_positions.data(), frame_count, stride, segment_count};
+  return {values.data(), root_positions.data(), frame_count, stride, segment_count, stride};
 }
 
 /// Allocates a zeroed table for `frame_count` frames.
