@@ -4,7 +4,8 @@
   bench/distributed_scaling.py --build DIR --data DIR [--work DIR]
         [--scales 1,2,4,8] [--shards 1,2,4] [--queries 60] [--json FILE]
 
-For each scale k (k symlinked copies of set 2, k x 384,931 frames) and each
+For each scale k (k hard-linked copies of set 2, k x 384,931 frames; the
+queries exclude every copy of their own clip, by file name) and each
 shard count n: `mocap-index build` (n = 1) or `mocap-index build --shards n`
 (wall time, peak RSS); then one batch of held-out relative queries
 (bench/search_queries.py kinds rel-full-2 and rel-partial-2), one thread per
@@ -33,7 +34,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from run import HERE, log, machine, set2_dir  # noqa: E402
+from run import HERE, log, machine, scaled_copies, set2_dir  # noqa: E402
 
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}
@@ -89,12 +90,7 @@ def main():
     memory_MB = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 2**20
     rows = []
     for k in [int(x) for x in a.scales.split(",")]:
-        coll = os.path.join(work, f"x{k}")
-        os.makedirs(coll, exist_ok=True)
-        for i in range(k):
-            link = os.path.join(coll, f"copy{i + 1}")
-            if not os.path.exists(link):
-                os.symlink(set2, link)
+        coll = scaled_copies(set2, work, k)
         reference = None
         single_rss = None
         for n in [int(x) for x in a.shards.split(",")]:

@@ -476,7 +476,7 @@ def scaling_section(w, r, a):
         return
     w("## How cost grows with the collection")
     w("")
-    w("Set 2 listed 1, 2, 4 and 8 times under different folder names (symlinks), indexed")
+    w("Set 2 listed 1, 2, 4 and 8 times under different folder names (hard-linked copies), indexed")
     w(f"with 2 threads; then {sc['queries']} queries ({sc['query_kind']}).")
     w("One run per size (the index-build section above has the median of several runs")
     w("at 1x), so single figures carry the machine's run-to-run noise.")
@@ -507,6 +507,11 @@ def scaling_section(w, r, a):
     w("each array it needs once (shared read-only by all queries and threads); a query")
     w("never loads the index. Its resident memory therefore grows with the arrays the")
     w("batch touches, not with the number of queries.")
+    w("")
+    # Measured by bench/distributed_scaling.py, kept verbatim: bench/distributed_scaling.md.
+    with open(os.path.join(HERE, "distributed_scaling.md")) as f:
+        for line in f.read().rstrip().split("\n"):
+            w(line)
     w("")
 
 

@@ -16,7 +16,7 @@ Stages (each prints one progress line to stderr):
   search    bench/search_bench.sh (latency per mode and query kind, recall,
             1 vs 2 thread throughput, pruning)
   synth     mocap-synth-quality on set 1 gaps (time per transition, g vs slerp)
-  scaling   1x..8x set 2 (symlinked copies): build time, size, peak RSS,
+  scaling   1x..8x set 2 (hard-linked copies): build time, size, peak RSS,
             search latency, pruning and search peak RSS per size
 """
 import argparse
@@ -285,17 +285,26 @@ def percentile(v, p):
     return v[min(len(v) - 1, max(0, math.ceil(p / 100.0 * len(v)) - 1))]
 
 
+def scaled_copies(set2, work, k):
+    """WORK/x{k}: k hard-linked copies of set 2 (no extra disk). Not symlinks:
+    the indexer enters a folder once by its canonical path, so k links to one
+    folder would index one copy."""
+    coll = os.path.join(work, f"x{k}")
+    os.makedirs(coll, exist_ok=True)
+    for i in range(k):
+        copy = os.path.join(coll, f"copy{i + 1}")
+        if not os.path.exists(copy):
+            run(["cp", "-al", set2, copy + ".tmp"])
+            os.rename(copy + ".tmp", copy)
+    return coll
+
+
 def scaling_stage(a, set2, work):
     qpath, nq = scaling_queries(set2, work, a.scaling_queries)
     rows = []
     for k in a.scales:
         log(f"scaling {k}x: index build")
-        coll = os.path.join(work, f"x{k}")
-        os.makedirs(coll, exist_ok=True)
-        for i in range(k):
-            link = os.path.join(coll, f"copy{i + 1}")
-            if not os.path.exists(link):
-                os.symlink(set2, link)
+        coll = scaled_copies(set2, work, k)
         idx = os.path.join(work, f"x{k}.h5")
         b = build_index(a, [coll], idx, 2)
         log(f"scaling {k}x: {nq} queries, exact, 1 thread")
