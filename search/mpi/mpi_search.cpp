@@ -37,8 +37,9 @@ void check(int rc, const char* what) {
 
 std::uint64_t node_memory_bytes() {
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page)
-                               : 0;
+  return pages > 0 && page > 0
+             ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page)
+             : 0;
 }
 
 double peak_rss_MB() {
@@ -71,9 +72,10 @@ std::vector<std::string> gather_bytes(const Session& s, const std::string& mine)
     check(MPI_Recv(&n, 1, MPI_UINT64_T, r, 0, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "MPI_Recv");
     std::string bytes(n, '\0');
     for (std::size_t at = 0; at < n; at += kChunkBytes)
-      check(MPI_Recv(bytes.data() + at, static_cast<int>(std::min<std::size_t>(kChunkBytes, n - at)),
-                     MPI_BYTE, r, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE),
-            "MPI_Recv");
+      check(
+          MPI_Recv(bytes.data() + at, static_cast<int>(std::min<std::size_t>(kChunkBytes, n - at)),
+                   MPI_BYTE, r, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE),
+          "MPI_Recv");
     all.push_back(std::move(bytes));
   }
   return all;
@@ -87,7 +89,8 @@ struct Thresholds {
   std::vector<std::atomic<double>> found, shared;
   explicit Thresholds(const std::vector<BatchEntry>& batch) {
     for (const BatchEntry& e : batch)
-      if (e.query && e.query->frames.size() > 1) stride = std::max(stride, e.query->frames.size() - 1);
+      if (e.query && e.query->frames.size() > 1)
+        stride = std::max(stride, e.query->frames.size() - 1);
     found = std::vector<std::atomic<double>>(batch.size() * stride);
     shared = std::vector<std::atomic<double>>(batch.size() * stride);
     for (auto& a : found) a.store(kInf);
@@ -97,7 +100,8 @@ struct Thresholds {
     ShardHooks h;
     h.first = first;
     h.reached = [this](std::size_t i, const std::vector<double>& r) {
-      for (std::size_t p = 0; p < r.size() && p < stride; ++p) atomic_min(found[i * stride + p], r[p]);
+      for (std::size_t p = 0; p < r.size() && p < stride; ++p)
+        atomic_min(found[i * stride + p], r[p]);
     };
     h.shared = [this](std::size_t i) {
       std::vector<double> out(stride);
@@ -161,7 +165,9 @@ Session::Session(int* argc, char*** argv) {
   MPI_Comm_free(&node);
 }
 
-Session::~Session() { MPI_Finalize(); }
+Session::~Session() {
+  MPI_Finalize();
+}
 
 std::vector<std::string> Session::errors(const std::string& mine) const {
   const int length = static_cast<int>(std::min<std::size_t>(mine.size(), 1 << 20));
@@ -180,9 +186,9 @@ std::vector<std::string> Session::errors(const std::string& mine) const {
   std::vector<std::string> out;
   for (std::size_t r = 0; r < lengths.size(); ++r)
     if (lengths[r] > 0)
-      out.push_back("rank " + std::to_string(r) + ": " +
-                    all.substr(static_cast<std::size_t>(offsets[r]),
-                               static_cast<std::size_t>(lengths[r])));
+      out.push_back(
+          "rank " + std::to_string(r) + ": " +
+          all.substr(static_cast<std::size_t>(offsets[r]), static_cast<std::size_t>(lengths[r])));
   return out;
 }
 
@@ -207,11 +213,11 @@ void on_every_rank(const Session& session, const std::function<void()>& step) {
   throw RankFailure(text);
 }
 
-DistributedResult run_distributed_batch(const Session& session, const std::filesystem::path& index,
-                                        const std::vector<BatchEntry>& batch,
-                                        const SearchOptions& options,
-                                        std::optional<Distribution> requested,
-                                        const std::function<void(std::size_t, std::size_t)>& progress) {
+DistributedResult run_distributed_batch(
+    const Session& session, const std::filesystem::path& index,
+    const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    std::optional<Distribution> requested,
+    const std::function<void(std::size_t, std::size_t)>& progress) {
   const bool collection = is_collection_manifest(index);
   if (requested == Distribution::shards && !collection)
     throw InputError(index.string(), 0,
@@ -261,8 +267,7 @@ DistributedResult run_distributed_batch(const Session& session, const std::files
       mine.push_back(batch[i]);
       positions.push_back(i);
     }
-  const auto progress_here =
-      rank == 0 ? progress : std::function<void(std::size_t, std::size_t)>{};
+  const auto progress_here = rank == 0 ? progress : std::function<void(std::size_t, std::size_t)>{};
   std::vector<QueryOutcome> answered;
   if (by_shards && ranks > 1) {
     Thresholds thresholds(mine);
@@ -270,7 +275,8 @@ DistributedResult run_distributed_batch(const Session& session, const std::files
     std::string error;
     run_exchanging(thresholds, [&] {
       try {
-        if (!sources.empty()) answered = search_shards(sources, mine, options, hooks, progress_here);
+        if (!sources.empty())
+          answered = search_shards(sources, mine, options, hooks, progress_here);
       } catch (const std::exception& e) {
         error = e.what();
       }
@@ -303,8 +309,8 @@ DistributedResult run_distributed_batch(const Session& session, const std::files
   for (const std::string& b : bytes)
     if (std::vector<QueryOutcome> part = decode_outcomes(b); !part.empty())
       per_rank.push_back(std::move(part));
-  result.outcomes = merge_shard_outcomes(per_rank, std::vector<std::size_t>(per_rank.size(), 0),
-                                         batch);
+  result.outcomes =
+      merge_shard_outcomes(per_rank, std::vector<std::size_t>(per_rank.size(), 0), batch);
   return result;
 }
 

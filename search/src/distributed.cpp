@@ -17,8 +17,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 json result_json(const SearchResult& r) {
   json labels = json::array();
   for (const auto& [k, v] : r.labels) labels.push_back({k, v});
-  return {r.rank,    r.clip_index, r.clip,   labels,  r.start_frame,
-          r.end_frame, r.score_J,  r.h_in_J, r.h_out_J, r.path_cost_J};
+  return {r.rank,      r.clip_index, r.clip,   labels,    r.start_frame,
+          r.end_frame, r.score_J,    r.h_in_J, r.h_out_J, r.path_cost_J};
 }
 
 SearchResult result_from(const json& j) {
@@ -44,8 +44,8 @@ json outcome_json(const QueryOutcome& o) {
     pairs.push_back({p.from, p.to, results});
   }
   const SearchStats& s = o.stats;
-  json stats = {s.clips, s.clips_pruned, s.frames_evaluated, s.frames_pruned, s.time_ms,
-                s.recall ? json(*s.recall) : json(nullptr)};
+  json stats = {s.clips,         s.clips_pruned, s.frames_evaluated,
+                s.frames_pruned, s.time_ms,      s.recall ? json(*s.recall) : json(nullptr)};
   return {o.id, o.error ? json(*o.error) : json(nullptr), pairs, stats};
 }
 
@@ -88,7 +88,7 @@ Distribution choose_distribution(std::uint64_t frames, std::size_t shards, std::
   const long double need = static_cast<long double>(frames) * kSearchResidentBytesPerFrame *
                            static_cast<long double>(std::max<std::size_t>(ranks_per_node, 1));
   return need <= static_cast<long double>(node_memory_bytes) / 2 ? Distribution::queries
-                                                                  : Distribution::shards;
+                                                                 : Distribution::shards;
 }
 
 std::vector<std::vector<std::size_t>> assign_shards(const CollectionManifest& manifest,
