@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # mocap-search under mpirun (docs/search.md "Many machines: MPI"): 2 ranks
 # over 2- and 3-shard collections of set 1, distributed by shards and by
-# queries, give rank 0 an output equal to the single index's (but for the
-# stats) on held-out queries of every kind; a failing rank (a missing shard,
+# queries, give rank 0 an output equal to brute force over the single index
+# (but for the stats) on held-out queries of every kind; a failing rank (a missing shard,
 # a changed shard, an output path refused on rank 0, an unreadable batch)
 # ends the whole job with exit 2 and a message naming the rank and the file,
 # never a hang.
@@ -25,8 +25,11 @@ for n in 2 3; do "$indexer" build -q --shards "$n" --out "$tmp/c$n.json" "$set1"
 python3 "$(dirname "${BASH_SOURCE[0]}")/../../bench/search_queries.py" "$(cd "$set1/data" && pwd)" 40 11 >"$tmp/q.jsonl"
 # A line that cannot be parsed: every rank reports it the same way.
 echo '{"id": "broken", "frames": 3}' >>"$tmp/q.jsonl"
+# The reference: brute force in one process over the single index (exact
+# equals it bit for bit, so every MPI run below must too).
 status=0
-"$search" -q --threads 1 --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --out "$tmp/r1.jsonl" || status=$?
+"$search" -q --mode brute --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --out "$tmp/r1.jsonl" ||
+  status=$?
 [ "$status" -eq 1 ] || fail "one process: exit $status (expected 1: one line fails)"
 
 same() {  # same RESULTS_A RESULTS_B WHAT
