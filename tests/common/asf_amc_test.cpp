@@ -24,55 +24,55 @@ namespace fs = std::filesystem;
 
 // Line numbers below refer to these texts.
 const std::string kAsf =
-    "# two bones\n"                   // 1
-    ":version 1.10\n"                 // 2
-    ":name test\n"                    // 3
-    ":units\n"                        // 4
-    "  mass 1.0\n"                    // 5
-    "  length 1.0\n"                  // 6
-    "  angle deg\n"                   // 7
-    ":root\n"                         // 8
-    "  order TX TY TZ RX RY RZ\n"     // 9
-    "  axis XYZ\n"                    // 10
-    "  position 0 0 0\n"              // 11
-    "  orientation 0 0 0\n"           // 12
-    ":bonedata\n"                     // 13
-    "  begin\n"                       // 14
-    "    id 1\n"                      // 15
-    "    name a\n"                    // 16
-    "    direction 0 1 0\n"           // 17
-    "    length 2\n"                  // 18
-    "    axis 0 0 90 XYZ\n"           // 19
-    "    dof rx\n"                    // 20
-    "    limits (-90 90)\n"           // 21
-    "  end\n"                         // 22
-    "  begin\n"                       // 23
-    "    id 2\n"                      // 24
-    "    name b\n"                    // 25
-    "    direction 1 0 0\n"           // 26
-    "    length 1\n"                  // 27
-    "    axis 0 0 0 XYZ\n"            // 28
-    "    dof rz\n"                    // 29
-    "    limits (-inf inf)\n"         // 30
-    "  end\n"                         // 31
-    ":hierarchy\n"                    // 32
-    "  begin\n"                       // 33
-    "    root a\n"                    // 34
-    "    a b\n"                       // 35
-    "  end\n";                        // 36
+    "# two bones\n"                // 1
+    ":version 1.10\n"              // 2
+    ":name test\n"                 // 3
+    ":units\n"                     // 4
+    "  mass 1.0\n"                 // 5
+    "  length 1.0\n"               // 6
+    "  angle deg\n"                // 7
+    ":root\n"                      // 8
+    "  order TX TY TZ RX RY RZ\n"  // 9
+    "  axis XYZ\n"                 // 10
+    "  position 0 0 0\n"           // 11
+    "  orientation 0 0 0\n"        // 12
+    ":bonedata\n"                  // 13
+    "  begin\n"                    // 14
+    "    id 1\n"                   // 15
+    "    name a\n"                 // 16
+    "    direction 0 1 0\n"        // 17
+    "    length 2\n"               // 18
+    "    axis 0 0 90 XYZ\n"        // 19
+    "    dof rx\n"                 // 20
+    "    limits (-90 90)\n"        // 21
+    "  end\n"                      // 22
+    "  begin\n"                    // 23
+    "    id 2\n"                   // 24
+    "    name b\n"                 // 25
+    "    direction 1 0 0\n"        // 26
+    "    length 1\n"               // 27
+    "    axis 0 0 0 XYZ\n"         // 28
+    "    dof rz\n"                 // 29
+    "    limits (-inf inf)\n"      // 30
+    "  end\n"                      // 31
+    ":hierarchy\n"                 // 32
+    "  begin\n"                    // 33
+    "    root a\n"                 // 34
+    "    a b\n"                    // 35
+    "  end\n";                     // 36
 
 const std::string kAmc =
-    "# take\n"                        // 1
-    ":FULLY-SPECIFIED\n"              // 2
-    ":DEGREES\n"                      // 3
-    "1\n"                             // 4
-    "root 1 2 3 0 0 0\n"              // 5
-    "a 90\n"                          // 6
-    "b 0\n"                           // 7
-    "2\n"                             // 8
-    "root 0 0 0 0 0 90\n"             // 9
-    "a 0\n"                           // 10
-    "b 90\n";                         // 11
+    "# take\n"             // 1
+    ":FULLY-SPECIFIED\n"   // 2
+    ":DEGREES\n"           // 3
+    "1\n"                  // 4
+    "root 1 2 3 0 0 0\n"   // 5
+    "a 90\n"               // 6
+    "b 0\n"                // 7
+    "2\n"                  // 8
+    "root 0 0 0 0 0 90\n"  // 9
+    "a 0\n"                // 10
+    "b 90\n";              // 11
 
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const auto at = text.find(from);
@@ -242,7 +242,7 @@ struct Take {
   const char* asf;
   const char* amc;
 };
-constexpr Take kTakes[] = {{"backflip", "backflip"},     {"charleston", "charleston1"},
+constexpr Take kTakes[] = {{"backflip", "backflip"},      {"charleston", "charleston1"},
                            {"charleston", "charleston2"}, {"lambada", "lambada"},
                            {"pirouette", "pirouette"},    {"zombie", "zombie"}};
 
@@ -315,7 +315,8 @@ TEST(AsfAmcCrosscheck, MatchesIndependentReference) {
       const int j = clip.find_joint(end ? name.substr(0, name.size() - 4) : name);
       ASSERT_GE(j, 0) << name;
       const Eigen::Vector3d ref(xyz[0].get<double>(), xyz[1].get<double>(), xyz[2].get<double>());
-      const Eigen::Vector3d got = end ? ends[static_cast<std::size_t>(j)] : w.positions_m[static_cast<std::size_t>(j)];
+      const Eigen::Vector3d got =
+          end ? ends[static_cast<std::size_t>(j)] : w.positions_m[static_cast<std::size_t>(j)];
       EXPECT_LT((got - ref).norm(), 1e-4) << c.at("amc") << " frame " << f + 1 << " " << name;
       ++compared;
     }
