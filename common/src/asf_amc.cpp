@@ -242,16 +242,15 @@ class AsfParser {
         s_.mass = to_number(l.tokens[1], source_, l.number, "mass");
       } else if (l.tokens[0] == "length") {
         s_.length = to_number(l.tokens[1], source_, l.number, "length");
-        if (!(s_.length > 0.0))
-          throw InputError(source_, l.number, "expected a length unit > 0");
+        if (!(s_.length > 0.0)) throw InputError(source_, l.number, "expected a length unit > 0");
       } else if (l.tokens[0] == "angle") {
         if (iequals(l.tokens[1], "deg"))
           s_.angle_in_degrees = true;
         else if (iequals(l.tokens[1], "rad"))
           s_.angle_in_degrees = false;
         else
-          throw InputError(source_, l.number, "expected angle deg or rad, found " +
-                                                  show(l.tokens[1]));
+          throw InputError(source_, l.number,
+                           "expected angle deg or rad, found " + show(l.tokens[1]));
       } else {
         throw InputError(source_, l.number,
                          "expected mass, length or angle in :units, found " + show(l.tokens[0]));
@@ -268,9 +267,9 @@ class AsfParser {
         for (std::size_t k = 1; k < l.tokens.size(); ++k) {
           AsfDof d{};
           if (!parse_dof(l.tokens[k], d))
-            throw InputError(source_, l.number,
-                             "expected TX, TY, TZ, RX, RY or RZ in the root order, found " +
-                                 show(l.tokens[k]));
+            throw InputError(
+                source_, l.number,
+                "expected TX, TY, TZ, RX, RY or RZ in the root order, found " + show(l.tokens[k]));
           for (const AsfDof e : s_.root.order)
             if (e == d)
               throw InputError(source_, l.number,
@@ -285,9 +284,9 @@ class AsfParser {
       } else if (kw == "orientation") {
         s_.root.orientation_deg = parse_vector(l, 1, source_, "orientation");
       } else {
-        throw InputError(source_, l.number,
-                         "expected order, axis, position or orientation in :root, found " +
-                             show(kw));
+        throw InputError(
+            source_, l.number,
+            "expected order, axis, position or orientation in :root, found " + show(kw));
       }
     }
   }
@@ -296,7 +295,8 @@ class AsfParser {
     while (i_ < lines_.size() && !is_section(lines_[i_])) {
       const Line& l = lines_[i_];
       if (l.tokens[0] != "begin" || l.tokens.size() != 1)
-        throw InputError(source_, l.number, "expected 'begin' of a bone, found " + show(l.tokens[0]));
+        throw InputError(source_, l.number,
+                         "expected 'begin' of a bone, found " + show(l.tokens[0]));
       ++i_;
       bone(l.number);
     }
@@ -439,7 +439,8 @@ class AsfParser {
         if (l.tokens[k] == "root")
           throw InputError(source_, l.number, "cycle: 'root' cannot be a child");
         const int c = bone_at(l.tokens[k], l.number);
-        if (c == p) throw InputError(source_, l.number, "cycle: " + show(l.tokens[k]) + " is its own parent");
+        if (c == p)
+          throw InputError(source_, l.number, "cycle: " + show(l.tokens[k]) + " is its own parent");
         if (parent[c] != kUnset)
           throw InputError(source_, l.number,
                            "bone " + show(l.tokens[k]) + " has a second parent (first at line " +
@@ -527,8 +528,7 @@ AsfSkeleton parse_asf(std::string_view text, const std::string& source) {
 // ---------------------------------------------------------------------------
 // AMC
 
-AmcMotion parse_amc(std::string_view text, const std::string& source,
-                    const AsfSkeleton& skeleton) {
+AmcMotion parse_amc(std::string_view text, const std::string& source, const AsfSkeleton& skeleton) {
   AmcMotion m;
   m.source = source;
   std::unordered_map<std::string_view, int> index;  // bone index, -1 for the root
@@ -550,8 +550,8 @@ AmcMotion parse_amc(std::string_view text, const std::string& source,
     const std::string_view first = l.tokens[0];
     if (first[0] == ':') {
       if (in_frames)
-        throw InputError(source, l.number, "expected a bone line or a frame number, found " +
-                                               show(first));
+        throw InputError(source, l.number,
+                         "expected a bone line or a frame number, found " + show(first));
       if (l.tokens.size() != 1)
         throw InputError(source, l.number, "expected nothing after " + show(first));
       if (iequals(first, ":FULLY-SPECIFIED")) continue;
@@ -588,8 +588,8 @@ AmcMotion parse_amc(std::string_view text, const std::string& source,
     const auto it = index.find(first);
     if (it == index.end())
       throw InputError(source, l.number,
-                       "bone " + show(first) + " is not in the skeleton " +
-                           show(skeleton.source) + " (an ASF that does not fit this AMC?)");
+                       "bone " + show(first) + " is not in the skeleton " + show(skeleton.source) +
+                           " (an ASF that does not fit this AMC?)");
     const int b = it->second;
     const std::vector<AsfDof>& dofs = b < 0 ? skeleton.root.order : skeleton.bones[b].dofs;
     if (l.tokens.size() - 1 != dofs.size())
@@ -598,8 +598,9 @@ AmcMotion parse_amc(std::string_view text, const std::string& source,
                            ") in the skeleton: expected " + std::to_string(dofs.size()) +
                            " values, found " + std::to_string(l.tokens.size() - 1));
     if (seen[static_cast<std::size_t>(b + 1)])
-      throw InputError(source, l.number, "bone " + show(first) + " appears twice in frame " +
-                                             std::to_string(expected - 1));
+      throw InputError(
+          source, l.number,
+          "bone " + show(first) + " appears twice in frame " + std::to_string(expected - 1));
     seen[static_cast<std::size_t>(b + 1)] = 1;
     double* out = m.values.data() + (m.frame_count - 1) * m.value_count +
                   (b < 0 ? 0 : m.bone_columns[static_cast<std::size_t>(b)]);

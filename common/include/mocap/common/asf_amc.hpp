@@ -13,9 +13,10 @@
 // - A bone's transform relative to its parent, in the global rest frame, is
 //   L_b = T(o_b) * C_b * M_b * C_b^-1, and world_b = world_parent * L_b, where
 //   o_b (the joint's offset) is the parent bone's direction * length, or 0
-//   for the root's children (they start at the root's origin). This is the Acclaim spec's row-vector
-//   "v L = v C^-1 M C B" written for column vectors. The bone's end (its child
-//   joints' origin) is world_b * (direction_b * length_b).
+//   for the root's children (they start at the root's origin). This is the
+//   Acclaim spec's row-vector "v L = v C^-1 M C B" written for column
+//   vectors. The bone's end (its child joints' origin) is
+//   world_b * (direction_b * length_b).
 // - The root: world_root = T(position + (TX, TY, TZ)) * C_root * M_root *
 //   C_root^-1, with C_root from `orientation` and M_root from RX RY RZ, both in
 //   the root's `axis` order.
