@@ -34,6 +34,61 @@ for t in "${takes[@]}"; do
     >"$out" || fail "asf_amc_fk.py failed on $amc"
   parts+=("$out")
 done
+# A synthetic take with what the CMU files lack: other rotation orders, a root
+# orientation and position, radians, a partial root order and absent bones.
+cat >"$tmp/synthetic.asf" <<'ASF'
+:units
+  length 1
+  angle rad
+:root
+  order RZ TX RX TY TZ
+  axis ZXY
+  position 1 2 3
+  orientation 0.3 -0.2 0.5
+:bonedata
+  begin
+    name a
+    direction 0.2 0.9 0.1
+    length 2
+    axis 0.4 0.1 -0.7 YZX
+    dof rz rx ry
+  end
+  begin
+    name b
+    direction 1 0.1 0
+    length 1.5
+    axis -0.3 0.6 0.2 ZYX
+    dof ry rx
+  end
+  begin
+    name c
+    direction 0 0 1
+    length 1
+    axis 0.1 0.2 0.3 XZY
+    dof rx
+  end
+:hierarchy
+  begin
+    root a c
+    a b
+  end
+ASF
+cat >"$tmp/synthetic.amc" <<'AMC'
+:FULLY-SPECIFIED
+:RADIANS
+1
+root 0.5 1 0.2 -1 2
+a 0.3 -1.2 0.7
+b 0.9 1.4
+c -0.4
+2
+root -2.5 0 1.4 0 0
+b -0.3 0.2
+AMC
+python3 "$root/tests/crosscheck/asf_amc_fk.py" "$tmp/synthetic.asf" "$tmp/synthetic.amc" 1 2 \
+  >"$tmp/synthetic.json" || fail "asf_amc_fk.py failed on the synthetic take"
+parts+=("$tmp/synthetic.json")
+
 python3 -c 'import json, sys; print(json.dumps(sum((json.load(open(p)) for p in sys.argv[1:]), [])))' \
   "${parts[@]}" >"$tmp/reference.json"
 MOCAP_ASF_AMC_REFERENCE="$tmp/reference.json" "$test_bin" \
