@@ -276,9 +276,10 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   }
   if (!a.quiet)
     fmt::print(stderr,
-               "mocap-search: {} queries ({} failed), mode {}, {}, index loaded in {:.2f} s, "
-               "answered in {:.3f} s\n",
-               outcomes.size(), failed, a.mode, where, load_s, run_s);
+               "mocap-search: {} queries ({} failed), mode {}, {}, {}answered in {:.3f} s{}\n",
+               outcomes.size(), failed, a.mode, where,
+               engine ? fmt::format("index loaded in {:.2f} s, ", load_s) : "", run_s,
+               engine ? "" : " (shards loaded meanwhile)");
   return failed > 0 ? kExitSomeFailed : kExitOk;
 }
 
