@@ -364,7 +364,9 @@ class AsfParser {
     if (!has_direction || !has_length)
       throw InputError(source_, begin_line,
                        "bone " + show(b.name) + " needs both direction and length");
-    const double n = b.direction.norm();
+    // stableNorm: norm() squares the components, so 1e200 would give inf (and a
+    // zero direction) and 1e-170 would give 0 (found by tests/fuzz/asf_fuzz).
+    const double n = b.direction.stableNorm();
     if (n > 0.0)
       b.direction /= n;
     else if (b.length > 0.0)

@@ -145,6 +145,17 @@ TEST(AsfAmcValidity, MalformedAsfNumbersAndKeywords) {
   expect_asf_error(replaced(kAsf, ":name test", ":nom test"), 3, "expected a section");
 }
 
+// Found by tests/fuzz/asf_fuzz: norm() squared the components, so a direction of 1e200 became
+// a zero one (of a bone of length 2, which must be an error) and 1e-170 an error.
+TEST(AsfAmcValidity, HugeOrTinyDirectionIsNormalised) {
+  for (const char* d : {"direction 1e200 0 0", "direction 1e-170 0 0"}) {
+    const AsfSkeleton s = parse_asf(replaced(kAsf, "direction 0 1 0", d), "t.asf");
+    EXPECT_NEAR(s.bones[0].direction.x(), 1.0, 1e-15) << d;
+    EXPECT_EQ(s.bones[0].direction.y(), 0.0) << d;
+  }
+  expect_asf_error(replaced(kAsf, "direction 0 1 0", "direction 0 0 0"), 14, "zero direction");
+}
+
 TEST(AsfAmcValidity, UnknownBoneInAmc) {
   expect_amc_error(replaced(kAmc, "b 90\n", "c 90\n"), 11, "not in the skeleton");
 }
