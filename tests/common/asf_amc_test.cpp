@@ -239,6 +239,24 @@ TEST(AsfAmcConversion, TwoBoneWorldPositionsByHand) {
   }
 }
 
+// parse_amc tries the bone that followed last time first; any order must give the same values.
+// The conversion reuses the angles of a bone whose values repeat the previous frame's.
+TEST(AsfAmcConversion, BoneOrderAndRepeatedValues) {
+  const AsfSkeleton s = parse_asf(kAsf, "t.asf");
+  const AmcMotion m = parse_amc(kAmc, "t.amc", s);
+  const AmcMotion reordered =
+      parse_amc(replaced(kAmc, "root 0 0 0 0 0 90\na 0\nb 90\n", "b 90\na 0\nroot 0 0 0 0 0 90\n"),
+                "t.amc", s);
+  EXPECT_EQ(reordered.values, m.values);
+  expect_amc_error(replaced(kAmc, "a 0\nb 90\n", "b 90\nc 0\n"), 11, "not in the skeleton");
+  const AmcMotion repeated = parse_amc(replaced(kAmc, "a 0\n", "a 90\n"), "t.amc", s);
+  const RawClip clip = asf_amc_to_raw_clip(s, repeated);
+  const std::size_t a = clip.joints[static_cast<std::size_t>(clip.find_joint("a"))].first_column;
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_EQ(clip.values[clip.channel_count + a + k], clip.values[a + k]) << k;
+  EXPECT_NE(clip.values[0], clip.values[clip.channel_count]);  // the root did move
+}
+
 TEST(AsfAmcConversion, AbsentBoneRestsAndRadians) {
   const AsfSkeleton s = parse_asf(kAsf, "t.asf");
   const AmcMotion m = parse_amc(replaced(kAmc, "b 0\n", ""), "t.amc", s);
