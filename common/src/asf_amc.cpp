@@ -10,6 +10,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -33,6 +34,23 @@ struct Line {
   std::vector<std::string_view> tokens;
 };
 
+// Byte classes of detail::is_blank and detail::is_binary in one table lookup
+// ('\n' never occurs inside a line).
+constexpr std::uint8_t kText = 0, kBlank = 1, kBinary = 2;
+constexpr std::array<std::uint8_t, 256> kByteClasses = [] {
+  std::array<std::uint8_t, 256> t{};
+  for (int u = 0; u < 256; ++u) {
+    const bool blank = u == ' ' || u == '\t' || u == '\r' || u == '\f' || u == '\v';
+    t[static_cast<std::size_t>(u)] = blank                                    ? kBlank
+                                     : ((u < 0x20 && u != '\n') || u == 0x7f) ? kBinary
+                                                                              : kText;
+  }
+  return t;
+}();
+inline std::uint8_t byte_class(char c) {
+  return kByteClasses[static_cast<unsigned char>(c)];
+}
+
 // Splits the next non-empty, non-comment line of text[pos..] into `out`.
 // Returns false at the end of the text. `line` counts lines (1-based).
 class LineReader {
@@ -49,13 +67,13 @@ class LineReader {
       const char* e = text_.data() + end;
       pos_ = end + 1;
       while (true) {
-        p = detail::after_blanks(p, e);
+        while (p < e && byte_class(*p) == kBlank) ++p;
         if (p == e) break;
         const char* q = p;
-        while (q < e && !detail::is_blank(*q)) {
-          if (detail::is_binary(*q))
-            throw InputError(source_, line_, "expected text, found a binary byte");
-          ++q;
+        for (; q < e; ++q) {
+          const std::uint8_t c = byte_class(*q);
+          if (c == kBlank) break;
+          if (c == kBinary) throw InputError(source_, line_, "expected text, found a binary byte");
         }
         out.tokens.emplace_back(p, static_cast<std::size_t>(q - p));
         p = q;
@@ -170,10 +188,37 @@ std::string join(const Line& l, std::size_t first) {
 // first axis first: R = R(order[2]) * R(order[1]) * R(order[0]).
 Eigen::Quaterniond ordered_rotation(const std::array<std::uint8_t, 3>& order,
                                     const Eigen::Vector3d& deg) {
+  // A zero angle is the identity (exactly: cos 0 = 1, sin 0 = 0), so it is
+  // skipped; bones without a dof about an axis save a sincos and a product.
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   for (const std::uint8_t a : order)
-    q = Eigen::Quaterniond(Eigen::AngleAxisd(deg[a] / kDegPerRad, Eigen::Vector3d::Unit(a))) * q;
+    if (deg[a] != 0.0)
+      q = Eigen::Quaterniond(Eigen::AngleAxisd(deg[a] / kDegPerRad, Eigen::Vector3d::Unit(a))) * q;
   return q;
+}
+
+// quaternion_to_euler(q, {2, 1, 0}) (kinematics.cpp: Euler degrees for
+// R = Rz(a) * Ry(b) * Rx(c)) computing only the five matrix entries it reads,
+// with Eigen's toRotationMatrix formulas, so the result is bit for bit the
+// same (the build has -ffp-contract=off). The conversion calls it once per
+// bone and frame.
+Eigen::Vector3d quaternion_to_euler_zyx(const Eigen::Quaterniond& q) {
+  const Eigen::Quaterniond n = q.normalized();
+  const double tx = 2.0 * n.x(), ty = 2.0 * n.y(), tz = 2.0 * n.z();
+  const double twx = tx * n.w(), twy = ty * n.w(), twz = tz * n.w();
+  const double txx = tx * n.x(), txy = ty * n.x(), txz = tz * n.x();
+  const double tyy = ty * n.y(), tyz = tz * n.y(), tzz = tz * n.z();
+  const double sb = std::clamp(-(txz - twy), -1.0, 1.0);  // -r(2,0)
+  const double b = std::asin(sb);
+  double a, c;
+  if (std::abs(sb) < 1.0 - 1e-12) {
+    a = std::atan2(txy + twz, 1.0 - (tyy + tzz));  // r(1,0), r(0,0)
+    c = std::atan2(tyz + twx, 1.0 - (txx + tyy));  // r(2,1), r(2,2)
+  } else {
+    c = 0.0;
+    a = std::atan2(-(txy - twz), 1.0 - (txx + tzz));  // -r(0,1), r(1,1)
+  }
+  return {a * kDegPerRad, b * kDegPerRad, c * kDegPerRad};
 }
 
 // ---------------------------------------------------------------------------
@@ -364,7 +409,9 @@ class AsfParser {
     if (!has_direction || !has_length)
       throw InputError(source_, begin_line,
                        "bone " + show(b.name) + " needs both direction and length");
-    const double n = b.direction.norm();
+    // stableNorm: norm() squares the components, so 1e200 would give inf (and a
+    // zero direction) and 1e-170 would give 0 (found by tests/fuzz/asf_fuzz).
+    const double n = b.direction.stableNorm();
     if (n > 0.0)
       b.direction /= n;
     else if (b.length > 0.0)
@@ -541,6 +588,17 @@ AmcMotion parse_amc(std::string_view text, const std::string& source, const AsfS
   }
   m.value_count = column;
 
+  // Bone lines come in the same order in every frame, so the bone that
+  // followed the previous line's bone last time is tried first (one compare)
+  // before the hash lookup. next_bone[0]: after a frame number; [b + 2]: after
+  // bone b (root = -1); kNoHint when not seen yet.
+  constexpr int kNoHint = -2;
+  std::vector<int> next_bone(skeleton.bones.size() + 2, kNoHint);
+  std::size_t after = 0;
+  auto bone_name = [&](int b) -> std::string_view {
+    return b < 0 ? std::string_view("root") : std::string_view(skeleton.bones[b].name);
+  };
+
   LineReader reader(text, source);
   Line l;
   bool in_frames = false;
@@ -580,17 +638,23 @@ AmcMotion parse_amc(std::string_view text, const std::string& source, const AsfS
       ++m.frame_count;
       m.values.resize(m.values.size() + m.value_count, 0.0);
       std::fill(seen.begin(), seen.end(), 0);
+      after = 0;
       continue;
     }
     if (!in_frames)
       throw InputError(source, l.number,
                        "expected a frame number before bone values, found " + show(first));
-    const auto it = index.find(first);
-    if (it == index.end())
-      throw InputError(source, l.number,
-                       "bone " + show(first) + " is not in the skeleton " + show(skeleton.source) +
-                           " (an ASF that does not fit this AMC?)");
-    const int b = it->second;
+    int b = next_bone[after];
+    if (b == kNoHint || bone_name(b) != first) {
+      const auto it = index.find(first);
+      if (it == index.end())
+        throw InputError(source, l.number,
+                         "bone " + show(first) + " is not in the skeleton " +
+                             show(skeleton.source) + " (an ASF that does not fit this AMC?)");
+      b = it->second;
+      next_bone[after] = b;
+    }
+    after = static_cast<std::size_t>(b + 2);
     const std::vector<AsfDof>& dofs = b < 0 ? skeleton.root.order : skeleton.bones[b].dofs;
     if (l.tokens.size() - 1 != dofs.size())
       throw InputError(source, l.number,
@@ -626,7 +690,6 @@ RawClip asf_amc_to_raw_clip(const AsfSkeleton& skeleton, const AmcMotion& motion
     throw std::invalid_argument("asf_amc_to_raw_clip: motion was not parsed for this skeleton");
   static constexpr Channel kRotations[] = {Channel::Zrotation, Channel::Yrotation,
                                            Channel::Xrotation};
-  static constexpr std::array<std::uint8_t, 3> kEulerAxes{2, 1, 0};
 
   RawClip clip;
   clip.source = motion.source;
@@ -695,7 +758,7 @@ RawClip asf_amc_to_raw_clip(const AsfSkeleton& skeleton, const AmcMotion& motion
     }
     const Eigen::Quaterniond lr =
         root_axis * ordered_rotation(skeleton.root.axis_order, r) * root_axis.conjugate();
-    const Eigen::Vector3d re = quaternion_to_euler(lr, kEulerAxes);
+    const Eigen::Vector3d re = quaternion_to_euler_zyx(lr);
     for (int a = 0; a < 3; ++a) {
       out[a] = t[a];
       out[3 + a] = re[a];
@@ -705,12 +768,20 @@ RawClip asf_amc_to_raw_clip(const AsfSkeleton& skeleton, const AmcMotion& motion
       if (joint.channels.empty()) continue;
       const auto b = static_cast<std::size_t>(joint_bones[j - 1]);
       const AsfBone& bone = skeleton.bones[b];
+      const double* values = in + motion.bone_columns[b];
+      // Values bit for bit those of the previous frame (7% of CMU's bone
+      // lines: clavicles, fingers) give the previous frame's angles.
+      if (f > 0 && std::memcmp(values, values - motion.value_count,
+                               bone.dofs.size() * sizeof(double)) == 0) {
+        std::memcpy(out + joint.first_column, out + joint.first_column - columns,
+                    3 * sizeof(double));
+        continue;
+      }
       Eigen::Vector3d deg = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < bone.dofs.size(); ++k)
-        deg[dof_axis(bone.dofs[k])] = in[motion.bone_columns[b] + k];
+      for (std::size_t k = 0; k < bone.dofs.size(); ++k) deg[dof_axis(bone.dofs[k])] = values[k];
       const Eigen::Quaterniond l =
           axes[b] * ordered_rotation(bone.axis_order, deg) * axes[b].conjugate();
-      const Eigen::Vector3d e = quaternion_to_euler(l, kEulerAxes);
+      const Eigen::Vector3d e = quaternion_to_euler_zyx(l);
       for (int a = 0; a < 3; ++a) out[joint.first_column + static_cast<std::size_t>(a)] = e[a];
     }
   }

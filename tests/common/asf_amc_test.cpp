@@ -145,6 +145,17 @@ TEST(AsfAmcValidity, MalformedAsfNumbersAndKeywords) {
   expect_asf_error(replaced(kAsf, ":name test", ":nom test"), 3, "expected a section");
 }
 
+// Found by tests/fuzz/asf_fuzz: norm() squared the components, so a direction of 1e200 became
+// a zero one (of a bone of length 2, which must be an error) and 1e-170 an error.
+TEST(AsfAmcValidity, HugeOrTinyDirectionIsNormalised) {
+  for (const char* d : {"direction 1e200 0 0", "direction 1e-170 0 0"}) {
+    const AsfSkeleton s = parse_asf(replaced(kAsf, "direction 0 1 0", d), "t.asf");
+    EXPECT_NEAR(s.bones[0].direction.x(), 1.0, 1e-15) << d;
+    EXPECT_EQ(s.bones[0].direction.y(), 0.0) << d;
+  }
+  expect_asf_error(replaced(kAsf, "direction 0 1 0", "direction 0 0 0"), 14, "zero direction");
+}
+
 TEST(AsfAmcValidity, UnknownBoneInAmc) {
   expect_amc_error(replaced(kAmc, "b 90\n", "c 90\n"), 11, "not in the skeleton");
 }
@@ -226,6 +237,24 @@ TEST(AsfAmcConversion, TwoBoneWorldPositionsByHand) {
       EXPECT_LT((w.positions_m[j] - expected[f][j]).norm(), 1e-12) << f << " " << j;
     EXPECT_LT((ends[2] - expected[f][3]).norm(), 1e-12) << f;
   }
+}
+
+// parse_amc tries the bone that followed last time first; any order must give the same values.
+// The conversion reuses the angles of a bone whose values repeat the previous frame's.
+TEST(AsfAmcConversion, BoneOrderAndRepeatedValues) {
+  const AsfSkeleton s = parse_asf(kAsf, "t.asf");
+  const AmcMotion m = parse_amc(kAmc, "t.amc", s);
+  const AmcMotion reordered =
+      parse_amc(replaced(kAmc, "root 0 0 0 0 0 90\na 0\nb 90\n", "b 90\na 0\nroot 0 0 0 0 0 90\n"),
+                "t.amc", s);
+  EXPECT_EQ(reordered.values, m.values);
+  expect_amc_error(replaced(kAmc, "a 0\nb 90\n", "b 90\nc 0\n"), 11, "not in the skeleton");
+  const AmcMotion repeated = parse_amc(replaced(kAmc, "a 0\n", "a 90\n"), "t.amc", s);
+  const RawClip clip = asf_amc_to_raw_clip(s, repeated);
+  const std::size_t a = clip.joints[static_cast<std::size_t>(clip.find_joint("a"))].first_column;
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_EQ(clip.values[clip.channel_count + a + k], clip.values[a + k]) << k;
+  EXPECT_NE(clip.values[0], clip.values[clip.channel_count]);  // the root did move
 }
 
 TEST(AsfAmcConversion, AbsentBoneRestsAndRadians) {
