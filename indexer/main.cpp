@@ -91,9 +91,9 @@ mocap::AmcReadOptions amc_options(const AmcFlags& flags) {
 // convert: a BVH or AMC file -> BVH (the project's writer), under the output-path policy.
 int run_convert(const std::string& in, const std::string& out, const AmcFlags& amc, bool force) {
   mocap::check_distinct_outputs({{"--out", out}, {"IN", in}});
-  const mocap::CaptureFile file = mocap::read_capture_file(in, amc_options(amc));
   const std::filesystem::path target =
       mocap::checked_output_path(out, mocap::OutputKind::bvh, force, "--out");
+  const mocap::CaptureFile file = mocap::read_capture_file(in, amc_options(amc));
   std::error_code ec;
   if (!target.parent_path().empty()) std::filesystem::create_directories(target.parent_path(), ec);
   mocap::write_bvh_file(file.clip, target);
@@ -512,7 +512,8 @@ int run_info(const std::string& file, bool json) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mocap-index: turn motion-capture collections into an index, and inspect BVH files"};
+  CLI::App app{
+      "mocap-index: turn motion-capture collections into an index, and inspect BVH and AMC files"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(MOCAP_VERSION));
 
@@ -520,7 +521,8 @@ int main(int argc, char** argv) {
   std::size_t frame = 0;
   bool json = false;
   auto* inspect = app.add_subcommand(
-      "inspect", "World-space joints and body segments of one frame of a BVH file (metres, Y up)");
+      "inspect",
+      "World-space joints and body segments of one frame of a BVH or AMC file (metres, Y up)");
   inspect->add_option("FILE", file, "BVH or AMC file")->required();
   inspect->add_option("--frame", frame, "Frame number, 0-based")->required();
   inspect->add_option("--unit", unit,

@@ -6,7 +6,8 @@
 # - an AMC without an ASF is skipped with a reason naming the rules;
 # - inspect of an AMC frame equals inspect of its converted BVH to 1e-4 m;
 # - convert refuses to replace a file that is not BVH;
-# - a changed ASF re-parses its takes on an incremental build.
+# - a changed ASF re-parses its takes on an incremental build (a new
+#   --amc-fps all takes).
 #   bash tests/cli/asf_amc.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -112,10 +113,14 @@ rm "$tmp/col/orphan.amc"
 echo "# changed" >>"$tmp/col/charleston.asf"
 "$indexer" build "$tmp/col" --out "$tmp/inc.h5" --quiet --json >"$tmp/inc2.json" ||
   fail "build after the ASF changed"
-python3 - "$tmp/inc1.json" "$tmp/inc2.json" <<'PY' || fail "incremental build after an ASF change"
+# ... and a new --amc-fps re-parses every take.
+"$indexer" build "$tmp/col" --out "$tmp/inc.h5" --amc-fps 60 --quiet --json >"$tmp/inc3.json" ||
+  fail "build with a new --amc-fps"
+python3 - "$tmp/inc1.json" "$tmp/inc2.json" "$tmp/inc3.json" <<'PY' || fail "incremental build after an ASF or --amc-fps change"
 import json, sys
-one, two = (json.load(open(p)) for p in sys.argv[1:3])
+one, two, three = (json.load(open(p)) for p in sys.argv[1:4])
 assert one["up_to_date"] and one["reused"] == 6, one
 assert not two["up_to_date"] and two["changed"] == 2 and two["reused"] == 4, two
+assert three["changed"] == 6 and three["reused"] == 0, three
 PY
 echo "asf_amc ok"
