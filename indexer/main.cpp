@@ -1,10 +1,12 @@
 // mocap-index: capture collections -> HDF5 index, and tools to look at files.
 //
 // Subcommands (docs/cli.md):
-//   inspect FILE --frame N [--unit U] [--up A] [--character C.json] [--json]
+//   inspect FILE --frame N [--unit U] [--up A] [--character C.json] [--asf S.asf] [--amc-fps F]
+//           [--json]
 //   summary INPUT... [--unit U] [--up A] [--json]
 //   build --out INDEX.h5 INPUT... [--jobs N] [--strict] [--unit U] [--up A] [--character C.json]
-//         [--json]
+//         [--asf S.asf] [--amc-fps F] [--json]
+//   convert IN --out OUT.bvh [--asf S.asf] [--amc-fps F] [--force]
 //   verify INDEX.h5
 //   info INDEX.h5 [--json]
 // Exit status: 0 success; 1 some inputs were bad (reported, the rest done);
@@ -15,20 +17,24 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <limits>
 #include <map>
 
+#include "mocap/common/bvh.hpp"
 #include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/input_limits_cli.hpp"
 #include "mocap/common/json_text.hpp"
+#include "mocap/common/output_path.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
+#include "mocap/indexer/asf_pairing.hpp"
 #include "mocap/indexer/collection.hpp"
 #include "mocap/indexer/index_builder.hpp"
 #include "mocap/indexer/inspect.hpp"
@@ -60,9 +66,47 @@ constexpr const char* kUpHelp =
     "Up axis of the files: y, z or auto (default: detected per file); a Z-up file is rotated "
     "to Y up, (x, y, z) -> (x, z, -y)";
 
+// --asf and --amc-fps of inspect, build and convert.
+struct AmcFlags {
+  std::string asf;
+  double fps = 120.0;
+};
+
+void add_amc_options(CLI::App& cmd, AmcFlags& flags) {
+  cmd.add_option("--asf", flags.asf,
+                 "ASF skeleton of the AMC files (default: paired by name, docs/asf-amc.md)");
+  cmd.add_option("--amc-fps", flags.fps, "Frame rate of the AMC files (AMC has none; default 120)")
+      ->check(CLI::PositiveNumber);
+}
+
+mocap::AmcReadOptions amc_options(const AmcFlags& flags) {
+  mocap::AmcReadOptions o;
+  if (!flags.asf.empty()) o.asf = flags.asf;
+  if (!(flags.fps > 0.0) || !std::isfinite(flags.fps))
+    throw CLI::ValidationError("--amc-fps", "expected a positive frame rate");
+  o.frame_time_s = 1.0 / flags.fps;
+  return o;
+}
+
+// convert: a BVH or AMC file -> BVH (the project's writer), under the output-path policy.
+int run_convert(const std::string& in, const std::string& out, const AmcFlags& amc, bool force) {
+  mocap::check_distinct_outputs({{"--out", out}, {"IN", in}});
+  const std::filesystem::path target =
+      mocap::checked_output_path(out, mocap::OutputKind::bvh, force, "--out");
+  const mocap::CaptureFile file = mocap::read_capture_file(in, amc_options(amc));
+  std::error_code ec;
+  if (!target.parent_path().empty()) std::filesystem::create_directories(target.parent_path(), ec);
+  mocap::write_bvh_file(file.clip, target);
+  fmt::print("{}: {} frames, {} joints -> {}\n", in, file.clip.frame_count, file.clip.joints.size(),
+             out);
+  return kExitOk;
+}
+
 int run_inspect(const std::string& file, std::size_t frame, const std::string& unit,
-                const std::string& up, const std::string& character, bool json) {
+                const std::string& up, const std::string& character, const AmcFlags& amc,
+                bool json) {
   mocap::InspectOptions opt;
+  opt.amc = amc_options(amc);
   opt.file = file;
   opt.frame = frame;
   opt.unit = unit_option(unit);
@@ -250,7 +294,9 @@ int report_sharded_build(const mocap::ShardedBuildSummary& s, bool json) {
 }
 
 int run_build(mocap::IndexBuildOptions opt, const std::string& unit, const std::string& up,
-              const std::string& character, std::size_t shards, bool json, bool quiet) {
+              const std::string& character, const AmcFlags& amc, std::size_t shards, bool json,
+              bool quiet) {
+  opt.amc = amc_options(amc);
   opt.unit = unit_option(unit);
   opt.up = up_option(up);
   if (!character.empty()) opt.character = character;
@@ -466,7 +512,8 @@ int run_info(const std::string& file, bool json) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mocap-index: turn motion-capture collections into an index, and inspect BVH files"};
+  CLI::App app{
+      "mocap-index: turn motion-capture collections into an index, and inspect BVH and AMC files"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(MOCAP_VERSION));
 
@@ -474,8 +521,9 @@ int main(int argc, char** argv) {
   std::size_t frame = 0;
   bool json = false;
   auto* inspect = app.add_subcommand(
-      "inspect", "World-space joints and body segments of one frame of a BVH file (metres, Y up)");
-  inspect->add_option("FILE", file, "BVH file")->required();
+      "inspect",
+      "World-space joints and body segments of one frame of a BVH or AMC file (metres, Y up)");
+  inspect->add_option("FILE", file, "BVH or AMC file")->required();
   inspect->add_option("--frame", frame, "Frame number, 0-based")->required();
   inspect->add_option("--unit", unit,
                       "Length unit of the file: m, dm, cm, mm, inch, cmu (0.056444 m) or auto "
@@ -483,6 +531,8 @@ int main(int argc, char** argv) {
   inspect->add_option("--up", up, kUpHelp);
   inspect->add_option("--character", character,
                       "Character JSON (docs/character.md); default 70 kg male");
+  AmcFlags inspect_amc;
+  add_amc_options(*inspect, inspect_amc);
   inspect->add_flag("--json", json, "Print one JSON object (docs/cli.md)");
 
   std::vector<std::string> inputs;
@@ -508,7 +558,7 @@ int main(int argc, char** argv) {
                                    "reported and skipped (see --strict).");
   build
       ->add_option("INPUT", build_opt.inputs,
-                   "Folders (searched recursively), .bvh files or list files")
+                   "Folders (searched recursively), .bvh or .amc files, or list files")
       ->required();
   build->add_option("--out,-o", build_opt.out, "Index file to write (HDF5)")->required();
   build->add_option("--jobs,-j", build_opt.jobs,
@@ -533,6 +583,8 @@ int main(int argc, char** argv) {
   build->add_flag("--force", build_opt.force,
                   "Replace --out even when it is a file that is not an index (never a folder, "
                   "device or FIFO; docs/cli.md \"Output paths\")");
+  AmcFlags build_amc;
+  add_amc_options(*build, build_amc);
   build->add_flag("--json", build_json, "Print the summary as one JSON object");
   build->add_flag("--quiet,-q", build_quiet, "No progress output");
   std::size_t build_shards = 0;
@@ -541,6 +593,18 @@ int main(int argc, char** argv) {
                    "Split the collection into N index files balanced by frames; --out is then "
                    "their manifest (COLLECTION.json; docs/index-format.md \"Collections\")")
       ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
+
+  std::string convert_in, convert_out;
+  AmcFlags convert_amc;
+  bool convert_force = false;
+  auto* convert = app.add_subcommand(
+      "convert", "Write a BVH or AMC file (with its ASF) as BVH (docs/cli.md \"convert\")");
+  convert->add_option("IN", convert_in, "BVH or AMC file")->required();
+  convert->add_option("--out,-o", convert_out, "BVH file to write")->required();
+  add_amc_options(*convert, convert_amc);
+  convert->add_flag("--force", convert_force,
+                    "Replace --out even when it is a file that is not BVH (docs/cli.md \"Output "
+                    "paths\")");
 
   std::string verify_file;
   bool verify_json = false;
@@ -560,22 +624,25 @@ int main(int argc, char** argv) {
   info->add_flag("--json", info_json, "Print one JSON object");
 
   // Input limits of the subcommands that read capture or character files.
-  mocap::InputLimitFlags inspect_limits, summary_limits, build_limits;
+  mocap::InputLimitFlags inspect_limits, summary_limits, build_limits, convert_limits;
   mocap::add_input_limit_options(*inspect, inspect_limits);
   mocap::add_input_limit_options(*summary, summary_limits);
   mocap::add_input_limit_options(*build, build_limits);
+  mocap::add_input_limit_options(*convert, convert_limits);
 
   CLI11_PARSE(app, argc, argv);
   try {
     if (*inspect) mocap::apply_input_limits(inspect_limits);
     if (*summary) mocap::apply_input_limits(summary_limits);
     if (*build) mocap::apply_input_limits(build_limits);
+    if (*convert) mocap::apply_input_limits(convert_limits);
     int rc = kExitFatal;
-    if (*inspect) rc = run_inspect(file, frame, unit, up, character, json);
+    if (*inspect) rc = run_inspect(file, frame, unit, up, character, inspect_amc, json);
     if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);
     if (*build)
-      rc = run_build(build_opt, build_unit, build_up, build_character, build_shards, build_json,
-                     build_quiet);
+      rc = run_build(build_opt, build_unit, build_up, build_character, build_amc, build_shards,
+                     build_json, build_quiet);
+    if (*convert) rc = run_convert(convert_in, convert_out, convert_amc, convert_force);
     if (*verify) rc = run_verify(verify_file, verify_json);
     if (*info) rc = run_info(info_file, info_json);
     // What the command printed must have been written (a full disk, a

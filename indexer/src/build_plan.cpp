@@ -14,6 +14,7 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/json_text.hpp"
+#include "mocap/common/xxh64.hpp"
 
 namespace mocap {
 
@@ -81,11 +82,30 @@ std::vector<PlannedFile> list_planned_files(const Collection& collection) {
   return files;
 }
 
+std::uint64_t amc_content_hash(std::uint64_t amc_hash, std::uint64_t asf_hash,
+                               double frame_time_s) {
+  std::uint64_t h = xxh64(&asf_hash, sizeof asf_hash, amc_hash);
+  return xxh64(&frame_time_s, sizeof frame_time_s, h);
+}
+
 namespace {
 
-/// stat, labels and the plan of one file.
+/// The content hash the previous index would hold for this file unchanged.
+std::uint64_t current_content_hash(const PlannedFile& f, const AmcReadOptions& amc) {
+  const std::uint64_t h = hash_file(f.path);
+  return f.amc ? amc_content_hash(h, hash_file(f.asf), amc.frame_time_s) : h;
+}
+
+/// stat, labels, the ASF of an AMC take and the plan of one file.
 void plan_file(PlannedFile& f, const std::unordered_map<std::string, const IndexClip*>& old_clips,
-               const std::unordered_map<std::string, const IndexSkippedFile*>& old_skips) {
+               const std::unordered_map<std::string, const IndexSkippedFile*>& old_skips,
+               const AmcReadOptions& amc) {
+  if (has_amc_extension(f.path)) {
+    f.amc = true;
+    AsfPairing pairing = pair_asf(f.path, amc.asf);
+    f.asf = std::move(pairing.asf);
+    f.asf_error = std::move(pairing.error);
+  }
   try {
     f.stat = stat_file(f.path);
   } catch (const InputError& e) {
@@ -98,12 +118,16 @@ void plan_file(PlannedFile& f, const std::unordered_map<std::string, const Index
     if (f.old_clip->size_bytes != f.stat->size || f.old_clip->mtime_ns != f.stat->mtime_ns) return;
     // An unreadable file is parsed: that stage says why it fails.
     try {
-      if (hash_file(f.path) == f.old_clip->content_hash) f.plan = FilePlan::reuse;
+      if (!f.amc || !f.asf.empty())
+        if (current_content_hash(f, amc) == f.old_clip->content_hash) f.plan = FilePlan::reuse;
     } catch (const InputError&) {
     }
   } else if (auto sk = old_skips.find(f.path); sk != old_skips.end()) {
     f.old_skip = sk->second;
-    if (f.old_skip->mtime_ns == f.stat->mtime_ns && f.old_skip->size_bytes == f.stat->size)
+    // An AMC take is re-read while it has an ASF (the ASF may have changed).
+    const bool same_pairing = !f.amc || (f.asf.empty() && f.old_skip->reason == f.asf_error);
+    if (f.old_skip->mtime_ns == f.stat->mtime_ns && f.old_skip->size_bytes == f.stat->size &&
+        same_pairing)
       f.plan = FilePlan::still_bad;
   }
 }
@@ -111,7 +135,7 @@ void plan_file(PlannedFile& f, const std::unordered_map<std::string, const Index
 }  // namespace
 
 void plan_files(std::vector<PlannedFile>& files, const PreviousIndex* previous,
-                tbb::task_arena& arena) {
+                const AmcReadOptions& amc, tbb::task_arena& arena) {
   std::unordered_map<std::string, const IndexClip*> old_clips;
   std::unordered_map<std::string, const IndexSkippedFile*> old_skips;
   if (previous) {
@@ -122,7 +146,7 @@ void plan_files(std::vector<PlannedFile>& files, const PreviousIndex* previous,
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, files.size(), 4),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t i = r.begin(); i != r.end(); ++i)
-                          plan_file(files[i], old_clips, old_skips);
+                          plan_file(files[i], old_clips, old_skips, amc);
                       });
   });
 }

@@ -60,7 +60,15 @@ struct PlannedFile {
   const IndexClip* old_clip = nullptr;
   const IndexSkippedFile* old_skip = nullptr;
   ClipLabels labels;
+  /// An AMC take: its ASF (empty when pairing failed: asf_error says why).
+  bool amc = false;
+  std::filesystem::path asf;
+  std::string asf_error;
 };
+
+/// The content hash of an AMC take: XXH64 of the AMC's bytes, then of the
+/// ASF's bytes and of the frame time's bits, each seeded with the hash so far.
+std::uint64_t amc_content_hash(std::uint64_t amc_hash, std::uint64_t asf_hash, double frame_time_s);
 
 /// The collection's files as PlannedFiles: absolute, deduplicated, sorted by path.
 std::vector<PlannedFile> list_planned_files(const Collection& collection);
@@ -68,8 +76,10 @@ std::vector<PlannedFile> list_planned_files(const Collection& collection);
 /// Stats every file and resolves its labels; with a previous index, plans
 /// reuse (hashing the files whose size and mtime match) and still_bad.
 /// Parallel over files in `arena`.
+/// AMC takes are paired with their ASF (`amc`) first; one whose pairing failed
+/// is still_bad only when it failed before for the same reason.
 void plan_files(std::vector<PlannedFile>& files, const PreviousIndex* previous,
-                tbb::task_arena& arena);
+                const AmcReadOptions& amc, tbb::task_arena& arena);
 
 /// True when the previous index is what this build would write: every file
 /// reused, the same missing inputs, no clip removed, and the same labels

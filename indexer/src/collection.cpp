@@ -8,6 +8,8 @@
 #include <set>
 #include <system_error>
 
+#include "mocap/indexer/asf_pairing.hpp"
+
 namespace mocap {
 
 namespace fs = std::filesystem;
@@ -20,10 +22,15 @@ bool has_bvh_extension(const fs::path& p) {
   return ext == ".bvh";
 }
 
-// Every .bvh file under `dir`, following links to folders but entering each
+// A clip file: .bvh or .amc (an .asf is a skeleton, read with its takes).
+bool is_clip_file_name(const fs::path& p) {
+  return has_bvh_extension(p) || has_amc_extension(p);
+}
+
+// Every .bvh and .amc file under `dir`, following links to folders but entering each
 // folder once (by its canonical path: a link loop or a second link to a
 // folder adds nothing). Hidden entries are skipped; unreadable folders and
-// .bvh entries that are not regular files (FIFOs, dangling links) are
+// clip entries that are not regular files (FIFOs, dangling links) are
 // reported in out.problems.
 void add_folder(const fs::path& dir, Collection& out, std::set<fs::path>& visited) {
   std::error_code ec;
@@ -60,7 +67,7 @@ void add_folder(const fs::path& dir, Collection& out, std::set<fs::path>& visite
         out.problems.push_back({p.string(), "folder not readable: skipped"});
       continue;
     }
-    if (!has_bvh_extension(p)) continue;
+    if (!is_clip_file_name(p)) continue;
     if (it->is_regular_file(ec))
       out.files.push_back({p});
     else
@@ -86,9 +93,9 @@ void add_list_file(const fs::path& list, Collection& out, std::set<fs::path>& vi
     std::error_code ec;
     if (fs::is_directory(p, ec))
       add_folder(p, out, visited);
-    else if (fs::is_regular_file(p, ec))
-      out.files.push_back({p});
-    else
+    else if (fs::is_regular_file(p, ec)) {
+      if (!has_asf_extension(p)) out.files.push_back({p});
+    } else
       out.problems.push_back(
           {p.string(), "no such file or directory (listed in " + list.string() + ")"});
   }
@@ -104,9 +111,9 @@ Collection list_collection(const std::vector<std::string>& inputs) {
     if (fs::is_directory(p, ec))
       add_folder(p, out, visited);
     else if (fs::is_regular_file(p, ec)) {
-      if (has_bvh_extension(p))
+      if (is_clip_file_name(p))
         out.files.push_back({p});
-      else
+      else if (!has_asf_extension(p))
         add_list_file(p, out, visited);
     } else
       out.problems.push_back({input, "no such file or directory"});

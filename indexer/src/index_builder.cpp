@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -18,6 +19,7 @@
 
 #include "build_plan.hpp"
 #include "index_writer.hpp"
+#include "mocap/common/asf_amc.hpp"
 #include "mocap/common/atomic_file.hpp"
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
@@ -83,6 +85,24 @@ IndexSkeleton to_table(const IndexedSkeleton& s) {
   return t;
 }
 
+/// An AMC take and its ASF (plan_file paired them): read, hashed together
+/// (amc_content_hash) and converted; `scale_m` gets the ASF's metres per unit.
+RawClip read_amc_take(const PlannedFile& f, const AmcReadOptions& amc, WorkerTimes& times,
+                      Clock::time_point& t, std::uint64_t& content_hash,
+                      std::optional<double>& scale_m) {
+  const FileBytes amc_text = read_file_bytes(f.path, f.stat->size);
+  const FileStat asf_stat = stat_file(f.asf);
+  const FileBytes asf_text = read_file_bytes(f.asf, asf_stat.size);
+  times.read_ns += ns_since(t);
+  t = Clock::now();
+  content_hash = amc_content_hash(xxh64(amc_text.view().data(), amc_text.size()),
+                                  xxh64(asf_text.view().data(), asf_text.size()), amc.frame_time_s);
+  const AsfSkeleton skeleton = parse_asf(asf_text.view(), f.asf.string());
+  const AmcMotion motion = parse_amc(amc_text.view(), f.path, skeleton);
+  scale_m = skeleton.metres_per_unit();
+  return asf_amc_to_raw_clip(skeleton, motion, amc.frame_time_s);
+}
+
 /// The parallel stage: read, hash, parse and compute the rows of a file to parse.
 void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Character& character,
                 const EnergyParams& energy, WorkerTimes& times, ParsedFile& w) {
@@ -94,11 +114,18 @@ void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Charac
     w.reason = "empty file";
     return;
   }
+  if (f.amc && f.asf.empty()) {
+    w.reason = f.asf_error;
+    return;
+  }
   auto t = Clock::now();
   try {
     IndexClip& c = w.clip;
     RawClip raw;
-    {
+    std::optional<double> asf_scale_m;
+    if (f.amc) {
+      raw = read_amc_take(f, opt.amc, times, t, c.content_hash, asf_scale_m);
+    } else {
       const FileBytes text = read_file_bytes(f.path, f.stat->size);
       times.read_ns += ns_since(t);
       t = Clock::now();
@@ -110,8 +137,8 @@ void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Charac
     const LengthUnit unit = opt.unit ? *opt.unit : detect_unit(raw);
     times.parse_ns += ns_since(t);
     t = Clock::now();
-    c.unit = unit_name(unit);
-    c.unit_scale_m = unit_scale_m(unit);
+    c.unit = asf_scale_m ? kAsfUnitName : unit_name(unit);
+    c.unit_scale_m = asf_scale_m ? *asf_scale_m : unit_scale_m(unit);
     c.frame_time_s = raw.frame_time_s;
     w.skeleton =
         std::make_unique<IndexedSkeleton>(index_skeleton(raw, c.unit_scale_m, character, energy));
@@ -269,6 +296,8 @@ void check_options(const IndexBuildOptions& opt) {
     throw InputError("<build>", 0, "transition time must be positive");
   if (opt.deflate_level < 0 || opt.deflate_level > 9)
     throw InputError("<build>", 0, "compression level must be 0..9");
+  if (!(opt.amc.frame_time_s > 0.0) || !std::isfinite(opt.amc.frame_time_s))
+    throw InputError("<build>", 0, "the AMC frame rate must be positive and finite");
 }
 
 /// The summary of a build that kept the previous index as it is.
@@ -314,7 +343,7 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   // More threads than cores only adds contention (and a TBB warning).
   const std::size_t hw = std::max(1u, std::thread::hardware_concurrency());
   tbb::task_arena arena(static_cast<int>(std::min(jobs, hw)));
-  plan_files(files, prev.get(), arena);
+  plan_files(files, prev.get(), opt.amc, arena);
   clock.phase("planned");
   const double planned_at = clock.elapsed();
   if (prev && is_up_to_date(files, col, prev->index())) {

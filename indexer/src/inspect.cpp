@@ -9,6 +9,7 @@
 #include "mocap/common/error.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/skeleton.hpp"
+#include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {
 
@@ -19,15 +20,19 @@ nlohmann::json vec3(const Eigen::Vector3d& v) {
 }  // namespace
 
 nlohmann::json inspect_frame(const InspectOptions& opt) {
-  RawClip clip = read_bvh_file(opt.file);
+  CaptureFile file = read_capture_file(opt.file, opt.amc);
+  RawClip& clip = file.clip;
   const UpAxis up = normalise_up_axis(clip, opt.up);
   if (opt.frame >= clip.frame_count)
     throw InputError(opt.file.string(), 0,
                      "frame " + std::to_string(opt.frame) + " out of range: the clip has " +
                          std::to_string(clip.frame_count) + " frames (0-based)");
-  const LengthUnit unit = opt.unit ? *opt.unit : detect_unit(clip);
+  const LengthUnit unit = file.metres_per_unit ? LengthUnit::m
+                          : opt.unit           ? *opt.unit
+                                               : detect_unit(clip);
   const Character character = opt.character ? read_character_file(*opt.character) : Character{};
-  const Skeleton skel = apply_length_scales(build_skeleton(clip, unit_scale_m(unit)), character);
+  const double scale_m = file.metres_per_unit ? *file.metres_per_unit : unit_scale_m(unit);
+  const Skeleton skel = apply_length_scales(build_skeleton(clip, scale_m), character);
   const Body body = build_body(skel, character);
 
   LocalPose local;
@@ -56,8 +61,8 @@ nlohmann::json inspect_frame(const InspectOptions& opt) {
           {"frame", opt.frame},
           {"frames", clip.frame_count},
           {"frame_time_s", clip.frame_time_s},
-          {"unit", unit_name(unit)},
-          {"unit_scale_m", unit_scale_m(unit)},
+          {"unit", file.metres_per_unit ? kAsfUnitName : unit_name(unit)},
+          {"unit_scale_m", scale_m},
           {"up", up_axis_name(up)},
           {"character", character.name},
           {"total_mass_kg", body.total_mass_kg},
@@ -74,14 +79,16 @@ std::vector<ClipSummary> summarize_files(const std::vector<std::filesystem::path
     std::error_code ec;
     s.bytes = static_cast<std::size_t>(std::filesystem::file_size(files[i], ec));
     try {
-      RawClip clip = read_bvh_file(files[i]);
+      // AMC takes with their paired ASF at 120 fps, in the ASF's unit.
+      CaptureFile file = read_capture_file(files[i], AmcReadOptions{});
+      RawClip& clip = file.clip;
       normalise_up_axis(clip, up);
-      const LengthUnit u = unit ? *unit : detect_unit(clip);
+      const LengthUnit u = file.metres_per_unit ? LengthUnit::m : unit ? *unit : detect_unit(clip);
       s.frames = clip.frame_count;
       s.joints = clip.joints.size();
       s.frame_time_s = clip.frame_time_s;
-      s.unit = unit_name(u);
-      s.unit_scale_m = unit_scale_m(u);
+      s.unit = file.metres_per_unit ? kAsfUnitName : unit_name(u);
+      s.unit_scale_m = file.metres_per_unit ? *file.metres_per_unit : unit_scale_m(u);
       s.height_m = standing_height_file_units(clip) * s.unit_scale_m;
       s.skeleton_height_m = skeleton_height_file_units(clip) * s.unit_scale_m;
       s.ok = true;

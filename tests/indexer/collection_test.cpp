@@ -73,6 +73,22 @@ TEST(CollectionTest, FoldersRecursiveSortedDeduplicatedHiddenSkipped) {
   fs::remove_all(dir);
 }
 
+TEST(CollectionTest, AmcTakesAreClipsAsfSkeletonsAreNot) {
+  const fs::path dir = test::temp_dir("collection_amc");
+  for (const char* n : {"a.bvh", "s.asf", "s1.AMC", "sub/02_01.amc", "sub/02.ASF"}) touch(dir / n);
+  std::ofstream(dir / "list.txt") << "s.asf\ns1.AMC\n";
+  const Collection folder = list_collection({dir.string(), (dir / "s.asf").string()});
+  EXPECT_TRUE(folder.problems.empty());
+  ASSERT_EQ(folder.files.size(), 3u);
+  EXPECT_EQ(folder.files[0].path, dir / "a.bvh");
+  EXPECT_EQ(folder.files[1].path, dir / "s1.AMC");
+  EXPECT_EQ(folder.files[2].path, dir / "sub/02_01.amc");
+  const Collection list = list_collection({(dir / "list.txt").string()});
+  EXPECT_TRUE(list.problems.empty());
+  ASSERT_EQ(list.files.size(), 1u);
+  EXPECT_EQ(list.files[0].path, dir / "s1.AMC");
+}
+
 TEST(CollectionTest, RealDataSet1HasAllClips) {
   MOCAP_REQUIRE_DATA();
   const Collection c = list_collection({(test::data_dir() / "bandai-namco-1").string()});

@@ -29,6 +29,7 @@
 #include "mocap/common/index.hpp"
 #include "mocap/common/raw_clip.hpp"
 #include "mocap/common/units.hpp"
+#include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {
 
@@ -133,6 +134,12 @@ struct IndexBuildOptions {
   std::optional<std::filesystem::path> character;
   /// T of the kd features, seconds (docs/energy.md; default 0.5).
   double transition_time_s = 0.5;
+  /// AMC takes: their ASF (--asf; nullopt = the pairing rules, asf_pairing.hpp)
+  /// and frame time (--amc-fps). Their unit is always the ASF's (--unit and the
+  /// detection apply to BVH files); --up applies as to BVH files. A clip's
+  /// content hash covers the AMC, its ASF and the frame time, so a changed ASF
+  /// or --amc-fps re-parses the take on an incremental build.
+  AmcReadOptions amc;
   /// 0 = no compression; 1..9 = shuffle + deflate on frame arrays.
   int deflate_level = 0;
   /// Ignore an existing index (parse everything).

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mocap/common/units.hpp"
+#include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {
 
@@ -18,9 +19,13 @@ struct InspectOptions {
   std::optional<LengthUnit> unit;                  // nullopt: detect_unit()
   std::optional<UpAxis> up;                        // nullopt: detect_up_axis()
   std::optional<std::filesystem::path> character;  // nullopt: default 70 kg male
+  /// An AMC file's ASF and frame time; its unit is the ASF's ("asf", `unit`
+  /// is not used), its up axis as for BVH.
+  AmcReadOptions amc;
 };
 
-/// One frame in world space (metres, Y up), the contract of docs/cli.md:
+/// One frame of a BVH file, or of an AMC file (with its ASF, asf_pairing.hpp), in world space
+/// (metres, Y up), the contract of docs/cli.md:
 /// {"file", "frames", "frame_time_s", "unit", "unit_scale_m", "up", "total_mass_kg",
 ///  "joints": [{"name", "parent", "position_m"}],
 ///  "segments": [{"joint", "joint_index", "class", "side", "mass_kg", "com_m"}]}.
