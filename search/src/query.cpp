@@ -109,7 +109,8 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
                            const std::filesystem::path& base_dir) {
   if (!v.is_object()) c.fail(path, "expected an object, got " + type_name(v));
   check_keys(c, v, path,
-             {"root_position", "root_heading_deg", "joints", "bvh", "frame", "only", "time_s"});
+             {"root_position", "root_heading_deg", "joints", "bvh", "amc", "asf", "amc_fps",
+              "frame", "only", "time_s"});
   QueryFrameSpec f;
   if (v.contains("time_s")) {
     const double t = number(c, v["time_s"], path + ".time_s", 3600.0);
@@ -135,15 +136,31 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
       f.joints.push_back({it.key(), joint_rotation(c, it.value(), path + ".joints." + it.key())});
     }
   }
-  const bool has_bvh = v.contains("bvh");
+  const bool has_amc = v.contains("amc");
+  if (has_amc && v.contains("bvh")) c.fail(path, "give bvh or amc, not both");
+  if (!has_amc && (v.contains("asf") || v.contains("amc_fps")))
+    c.fail(path + (v.contains("asf") ? ".asf" : ".amc_fps"), "only with amc");
+  const bool has_bvh = v.contains("bvh") || has_amc;
+  const std::string file_key = has_amc ? "amc" : "bvh";
   if (has_bvh) {
-    if (!v["bvh"].is_string() || v["bvh"].get<std::string>().empty())
-      c.fail(path + ".bvh", "expected a BVH file path");
-    if (!v.contains("frame")) c.fail(path + ".frame", "required with bvh (0-based frame number)");
+    if (!v[file_key].is_string() || v[file_key].get<std::string>().empty())
+      c.fail(path + "." + file_key,
+             has_amc ? "expected an AMC file path" : "expected a BVH file path");
+    if (has_amc) {
+      if (!v.contains("asf") || !v["asf"].is_string() || v["asf"].get<std::string>().empty())
+        c.fail(path + ".asf", "required with amc: the take's ASF skeleton file");
+      f.asf = resolve(base_dir, v["asf"].get<std::string>());
+      if (v.contains("amc_fps")) {
+        f.amc_fps = number(c, v["amc_fps"], path + ".amc_fps", 1000.0);
+        if (!(f.amc_fps > 0.0)) c.fail(path + ".amc_fps", "must be > 0 frames per second");
+      }
+    }
+    if (!v.contains("frame"))
+      c.fail(path + ".frame", "required with " + file_key + " (0-based frame number)");
     const json& fr = v["frame"];
     if (!fr.is_number_integer() || fr.get<long long>() < 0)
       c.fail(path + ".frame", "expected a non-negative integer");
-    f.bvh = resolve(base_dir, v["bvh"].get<std::string>());
+    f.bvh = resolve(base_dir, v[file_key].get<std::string>());
     f.bvh_frame = static_cast<std::size_t>(fr.get<long long>());
     if (v.contains("only")) {
       f.only = string_list(c, v["only"], path + ".only");

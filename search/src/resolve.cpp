@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "mocap/common/asf_amc.hpp"
 #include "mocap/common/body.hpp"
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
@@ -89,22 +90,27 @@ namespace {
 // The whole file from its parsed text, as get() builds it: Y up as the
 // indexer makes it (a Z-up clip, detected over the whole clip, is rotated),
 // then in metres.
-std::shared_ptr<QueryBvhFile> whole_file(RawClip raw, const std::string& unit_option) {
+std::shared_ptr<QueryBvhFile> whole_file_scaled(RawClip raw, std::optional<double> metres) {
   normalise_up_axis(raw, std::nullopt);
-  std::optional<LengthUnit> unit;
-  if (unit_option != "auto" && !unit_option.empty()) unit = parse_unit(unit_option);
-  const LengthUnit u = unit ? *unit : detect_unit(raw);
   auto loaded = std::make_shared<QueryBvhFile>();
-  loaded->motion = clip_locals_from_raw(raw, unit_scale_m(u));
+  loaded->motion = clip_locals_from_raw(raw, metres ? *metres : unit_scale_m(detect_unit(raw)));
   loaded->file_frame_count = loaded->motion.frame_count;
   return loaded;
 }
 
-FileStat stat_or_throw(const std::filesystem::path& path) {
+std::shared_ptr<QueryBvhFile> whole_file(RawClip raw, const std::string& unit_option) {
+  std::optional<double> metres;
+  if (unit_option != "auto" && !unit_option.empty())
+    if (const auto unit = parse_unit(unit_option)) metres = unit_scale_m(*unit);
+  return whole_file_scaled(std::move(raw), metres);
+}
+
+FileStat stat_or_throw(const std::filesystem::path& path, const char* kind = "BVH") {
   try {
     return check_input_file(path, input_limits().bvh_bytes);
   } catch (const InputError& e) {
-    throw InputError(path.string(), 0, "cannot read the BVH file: " + e.detail());
+    throw InputError(path.string(), 0,
+                     std::string("cannot read the ") + kind + " file: " + e.detail());
   }
 }
 
@@ -120,6 +126,24 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::pa
     if (it != entries_.end() && it->second->stat == st) return it->second;
   }
   auto loaded = whole_file(read_bvh_file(path), unit_option);
+  loaded->stat = st;
+  return store(key, std::move(loaded));
+}
+
+std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_amc(const std::filesystem::path& amc,
+                                                           const std::filesystem::path& asf,
+                                                           double frame_time_s) {
+  const FileStat st = stat_or_throw(amc, "AMC"), skeleton_st = stat_or_throw(asf, "ASF");
+  const std::string key = fmt::format("amc {}|{}|{}|{}|{}", frame_time_s, asf.string(),
+                                      skeleton_st.size, skeleton_st.mtime_ns, amc.string());
+  {
+    std::lock_guard lock(mutex_);
+    auto it = entries_.find(key);
+    if (it != entries_.end() && it->second->stat == st) return it->second;
+  }
+  const AsfSkeleton skeleton = read_asf_file(asf);
+  RawClip raw = asf_amc_to_raw_clip(skeleton, read_amc_file(amc, skeleton), frame_time_s);
+  auto loaded = whole_file_scaled(std::move(raw), skeleton.metres_per_unit());
   loaded->stat = st;
   return store(key, std::move(loaded));
 }
@@ -225,9 +249,10 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     if (!bvh) {
       try {
         // The +-2 frame window below is all that is read of the file.
-        bvh = cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
+        bvh = spec.asf ? cache.get_amc(*spec.bvh, *spec.asf, 1.0 / spec.amc_fps)
+                       : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
       } catch (const InputError& e) {
-        fail(q, path + ".bvh", e.what());
+        fail(q, path + (spec.asf ? ".amc" : ".bvh"), e.what());
       }
       if (file != nullptr) *file = bvh;
     }

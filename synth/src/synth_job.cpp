@@ -454,7 +454,7 @@ double output_frame_time(const Query& query, const SynthOptions& options, QueryB
   // The unit option resolve_query_frame read the file with: the cached file.
   for (const QueryFrameSpec& f : query.frames)
     if (f.bvh) try {
-        return cache.get(*f.bvh, "auto")->motion.frame_time_s;
+        return f.asf ? 1.0 / f.amc_fps : cache.get(*f.bvh, "auto")->motion.frame_time_s;
       } catch (const InputError& e) {
         throw InputError(source, 0, e.what());
       }

@@ -123,4 +123,27 @@ assert one["up_to_date"] and one["reused"] == 6, one
 assert not two["up_to_date"] and two["changed"] == 2 and two["reused"] == 4, two
 assert three["changed"] == 6 and three["reused"] == 0, three
 PY
+# 6. Query frames from an AMC take (docs/queries.md): frames 300 and 340 of
+# charleston1 find that very partial motion at h = 0 in world placement, and
+# the take itself first in the default relative placement; mocap-synth
+# reads the same frames.
+adir="$(cd "$dir" && pwd)"  # query paths are relative to the query file's folder
+amc() { printf '{"amc": "%s/%s.amc", "asf": "%s/%s.asf", "frame": %s}' "$adir" "$1" "$adir" "$2" "$3"; }
+printf '{"id": "w", "relative": false, "top": 3, "frames": [%s, %s]}\n{"id": "r", "top": 3, "frames": [%s, %s]}\n' \
+  "$(amc charleston1 charleston 300)" "$(amc charleston1 charleston 340)" \
+  "$(amc lambada lambada 500)" "$(amc lambada lambada 560)" >"$tmp/amcq.jsonl"
+"$search" -q --index "$tmp/cmu.h5" --queries "$tmp/amcq.jsonl" --out "$tmp/amcr.jsonl" 2>"$tmp/err.txt" ||
+  fail "search with AMC query frames: $(cat "$tmp/err.txt" "$tmp/amcr.jsonl" 2>/dev/null)"
+python3 - "$tmp/amcr.jsonl" <<'PY' || fail "AMC query frames did not find their own take"
+import json, sys
+w, r = (json.loads(l) for l in open(sys.argv[1]))
+best = w["pairs"][0]["results"][0]
+assert best["clip"].endswith("charleston1.amc") and best["score_J"] == 0.0, best
+assert (best["start_frame"], best["end_frame"]) == (300, 340), best
+assert r["pairs"][0]["results"][0]["clip"].endswith("lambada.amc"), r
+PY
+head -1 "$tmp/amcq.jsonl" >"$tmp/amcq.json"
+"$synth" --index "$tmp/cmu.h5" --query "$tmp/amcq.json" --out "$tmp/amc-motion.bvh" >/dev/null 2>&1 ||
+  fail "mocap-synth with AMC query frames"
+grep -q "^MOTION" "$tmp/amc-motion.bvh" || fail "mocap-synth wrote no motion"
 echo "asf_amc ok"

@@ -108,6 +108,34 @@ TEST(QueryValidityTest, BvhFrames) {
   expect_error(pre + R"({"bvh": "a.bvh", "frame": 1, "root_position": [0,0,0]}]})", "use \"only\"");
 }
 
+TEST(QueryValidityTest, AmcFrames) {
+  const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, )";
+  expect_error(pre + R"({"amc": "a.amc", "frame": 1}]})", "frames[1].asf: required with amc");
+  expect_error(pre + R"({"amc": "a.amc", "asf": "", "frame": 1}]})", "frames[1].asf: required");
+  expect_error(pre + R"({"amc": "", "asf": "a.asf", "frame": 1}]})",
+               "frames[1].amc: expected an AMC file path");
+  expect_error(pre + R"({"amc": "a.amc", "asf": "a.asf"}]})", "frames[1].frame: required with amc");
+  expect_error(pre + R"({"amc": "a.amc", "bvh": "a.bvh", "asf": "a.asf", "frame": 1}]})",
+               "frames[1]: give bvh or amc, not both");
+  expect_error(pre + R"({"bvh": "a.bvh", "asf": "a.asf", "frame": 1}]})",
+               "frames[1].asf: only with amc");
+  expect_error(pre + R"({"bvh": "a.bvh", "amc_fps": 60, "frame": 1}]})",
+               "frames[1].amc_fps: only with amc");
+  expect_error(pre + R"({"amc": "a.amc", "asf": "a.asf", "amc_fps": 0, "frame": 1}]})",
+               "frames[1].amc_fps: must be > 0");
+  expect_error(pre + R"({"amc": "a.amc", "asf": "a.asf", "frame": 1, "joints": {}}]})",
+               "use \"only\"");
+  // A valid one: the AMC path in `bvh`, its skeleton in `asf`, the rate.
+  const Query q =
+      parse(pre + R"({"amc": "/d/t.amc", "asf": "/d/t.asf", "amc_fps": 60, "frame": 4}]})");
+  ASSERT_EQ(q.frames.size(), 2u);
+  EXPECT_EQ(q.frames[1].bvh, std::filesystem::path("/d/t.amc"));
+  EXPECT_EQ(q.frames[1].asf, std::filesystem::path("/d/t.asf"));
+  EXPECT_EQ(q.frames[1].amc_fps, 60.0);
+  EXPECT_EQ(q.frames[1].bvh_frame, 4u);
+  EXPECT_FALSE(parse(pre + R"({"bvh": "/d/t.bvh", "frame": 4}]})").frames[1].asf);
+}
+
 TEST(QueryValidityTest, Options) {
   const std::string pre = std::string("{") + kTwo;
   expect_error(pre + R"(, "transition_time": 0})", "transition_time: must be 0.001 to 60");

@@ -43,6 +43,11 @@ struct QueryFrameSpec {
   /// folder when relative) and 0-based frame.
   std::optional<std::filesystem::path> bvh;
   std::size_t bvh_frame = 0;
+  /// "amc" frames: `bvh` is the AMC take and this its ASF skeleton
+  /// ("asf"), read at `amc_fps` frames per second ("amc_fps", default 120,
+  /// CMU's rate; AMC files carry none). Unset for BVH frames.
+  std::optional<std::filesystem::path> asf;
+  double amc_fps = 120.0;
   /// With `bvh`: the DOFs taken from the file ("root_position",
   /// "root_position_xz", "root_heading", or joint names); empty = all.
   std::vector<std::string> only;

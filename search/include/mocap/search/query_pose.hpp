@@ -49,6 +49,15 @@ class QueryBvhCache {
   std::shared_ptr<const QueryBvhFile> get(const std::filesystem::path& path,
                                           const std::string& unit_option);
 
+  /// An ASF/AMC take (asf_amc.hpp): the AMC `amc` with the skeleton `asf`,
+  /// at `frame_time_s` seconds a frame, Y up as the indexer makes it, in
+  /// metres by the ASF's length unit. Cached like get() (re-read when either
+  /// file's size or modification time changes). Throws InputError naming
+  /// the file and line.
+  std::shared_ptr<const QueryBvhFile> get_amc(const std::filesystem::path& amc,
+                                              const std::filesystem::path& asf,
+                                              double frame_time_s);
+
   /// Lets get_frames read only a window of the files `index` holds.
   void use_index(const Index& index);
 
