@@ -120,7 +120,9 @@ std::string write_bvh(const RawClip& clip, int precision) {
         w.tabs(depth);
         w.text("{\n");
         write_offset(depth + 1, j.offset);
-        if (!j.channels.empty()) {
+        // Always a CHANNELS line, "CHANNELS 0" for a joint without: Blender's
+        // importer (and others) expect one in every joint.
+        {
           w.tabs(depth + 1);
           w.text("CHANNELS ");
           w.text(std::to_string(j.channels.size()));

@@ -12,7 +12,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
 cli_setup mpi "$@"
 set1="$data/bandai-namco-1"
 command -v mpirun >/dev/null || missing_tool scripts/setup "mpirun (Open MPI) is not installed"
-ldd "$search" | grep -q libmpi ||
+ldd "$search" | grep libmpi >/dev/null ||  # not grep -q: ldd must not die of SIGPIPE under pipefail
   missing_tool scripts/setup "mocap-search was built without MPI"
 # Open MPI refuses root without these (CI runs as root); --oversubscribe lets
 # 2 ranks share fewer cores.
