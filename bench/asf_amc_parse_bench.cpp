@@ -92,8 +92,9 @@ void report(benchmark::State& state, const Corpus& corpus, std::size_t frames) {
   state.counters["MB"] = static_cast<double>(corpus.bytes) / 1e6;
 }
 
-// parse_amc only.
-void BM_ParseAmcCmu(benchmark::State& state) {
+// Every take parsed (parse_amc), and with `to_clip` converted to a RawClip
+// too (asf_amc_to_raw_clip: what read_asf_amc_files costs per take).
+void parse_takes(benchmark::State& state, bool to_clip) {
   const Corpus& corpus = cmu();
   if (corpus.takes.empty()) {
     state.SkipWithError("no data for cmu-asf-amc");
@@ -105,31 +106,24 @@ void BM_ParseAmcCmu(benchmark::State& state) {
     for (const Take& t : corpus.takes) {
       const mocap::AmcMotion m = mocap::parse_amc(t.amc, t.name, *t.skeleton);
       frames += m.frame_count;
-      benchmark::DoNotOptimize(m.values.data());
+      if (to_clip) {
+        const mocap::RawClip clip = mocap::asf_amc_to_raw_clip(*t.skeleton, m);
+        benchmark::DoNotOptimize(clip.values.data());
+      } else {
+        benchmark::DoNotOptimize(m.values.data());
+      }
     }
   }
   report(state, corpus, frames);
 }
+
+void BM_ParseAmcCmu(benchmark::State& state) {
+  parse_takes(state, false);
+}
 BENCHMARK(BM_ParseAmcCmu)->Unit(benchmark::kMillisecond);
 
-// parse_amc + asf_amc_to_raw_clip: what read_asf_amc_files costs per take.
 void BM_ParseAmcToRawClipCmu(benchmark::State& state) {
-  const Corpus& corpus = cmu();
-  if (corpus.takes.empty()) {
-    state.SkipWithError("no data for cmu-asf-amc");
-    return;
-  }
-  std::size_t frames = 0;
-  for (auto _ : state) {
-    frames = 0;
-    for (const Take& t : corpus.takes) {
-      const mocap::RawClip clip =
-          mocap::asf_amc_to_raw_clip(*t.skeleton, mocap::parse_amc(t.amc, t.name, *t.skeleton));
-      frames += clip.frame_count;
-      benchmark::DoNotOptimize(clip.values.data());
-    }
-  }
-  report(state, corpus, frames);
+  parse_takes(state, true);
 }
 BENCHMARK(BM_ParseAmcToRawClipCmu)->Unit(benchmark::kMillisecond);
 
