@@ -145,9 +145,16 @@ int main(int argc, char** argv) {
       const auto ts = std::chrono::steady_clock::now();
       mocap::QueryOutcome outcome;
       if (clips.is_collection()) {
-        // The collection search (each shard in turn, merged as one index).
-        std::vector<mocap::QueryOutcome> outcomes = mocap::run_collection_batch(
-            index_path, {mocap::BatchEntry{query.id, query, ""}}, mocap::SearchOptions{});
+        // The collection search (each shard in turn, merged as one index)
+        // over the shards the clip source has already checked and opened.
+        std::vector<mocap::ShardSource> shards;
+        std::size_t offset = 0;
+        for (std::size_t k = 0; k < clips.index_count(); ++k) {
+          shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
+          offset += clips.index(k).clips().size();
+        }
+        std::vector<mocap::QueryOutcome> outcomes = mocap::search_shards(
+            shards, {mocap::BatchEntry{query.id, query, ""}}, mocap::SearchOptions{});
         outcome = std::move(outcomes.front());
       } else {
         const mocap::SearchEngine engine(clips.index(0));

@@ -90,7 +90,8 @@ std::vector<QueryOutcome> search_shards(
   std::size_t done_before = 0;
   const std::size_t total = batch.size() * shards.size();
   for (const ShardSource& s : shards) {
-    const Index index = Index::open(s.file);
+    std::optional<Index> opened;
+    const Index& index = s.open ? *s.open : opened.emplace(Index::open(s.file));
     if (s.clips && index.clips().size() != *s.clips)
       throw InputError(s.file.string(), 0,
                        "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +

@@ -30,7 +30,7 @@ ClipSource ClipSource::open(const std::filesystem::path& path) {
     return s;
   }
   // Every shard as the manifest says before any is read (the search's
-  // check, run_collection_batch), then its clip count against the manifest's:
+  // check, collection_search.hpp), then its clip count against the manifest's:
   // the numbering depends on it.
   const CollectionManifest m = read_collection_manifest(path);
   if (const auto problems = collection_shard_problems(path, m); !problems.empty())

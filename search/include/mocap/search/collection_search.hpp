@@ -28,11 +28,14 @@ std::vector<QueryOutcome> merge_shard_outcomes(
 /// One index to search as part of a collection: its file, the manifest's
 /// name and clip count for it (checked when it is opened; nullopt: not
 /// checked, a plain index), and the collection index of its first clip.
+/// `open`: the index already opened by the caller (it must outlive the
+/// search); the file is then neither opened nor checked again.
 struct ShardSource {
   std::filesystem::path file;
   std::string name;
   std::optional<std::size_t> clips;
   std::size_t clip_offset = 0;
+  const Index* open = nullptr;
 };
 
 /// How search_shards shares thresholds with searches elsewhere (other MPI
