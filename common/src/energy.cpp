@@ -242,7 +242,7 @@ void complete_partial_query(const DynamicsModel& model, const PartialQuery& quer
   complete_pose(model, query, frame, out);
   for (std::size_t j = 0; j < n; ++j) {
     out.coms_m[j] = out.joint_positions_m[j] + out.rotations[j] * model.coms_local_m[j];
-    if (query.affected[j]) {
+    if (query.affected[j] && (query.keep_rates.empty() || !query.keep_rates[j])) {
       out.com_velocities_mps[j].setZero();
       out.com_accelerations_mps2[j].setZero();
       out.angular_velocities_radps[j].setZero();
@@ -276,7 +276,10 @@ double partial_approximate_energy(const DynamicsModel& model, const PartialQuery
     const auto j = static_cast<std::size_t>(jj);
     if (!(model.masses_kg[j] > 0.0)) continue;
     scratch.coms_m[j] = scratch.joint_positions_m[j] + scratch.rotations[j] * model.coms_local_m[j];
-    const SegmentSide a{&scratch.coms_m[j], &scratch.rotations[j], &zero, &zero};
+    const bool keep = !query.keep_rates.empty() && query.keep_rates[j];
+    const SegmentSide a{&scratch.coms_m[j], &scratch.rotations[j],
+                        keep ? &frame.state.com_velocities_mps[j] : &zero,
+                        keep ? &frame.state.angular_velocities_radps[j] : &zero};
     double hs = 0.0, hj = 0.0;
     const Eigen::Vector3d step = rotation_step(scratch.rotations[j], frame.state.rotations[j]);
     segment_h(model, j, a, side(frame.state, j), step, inv_t, hs, hj);

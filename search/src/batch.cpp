@@ -166,6 +166,16 @@ std::string query_outcome_json(const QueryOutcome& o) {
       rj["h_in_J"] = r.h_in_J;
       rj["h_out_J"] = r.h_out_J;
       rj["path_cost_J"] = r.path_cost_J;
+      if (!r.residuals_from.empty() || !r.residuals_to.empty()) {
+        nlohmann::ordered_json res = nlohmann::ordered_json::object();
+        for (const auto* side : {&r.residuals_from, &r.residuals_to}) {
+          if (side->empty()) continue;
+          nlohmann::ordered_json by_name = nlohmann::ordered_json::object();
+          for (const auto& [name, v] : *side) by_name[name] = v;
+          res[side == &r.residuals_from ? "from" : "to"] = by_name;
+        }
+        rj["residuals"] = res;
+      }
       pj["results"].push_back(std::move(rj));
     }
     j["pairs"].push_back(std::move(pj));

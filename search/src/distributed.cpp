@@ -17,8 +17,11 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 json result_json(const SearchResult& r) {
   json labels = json::array();
   for (const auto& [k, v] : r.labels) labels.push_back({k, v});
-  return {r.rank,      r.clip_index, r.clip,   labels,    r.start_frame,
-          r.end_frame, r.score_J,    r.h_in_J, r.h_out_J, r.path_cost_J};
+  json from = json::array(), to = json::array();
+  for (const auto& [k, v] : r.residuals_from) from.push_back({k, v});
+  for (const auto& [k, v] : r.residuals_to) to.push_back({k, v});
+  return {r.rank,    r.clip_index, r.clip,    labels,        r.start_frame, r.end_frame,
+          r.score_J, r.h_in_J,     r.h_out_J, r.path_cost_J, from,          to};
 }
 
 SearchResult result_from(const json& j) {
@@ -33,6 +36,8 @@ SearchResult result_from(const json& j) {
   r.h_in_J = j.at(7).get<double>();
   r.h_out_J = j.at(8).get<double>();
   r.path_cost_J = j.at(9).get<double>();
+  for (const json& x : j.at(10)) r.residuals_from.emplace_back(x.at(0), x.at(1).get<double>());
+  for (const json& x : j.at(11)) r.residuals_to.emplace_back(x.at(0), x.at(1).get<double>());
   return r;
 }
 

@@ -102,6 +102,23 @@ void gather_frames(const SkeletonTables& tables, std::size_t g0, std::size_t g1,
   scratch.gathered = {values, roots, n, n, tables.segments};
 }
 
+// h of a constrained frame (solved on r), its terms weighted per joint and
+// the whole by the frame's weight. A joint the solution left where F has it
+// (pq.keep_rates) contributes nothing: its completed state is F's but for
+// the rounding of recomposing its pose, which is not counted.
+double weighted_energy(const ResolvedFrame& q, const DynamicsModel& model, const PartialQuery& pq,
+                       const FrameRef& r, double t, Scratch& scratch) {
+  partial_approximate_energy(model, pq, r, t, scratch.state, &scratch.terms);
+  double sum = 0.0;
+  for (int jj : pq.affected_joints) {
+    const auto j = static_cast<std::size_t>(jj);
+    if (!pq.keep_rates.empty() && pq.keep_rates[j]) continue;
+    const double w = q.joint_weights.empty() ? 1.0 : q.joint_weights[j];
+    sum += w * (scratch.terms.segment_J[j] + scratch.terms.joint_J[j]);
+  }
+  return sum * q.weight;
+}
+
 }  // namespace
 
 // h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
@@ -144,7 +161,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
       gather_frames(tables, g0, g1, q.kind == FrameKind::root_only, scratch);
       scan(scratch.gathered, 0, n, 0);
     }
-    for (std::size_t i = 0; i < n; ++i) out[i] = scratch.fbuf[i];
+    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(scratch.fbuf[i]) * q.weight;
     return;
   }
   const PartialQuery* pq = &q.partial;
@@ -156,20 +173,52 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   }
   if (!q.subtree.empty()) {  // joint rotations only: no root component to shift
     subtree_energy(q, tables, g0, g1, out, scratch, skip);
+    if (q.weight != 1.0)
+      for (std::size_t i = 0; i < n; ++i)
+        if (skip == nullptr || !skip[i]) out[i] *= q.weight;
     return;
   }
   const FrameArrays& fa = frame_arrays(index, skeleton);
+  if (q.solve) {  // body-frame constraints: the given rotations solved on each F
+    if (pq != &scratch.shifted_partial) {
+      scratch.shifted_partial = q.partial;
+      pq = &scratch.shifted_partial;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (skip != nullptr && skip[i]) continue;
+      const FrameRef r = frame_ref(tables, fa, g0 + i, scratch, q.need_joints, q.local_joints);
+      solve_given(*q.pose, tables.model, r.state.joint_positions_m, r.state.rotations,
+                  scratch.constraints, scratch.solved, scratch.shifted_partial.spec,
+                  &scratch.shifted_partial.keep_rates);
+      out[i] = weighted_energy(q, tables.model, *pq, r, t, scratch);
+    }
+    return;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (skip != nullptr && skip[i]) continue;
     const FrameRef r = frame_ref(tables, fa, g0 + i, scratch, q.need_joints, q.local_joints);
-    out[i] = partial_approximate_energy(tables.model, *pq, r, t, scratch.state);
+    out[i] = partial_approximate_energy(tables.model, *pq, r, t, scratch.state) * q.weight;
+  }
+}
+
+void frame_pose(const SkeletonData& skeleton, const Index& index, std::size_t g,
+                std::vector<Eigen::Vector3d>& pos, std::vector<Eigen::Quaterniond>& rot) {
+  const FrameArrays& fa = frame_arrays(index, skeleton);
+  const std::size_t nj = skeleton.tables.model.joint_count();
+  pos.resize(nj);
+  rot.resize(nj);
+  for (std::size_t j = 0; j < nj; ++j) {
+    const float* p = fa.pos + (g * nj + j) * 3;
+    const float* q = fa.rot + (g * nj + j) * 4;
+    pos[j] = Eigen::Vector3d(p[0], p[1], p[2]);
+    rot[j] = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
   }
 }
 
 void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {
   q.need_joints.clear();
   q.local_joints.clear();
-  if (q.kind != FrameKind::partial || q.partial.moves_whole_body) return;
+  if (q.kind != FrameKind::partial || q.partial.moves_whole_body || q.solve) return;
   std::vector<std::uint8_t> need(model.joint_count(), 0);
   for (int j : q.partial.affected_joints) need[static_cast<std::size_t>(j)] = 1;
   for (int j : q.partial.subtree_joints) {

@@ -34,6 +34,11 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
                 const std::optional<GroundPose>& place = std::nullopt,
                 const std::uint8_t* skip = nullptr, const HScanView* tile = nullptr);
 
+// World joint origins and rotations of skeleton frame g (the frame arrays,
+// in double).
+void frame_pose(const SkeletonData& skeleton, const Index& index, std::size_t g,
+                std::vector<Eigen::Vector3d>& pos, std::vector<Eigen::Quaterniond>& rot);
+
 // Sets q.need_joints / q.local_joints: the joints partial_approximate_energy
 // reads of a database frame (frame_ref) for a partial frame that does not
 // move the whole body (empty, meaning all, otherwise).

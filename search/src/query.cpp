@@ -26,6 +26,11 @@ struct Ctx {
   }
 };
 
+std::string fmt_range(double v, double lo, double hi) {
+  return "out of range: " + json_text(json(v)) + " degrees; expected " + json_text(json(lo)) +
+         " to " + json_text(json(hi));
+}
+
 std::string type_name(const json& v) {
   return v.type_name();
 }
@@ -70,13 +75,37 @@ void check_keys(const Ctx& c, const json& obj, const std::string& path,
   }
 }
 
+// "weight": a multiplier > 0 (docs/queries.md "Weights").
+std::optional<double> weight(const Ctx& c, const json& v, const std::string& path) {
+  if (!v.is_object() || !v.contains("weight")) return std::nullopt;
+  const double w = number(c, v["weight"], path + ".weight");
+  if (!(w > 0.0)) c.fail(path + ".weight", "must be > 0");
+  return w;
+}
+
+// A tolerance >= 0 of `key` (degrees or metres), 0 when absent.
+double tolerance(const Ctx& c, const json& v, const std::string& path, const char* key,
+                 double max) {
+  if (!v.contains(key)) return 0.0;
+  const double t = number(c, v[key], path + "." + key, max);
+  if (t < 0.0) c.fail(path + "." + key, "must be >= 0");
+  return t;
+}
+
+Eigen::Vector3d vector3(const Ctx& c, const json& v, const std::string& path, double max_abs,
+                        const char* what) {
+  if (!v.is_array() || v.size() != 3) c.fail(path, std::string("expected [x, y, z]: ") + what);
+  return {number(c, v[0], path + "[0]", max_abs), number(c, v[1], path + "[1]", max_abs),
+          number(c, v[2], path + "[2]", max_abs)};
+}
+
+JointRotationSpec joint_entry(const Ctx& c, const std::string& name, const json& v,
+                              const std::string& path);
+
 Eigen::Quaterniond joint_rotation(const Ctx& c, const json& v, const std::string& path) {
-  if (!v.is_object())
-    c.fail(path,
-           "expected {\"euler_deg\": [a, b, c], \"order\": \"ZXY\"} or {\"quat\": [w, x, y, z]}");
-  check_keys(c, v, path, {"euler_deg", "order", "quat"});
   const bool has_euler = v.contains("euler_deg"), has_quat = v.contains("quat");
-  if (has_euler == has_quat) c.fail(path, "give exactly one of euler_deg (with order) or quat");
+  if (has_euler == has_quat)
+    c.fail(path, "give exactly one of euler_deg (with order), quat or direction");
   if (has_quat) {
     if (v.contains("order")) c.fail(path + ".order", "only with euler_deg");
     const json& q = v["quat"];
@@ -100,6 +129,88 @@ Eigen::Quaterniond joint_rotation(const Ctx& c, const json& v, const std::string
   return euler_to_quaternion(*axes, deg);
 }
 
+JointRotationSpec joint_entry(const Ctx& c, const std::string& name, const json& v,
+                              const std::string& path) {
+  if (!v.is_object())
+    c.fail(path,
+           "expected {\"euler_deg\": [a, b, c], \"order\": \"ZXY\"}, {\"quat\": [w, x, y, z]} "
+           "or {\"direction\": [x, y, z]}");
+  check_keys(c, v, path, {"euler_deg", "order", "quat", "direction", "tolerance_deg", "weight"});
+  JointRotationSpec out;
+  out.name = name;
+  out.weight = weight(c, v, path);
+  if (v.contains("direction")) {
+    if (v.contains("euler_deg") || v.contains("quat") || v.contains("order"))
+      c.fail(path, "give a direction or a rotation (euler_deg, quat), not both");
+    const Eigen::Vector3d d = vector3(c, v["direction"], path + ".direction", 1e6,
+                                      "a direction in the body frame (+x left, +y up, +z forward)");
+    if (d.norm() < 1e-9) c.fail(path + ".direction", "must not be zero");
+    out.direction = d.normalized();
+    out.tolerance_deg = tolerance(c, v, path, "tolerance_deg", 180.0);
+    return out;
+  }
+  if (v.contains("tolerance_deg")) c.fail(path + ".tolerance_deg", "only with direction");
+  out.rotation = joint_rotation(c, v, path);
+  return out;
+}
+
+// The anatomical angles a query frame may give, with their ranges (degrees).
+struct AngleRange {
+  const char* name;
+  double lo, hi;
+};
+constexpr AngleRange kAngles[] = {
+    {"trunk_flexion", -180, 180},         {"left_hip_flexion", -180, 180},
+    {"right_hip_flexion", -180, 180},     {"left_knee_flexion", 0, 180},
+    {"right_knee_flexion", 0, 180},       {"left_elbow_flexion", 0, 180},
+    {"right_elbow_flexion", 0, 180},      {"left_shoulder_elevation", 0, 180},
+    {"right_shoulder_elevation", 0, 180},
+};
+
+AngleSpec angle_entry(const Ctx& c, const std::string& name, const json& v,
+                      const std::string& path) {
+  const AngleRange* range = nullptr;
+  for (const AngleRange& r : kAngles)
+    if (name == r.name) range = &r;
+  if (range == nullptr) {
+    std::string list;
+    for (const AngleRange& r : kAngles) list += std::string(list.empty() ? "" : ", ") + r.name;
+    c.fail(path, "unknown angle \"" + name + "\" (known: " + list + ")");
+  }
+  AngleSpec out;
+  out.name = name;
+  if (v.is_number()) {
+    out.deg = number(c, v, path, 360.0);
+  } else {
+    if (!v.is_object())
+      c.fail(path, "expected degrees or {\"deg\": d, \"tolerance_deg\": t, \"weight\": w}");
+    check_keys(c, v, path, {"deg", "tolerance_deg", "weight"});
+    if (!v.contains("deg")) c.fail(path + ".deg", "required: the angle in degrees");
+    out.deg = number(c, v["deg"], path + ".deg", 360.0);
+    out.tolerance_deg = tolerance(c, v, path, "tolerance_deg", 180.0);
+    out.weight = weight(c, v, path);
+  }
+  if (out.deg < range->lo || out.deg > range->hi)
+    c.fail(path, fmt_range(out.deg, range->lo, range->hi));
+  return out;
+}
+
+EffectorSpec effector_entry(const Ctx& c, const std::string& name, const json& v,
+                            const std::string& path) {
+  if (!v.is_object())
+    c.fail(path, "expected {\"position_m\": [x, y, z], \"tolerance_m\": t, \"weight\": w}");
+  check_keys(c, v, path, {"position_m", "tolerance_m", "weight"});
+  if (!v.contains("position_m"))
+    c.fail(path + ".position_m", "required: the target in the body frame, metres");
+  EffectorSpec out;
+  out.name = name;
+  out.position_m = vector3(c, v["position_m"], path + ".position_m", 100.0,
+                           "metres in the body frame (+x left, +y up, +z forward)");
+  out.tolerance_m = tolerance(c, v, path, "tolerance_m", 100.0);
+  out.weight = weight(c, v, path);
+  return out;
+}
+
 std::filesystem::path resolve(const std::filesystem::path& base, const std::string& p) {
   std::filesystem::path out(p);
   return out.is_relative() ? base / out : out;
@@ -109,9 +220,26 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
                            const std::filesystem::path& base_dir) {
   if (!v.is_object()) c.fail(path, "expected an object, got " + type_name(v));
   check_keys(c, v, path,
-             {"root_position", "root_heading_deg", "joints", "bvh", "amc", "asf", "amc_fps",
-              "frame", "only", "time_s"});
+             {"root_position", "root_heading_deg", "joints", "angles", "effectors", "weight", "bvh",
+              "amc", "asf", "amc_fps", "frame", "only", "time_s"});
   QueryFrameSpec f;
+  if (v.contains("weight")) f.weight = *weight(c, v, path);
+  for (const char* key : {"angles", "effectors"}) {
+    if (!v.contains(key)) continue;
+    const json& o = v[key];
+    const std::string at = path + "." + key;
+    if (!o.is_object() || o.empty())
+      c.fail(at, std::string("expected a non-empty object {\"") +
+                     (std::string(key) == "angles" ? "trunk_flexion\": 40" : "RightHand\": {...}") +
+                     ", ...}");
+    for (auto it = o.begin(); it != o.end(); ++it) {
+      if (it.key().empty()) c.fail(at, "empty name");
+      if (std::string(key) == "angles")
+        f.angles.push_back(angle_entry(c, it.key(), it.value(), at + "." + it.key()));
+      else
+        f.effectors.push_back(effector_entry(c, it.key(), it.value(), at + "." + it.key()));
+    }
+  }
   if (v.contains("time_s")) {
     const double t = number(c, v["time_s"], path + ".time_s", 3600.0);
     if (t < 0.0) c.fail(path + ".time_s", "must be >= 0 seconds");
@@ -133,7 +261,7 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     if (!js.is_object()) c.fail(path + ".joints", "expected an object {\"JointName\": {...}}");
     for (auto it = js.begin(); it != js.end(); ++it) {
       if (it.key().empty()) c.fail(path + ".joints", "empty joint name");
-      f.joints.push_back({it.key(), joint_rotation(c, it.value(), path + ".joints." + it.key())});
+      f.joints.push_back(joint_entry(c, it.key(), it.value(), path + ".joints." + it.key()));
     }
   }
   const bool has_amc = v.contains("amc");
@@ -169,12 +297,18 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     }
     if (v.contains("root_position") || v.contains("root_heading_deg") || v.contains("joints"))
       c.fail(path, "bvh frames take their values from the file: use \"only\" to keep some DOFs");
+    if ((v.contains("angles") || v.contains("effectors")) && f.only.empty())
+      c.fail(path + (v.contains("angles") ? ".angles" : ".effectors"),
+             "a whole bvh frame gives every joint: with angles or effectors, use \"only\" to keep "
+             "some DOFs of the file");
   } else {
     if (v.contains("frame")) c.fail(path + ".frame", "only with bvh");
     if (v.contains("only")) c.fail(path + ".only", "only with bvh");
   }
   if (f.empty())
-    c.fail(path, "gives nothing: expected root_position, root_heading_deg, joints or bvh");
+    c.fail(path,
+           "gives nothing: expected root_position, root_heading_deg, joints, angles, effectors or "
+           "bvh");
   return f;
 }
 
@@ -185,8 +319,15 @@ bool glob_match(const std::string& pattern, const std::string& name) {
 }  // namespace
 
 bool QueryFrameSpec::empty() const {
-  return !bvh && joints.empty() && !root_heading_deg && !root_position_m[0] &&
-         !root_position_m[1] && !root_position_m[2];
+  return !bvh && joints.empty() && angles.empty() && effectors.empty() && !root_heading_deg &&
+         !root_position_m[0] && !root_position_m[1] && !root_position_m[2];
+}
+
+bool QueryFrameSpec::constrained() const {
+  if (!angles.empty() || !effectors.empty()) return true;
+  for (const JointRotationSpec& j : joints)
+    if (j.direction || j.weight) return true;
+  return false;
 }
 
 bool QueryFilter::accepts(const std::string& file_name, const std::string& content_label,

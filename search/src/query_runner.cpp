@@ -141,7 +141,10 @@ void QueryRunner::compute_frame_bounds() {
     const SkeletonTables& tables = skeleton.tables;
     const std::size_t n = tables.sk->frame_count;
     for (std::size_t i = 0; i < q_.frames.size(); ++i) {
-      if (resolved_[k][i].kind != FrameKind::partial || n == 0) continue;
+      // Constrained frames are solved per frame: no per-frame bounds (0).
+      if (resolved_[k][i].kind != FrameKind::partial || n == 0 || resolved_[k][i].solve ||
+          resolved_[k][i].weight < 1.0)
+        continue;
       PartialBoundPlan plan =
           make_partial_bound_plan(resolved_[k][i], tables, q_.transition_time_s);
       attach_columns(plan, skeleton, *engine_.index);
@@ -543,7 +546,36 @@ class PairSearch {
   PairRun result_;
 };
 
+void QueryRunner::add_residuals(PairResults& pair) const {
+  std::vector<Eigen::Vector3d> pos;
+  std::vector<Eigen::Quaterniond> rot;
+  for (SearchResult& r : pair.results)
+    for (std::size_t k = 0; k < skeletons_.size(); ++k) {
+      const SkeletonTables& tables = skeletons_[k]->tables;
+      for (const ClipInfo& ci : tables.clips) {
+        if (ci.clip != r.clip_index) continue;
+        const DynamicsModel& model = tables.model;
+        for (const bool in : {true, false}) {
+          const ResolvedFrame& f = resolved_[k][in ? pair.from : pair.to];
+          auto& out = in ? r.residuals_from : r.residuals_to;
+          bool named = false;
+          for (const PoseConstraint& c : f.constraints) named = named || !c.name.empty();
+          if (!named) continue;
+          frame_pose(*skeletons_[k], *engine_.index,
+                     ci.frame_start + (in ? r.start_frame : r.end_frame), pos, rot);
+          for (const PoseConstraint& c : f.constraints)
+            if (!c.name.empty())
+              out.emplace_back(c.name, constraint_residual(model.parents, model.root(), c,
+                                                           pos.data(), rot.data()));
+        }
+      }
+    }
+}
+
 PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
+  // A frame weighted below 1 scores below the bounds, which bound the
+  // unweighted h: such a pair is evaluated whole (brute, the same values).
+  if (q_.frames[h].weight < 1.0 || q_.frames[h + 1].weight < 1.0) mode = SearchMode::brute;
   PairSearch search(*this, h, mode);
   search.collect_candidates(mode);
   search.form_groups();

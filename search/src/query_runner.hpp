@@ -57,6 +57,10 @@ class QueryRunner {
   // to exact for pairs that are not two full frames, and in relative mode).
   PairRun run_pair(std::size_t h, SearchMode mode);
 
+  // Each result's residuals (SearchResult::residuals_from / _to): the
+  // named constraints of the pair's query frames measured on F^s and F^e.
+  void add_residuals(PairResults& pair) const;
+
  private:
   friend class PairSearch;
 

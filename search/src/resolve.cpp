@@ -114,6 +114,195 @@ FileStat stat_or_throw(const std::filesystem::path& path, const char* kind = "BV
   }
 }
 
+// The segment of joint j for a direction: its only child, else the child
+// on the trunk chain (an ancestor of the neck), else -1 (ambiguous or none).
+int segment_end(const Skeleton& skel, int j) {
+  const std::vector<int> kids = skel.children(j);
+  if (kids.size() == 1) return kids[0];
+  const int neck = find_joint_by_alias(skel, "Neck");
+  for (int k : kids)
+    for (int a = neck; a >= 0; a = skel.parents[static_cast<std::size_t>(a)])
+      if (a == k) return k;
+  return -1;
+}
+
+int body_part(const Query& q, const std::string& path, const Skeleton& skel,
+              const std::string& part, const std::string& what) {
+  const int j = find_joint_by_alias(skel, part);
+  if (j < 0) fail(q, path, fmt::format("this skeleton has no {} ({}) for {}", part, part, what));
+  return j;
+}
+
+// Query frame i's joint entries, angles and effectors as body-frame
+// constraints (ResolvedQueryPose::constraints), its weights, and for a
+// constrained frame the driven joints in `given`.
+void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
+                     const DynamicsModel& model, ResolvedQueryPose& out) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string path = field(i);
+  out.weight = spec.weight;
+  PartialPoseSpec& given = out.given;
+  const std::size_t nj = skel.joint_count();
+  const int root = model.root();
+  std::vector<PoseConstraint> cs;
+  // Given local rotations: named by the query's entry (hand-written
+  // frames), unnamed for a BVH frame's "only".
+  for (const auto& [j, rot] : given.joint_rotations) {
+    PoseConstraint c;
+    c.kind = PoseConstraintKind::local_rotation;
+    c.joint = j;
+    c.local = rot;
+    for (const JointRotationSpec& jr : spec.joints)
+      if (!jr.direction && find_joint_by_alias(skel, jr.name) == j) {
+        c.name = jr.name;
+        c.weight = jr.weight.value_or(1.0);
+      }
+    cs.push_back(c);
+  }
+  for (const JointRotationSpec& jr : spec.joints) {
+    if (!jr.direction) continue;
+    const std::string at = path + ".joints." + jr.name;
+    PoseConstraint c;
+    c.kind = PoseConstraintKind::direction;
+    c.name = jr.name;
+    c.joint = resolve_joint(q, at, skel, jr.name);
+    if (c.joint == root)
+      fail(q, at,
+           "the root's direction would turn the body frame itself: give root_heading_deg, or "
+           "the direction of a joint below it");
+    c.end = segment_end(skel, c.joint);
+    if (c.end < 0)
+      fail(q, at,
+           fmt::format("{} has {} child joints: a direction needs one segment (give a joint "
+                       "with one child, e.g. Spine, RightUpperArm, RightForeArm, RightUpLeg)",
+                       skel.names[static_cast<std::size_t>(c.joint)],
+                       skel.children(c.joint).size()));
+    c.target = *jr.direction;
+    c.tolerance = jr.tolerance_deg * std::numbers::pi / 180.0;
+    c.weight = jr.weight.value_or(1.0);
+    cs.push_back(c);
+  }
+  for (const AngleSpec& a : spec.angles) {
+    const std::string at = path + ".angles." + a.name;
+    PoseConstraint c;
+    c.name = a.name;
+    c.angle_rad = a.deg * std::numbers::pi / 180.0;
+    c.tolerance = a.tolerance_deg * std::numbers::pi / 180.0;
+    c.weight = a.weight.value_or(1.0);
+    const bool left = a.name.rfind("left_", 0) == 0;
+    const std::string side = left ? "Left" : "Right";
+    if (a.name == "trunk_flexion") {
+      c.kind = PoseConstraintKind::sagittal_flexion;
+      c.end = find_joint_by_alias(skel, "Neck");
+      if (c.end < 0) c.end = body_part(q, at, skel, "Head", a.name);
+      int base = c.end;
+      while (base >= 0 && model.parents[static_cast<std::size_t>(base)] != root)
+        base = model.parents[static_cast<std::size_t>(base)];
+      if (base < 0 || base == c.end)
+        fail(q, at, "no spine between the root and the neck on this skeleton");
+      c.joint = base;
+    } else if (a.name.ends_with("hip_flexion")) {
+      c.kind = PoseConstraintKind::sagittal_flexion;
+      c.from_down = true;
+      c.joint = body_part(q, at, skel, side + "UpLeg", a.name);
+      c.end = body_part(q, at, skel, side + "Leg", a.name);
+    } else if (a.name.ends_with("knee_flexion") || a.name.ends_with("elbow_flexion")) {
+      const bool knee = a.name.ends_with("knee_flexion");
+      c.kind = PoseConstraintKind::hinge_flexion;
+      c.middle = body_part(q, at, skel, side + (knee ? "UpLeg" : "UpperArm"), a.name);
+      c.joint = body_part(q, at, skel, side + (knee ? "Leg" : "ForeArm"), a.name);
+      c.end = body_part(q, at, skel, side + (knee ? "Foot" : "Hand"), a.name);
+      c.bend_hint = Eigen::Vector3d(0.0, 0.0, knee ? -1.0 : 1.0);
+    } else {  // shoulder elevation
+      c.kind = PoseConstraintKind::elevation;
+      c.joint = body_part(q, at, skel, side + "UpperArm", a.name);
+      c.end = body_part(q, at, skel, side + "ForeArm", a.name);
+      c.bend_hint = Eigen::Vector3d(left ? 1.0 : -1.0, 0.0, 0.0);
+    }
+    cs.push_back(c);
+  }
+  for (const EffectorSpec& e : spec.effectors) {
+    const std::string at = path + ".effectors." + e.name;
+    PoseConstraint c;
+    c.kind = PoseConstraintKind::effector;
+    c.name = e.name;
+    c.end = resolve_joint(q, at, skel, e.name);
+    c.middle = model.parents[static_cast<std::size_t>(c.end)];
+    c.joint = c.middle >= 0 ? model.parents[static_cast<std::size_t>(c.middle)] : -1;
+    if (c.middle < 0 || c.joint < 0 || c.middle == root || c.joint == root)
+      fail(q, at,
+           fmt::format("{} is not at the end of a two-bone chain below the root (e.g. a hand: "
+                       "upper arm, forearm; a foot: thigh, shank)",
+                       skel.names[static_cast<std::size_t>(c.end)]));
+    c.target = e.position_m;
+    c.tolerance = e.tolerance_m;
+    c.weight = e.weight.value_or(1.0);
+    const int lf = find_joint_by_alias(skel, "LeftFoot"),
+              rf = find_joint_by_alias(skel, "RightFoot");
+    c.bend_hint = Eigen::Vector3d(0.0, 0.0, (c.end == lf || c.end == rf) ? -1.0 : 1.0);
+    cs.push_back(c);
+  }
+  if (cs.empty()) return;
+  // Each joint driven by one entry only.
+  std::vector<const PoseConstraint*> driver(nj, nullptr);
+  auto describe = [&](const PoseConstraint& c) {
+    return c.name.empty() ? std::string("\"only\"") : "\"" + c.name + "\"";
+  };
+  for (const PoseConstraint& c : cs)
+    for (int j : {c.joint, c.kind == PoseConstraintKind::effector ? c.middle : -1}) {
+      if (j < 0) continue;
+      const PoseConstraint*& d = driver[static_cast<std::size_t>(j)];
+      if (d != nullptr)
+        fail(q, path,
+             fmt::format("{} and {} both move {}: give one of them", describe(*d), describe(c),
+                         skel.names[static_cast<std::size_t>(j)]));
+      d = &c;
+    }
+  sort_constraints(cs);
+  out.constraints = std::move(cs);
+  out.solve = spec.constrained();
+  if (!out.solve) return;
+  const std::vector<int> driven = driven_joints(out.constraints, nj);
+  std::vector<std::pair<int, Eigen::Quaterniond>> rotations;
+  for (int j : driven) rotations.emplace_back(j, Eigen::Quaterniond::Identity());
+  given.joint_rotations = std::move(rotations);
+  // Joints whose nearest driven joint is a body-frame constraint's keep F's
+  // rates (a constraint gives a pose); under a given local rotation, root
+  // position or heading they are static, as in any partial frame.
+  {
+    std::vector<int> kind(nj, -1);  // -1 none, 0 local rotation, 1 body-frame constraint
+    for (const PoseConstraint& c : out.constraints) {
+      const int k = c.kind == PoseConstraintKind::local_rotation ? 0 : 1;
+      kind[static_cast<std::size_t>(c.joint)] = k;
+      if (c.kind == PoseConstraintKind::effector) kind[static_cast<std::size_t>(c.middle)] = k;
+    }
+    const bool whole = given.root_heading_rad || given.root_position_m[0] ||
+                       given.root_position_m[1] || given.root_position_m[2];
+    out.keep_rates.assign(nj, 0);
+    std::vector<int> nearest(nj, -1);
+    for (std::size_t j = 0; j < nj; ++j) {
+      const int p = model.parents[j];
+      nearest[j] = kind[j] >= 0 ? kind[j] : (p >= 0 ? nearest[static_cast<std::size_t>(p)] : -1);
+      out.keep_rates[j] = !whole && nearest[j] == 1;
+    }
+  }
+  bool weighted = false;
+  for (const PoseConstraint& c : out.constraints) weighted = weighted || c.weight != 1.0;
+  if (!weighted) return;
+  // A joint's terms take the weight of the nearest driven joint at or above it.
+  std::vector<double> w(nj, 1.0);
+  std::vector<double> own(nj, 0.0);
+  for (const PoseConstraint& c : out.constraints) {
+    own[static_cast<std::size_t>(c.joint)] = c.weight;
+    if (c.kind == PoseConstraintKind::effector) own[static_cast<std::size_t>(c.middle)] = c.weight;
+  }
+  for (std::size_t j = 0; j < nj; ++j) {
+    const int p = model.parents[j];
+    w[j] = own[j] > 0.0 ? own[j] : (p >= 0 ? w[static_cast<std::size_t>(p)] : 1.0);
+  }
+  out.joint_weights = std::move(w);
+}
+
 }  // namespace
 
 std::shared_ptr<const QueryBvhFile> QueryBvhCache::get(const std::filesystem::path& path,
@@ -361,6 +550,7 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     if (spec.root_heading_deg)
       partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
     for (const auto& jr : spec.joints) {
+      if (jr.direction) continue;  // a body-frame constraint (add_constraints)
       const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
       partial.joint_rotations.emplace_back(j, jr.rotation);
     }
@@ -379,7 +569,23 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     }
     partial.joint_rotations = std::move(unique);
   }
+  add_constraints(q, i, sk.skeleton, model, out);
   return out;
+}
+
+void solve_given(const ResolvedQueryPose& pose, const DynamicsModel& model,
+                 const Eigen::Vector3d* pos, const Eigen::Quaterniond* rot,
+                 PoseConstraintScratch& scratch, std::vector<Eigen::Quaterniond>& locals,
+                 PartialPoseSpec& spec, std::vector<std::uint8_t>* keep_rates) {
+  if (!pose.solve) return;
+  locals.resize(spec.joint_rotations.size());
+  solve_pose_constraints(model.parents, model.root(), pose.constraints, pos, rot, scratch,
+                         locals.data());
+  for (std::size_t k = 0; k < locals.size(); ++k) spec.joint_rotations[k].second = locals[k];
+  if (keep_rates == nullptr) return;
+  keep_rates->resize(pose.keep_rates.size());
+  for (std::size_t j = 0; j < pose.keep_rates.size(); ++j)
+    (*keep_rates)[j] = pose.keep_rates[j] && !scratch.turned[j];
 }
 
 namespace search_detail {
@@ -392,6 +598,11 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
   ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option, file);
   ResolvedFrame out;
   out.root = frame_root(pose);
+  out.constraints = pose.constraints;
+  out.solve = pose.solve;
+  out.joint_weights = pose.joint_weights;
+  out.weight = pose.weight;
+  if (pose.solve) out.pose = std::make_shared<const ResolvedQueryPose>(pose);
   if (pose.full) {
     out.kind = FrameKind::full;
     out.state = std::move(pose.state);
@@ -421,6 +632,7 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
   }
   try {
     out.partial = prepare_partial_query(model, std::move(partial));
+    out.partial.keep_rates = pose.keep_rates;
   } catch (const InputError& e) {
     fail(q, field(i), e.detail());
   }

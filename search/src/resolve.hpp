@@ -77,6 +77,15 @@ struct ResolvedFrame {
   };
   std::vector<SubtreeJoint> subtree;
   std::vector<SubtreeSegment> subtree_segments;
+  /// The frame's body-frame constraints, whether it is completed per
+  /// database frame, its per-joint term weights and its weight
+  /// (ResolvedQueryPose's fields of those names).
+  std::vector<PoseConstraint> constraints;
+  bool solve = false;
+  std::vector<double> joint_weights;
+  double weight = 1.0;
+  /// The query frame's ResolvedQueryPose as solve_given reads it (solve only).
+  std::shared_ptr<const ResolvedQueryPose> pose;
 };
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`

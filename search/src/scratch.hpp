@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mocap/common/energy.hpp"
+#include "mocap/common/pose_constraints.hpp"
 #include "relative_bounds.hpp"
 
 namespace mocap::search_detail {
@@ -51,6 +52,10 @@ struct Scratch {
   std::vector<std::uint8_t> a_exact;
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;
+  // Constrained frames: the solver's pose, the solved rotations, the terms.
+  PoseConstraintScratch constraints;
+  std::vector<Eigen::Quaterniond> solved;
+  EnergyTerms terms;
 };
 
 }  // namespace mocap::search_detail

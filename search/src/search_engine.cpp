@@ -148,6 +148,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options,
     if (options.mode == SearchMode::approx && options.compute_recall)
       recall_sum += top_r_recall(run, runner.run_pair(h, SearchMode::exact));
     out.pairs.push_back(pair_results(*m.index, h, run));
+    runner.add_residuals(out.pairs.back());
     out.stats.clips += run.stats.clips;
     out.stats.clips_pruned += run.stats.clips_pruned;
     out.stats.frames_evaluated += run.stats.frames_evaluated;

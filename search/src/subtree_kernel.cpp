@@ -15,7 +15,7 @@ void set_subtree_plan(ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   q.subtree.clear();
   q.subtree_segments.clear();
   if (q.kind != FrameKind::partial || q.partial.moves_whole_body ||
-      q.partial.subtree_joints.empty())
+      q.partial.subtree_joints.empty() || q.solve)
     return;
   const DynamicsModel& model = tables.model;
   const PartialQuery& pq = q.partial;

@@ -227,13 +227,23 @@ MotionLayout lay_out_motion(const SynthSkeleton& sk, FramePlacement placement,
                     : GroundPose{};
     const Placement to_out = placement_of(own_to_out);
     const SynthFrame own_base = place_frame(sk, base, placement_of(own_to_out.inverse()));
-    auto placed = [&](const PartialPoseSpec& spec) {
+    // Body-frame constraints are solved on the frame they complete.
+    WorldPose base_world;
+    if (query_frames[h].pose.solve) synth_world_pose(sk, own_base, base_world);
+    auto placed = [&](const ResolvedQueryPose& pose) {
+      PartialPoseSpec spec = pose.given;
+      if (pose.solve) {
+        PoseConstraintScratch scratch;
+        std::vector<Eigen::Quaterniond> locals;
+        solve_given(pose, sk.model, base_world.positions_m.data(), base_world.rotations.data(),
+                    scratch, locals, spec);
+      }
       return place_frame(sk, complete(sk, spec, own_base), to_out);
     };
     PlacedQueryFrame p;
-    p.frame = placed(given);
-    p.before = query_frames[h].prev ? placed(query_frames[h].prev->given) : p.frame;
-    p.after = query_frames[h].next ? placed(query_frames[h].next->given) : p.frame;
+    p.frame = placed(query_frames[h].pose);
+    p.before = query_frames[h].prev ? placed(*query_frames[h].prev) : p.frame;
+    p.after = query_frames[h].next ? placed(*query_frames[h].next) : p.frame;
     out.queries.push_back(std::move(p));
   }
   if (timed)

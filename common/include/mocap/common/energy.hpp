@@ -112,6 +112,11 @@ struct PartialQuery {
   std::vector<std::uint8_t> in_subtree;
   /// Per joint: index into spec.joint_rotations, -1 if not given.
   std::vector<int> given_rotation;
+  /// Per joint: 1 when an affected joint keeps F's rates instead of being
+  /// static (joints moved only by body-frame constraints, which give a pose
+  /// and no rates: pose_constraints.hpp); empty = none. Set by the caller
+  /// after prepare_partial_query.
+  std::vector<std::uint8_t> keep_rates;
 };
 
 /// Validates (joint indices in range and unique, quaternions finite and
@@ -130,8 +135,8 @@ struct FrameRef {
 /// kinematics of the affected subtrees), then turned about the vertical
 /// through the root to the given heading, then translated so that the root
 /// has the given position components. Affected joints are static (the query
-/// gives values, not rates: velocities and accelerations 0); unaffected joints
-/// keep F's rates.
+/// gives values, not rates: velocities and accelerations 0), but for those
+/// PartialQuery::keep_rates marks; unaffected joints keep F's rates.
 void complete_partial_query(const DynamicsModel& model, const PartialQuery& query,
                             const FrameRef& frame, BodyState& out);
 

@@ -26,10 +26,42 @@
 
 namespace mocap {
 
-/// One joint's given local rotation (relative to its parent, as in BVH).
+/// One joint's entry in "joints": a given local rotation (relative to its
+/// parent, as in BVH: "euler_deg" + "order", or "quat"), or the direction
+/// its segment points in the body frame ("direction"; docs/queries.md
+/// "Body-frame constraints").
 struct JointRotationSpec {
-  std::string name;             // as written; resolved by alias later
-  Eigen::Quaterniond rotation;  // unit
+  std::string name;  // as written; resolved by alias later
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // unit; unless `direction`
+  /// Unit vector in the body frame (+x left, +y up, +z forward).
+  std::optional<Eigen::Vector3d> direction;
+  /// direction: met within this angle, degrees (>= 0; default 0).
+  double tolerance_deg = 0.0;
+  /// "weight" (> 0): multiplier of the energy terms of the segments this
+  /// entry moves (docs/queries.md "Weights").
+  std::optional<double> weight;
+};
+
+/// An anatomical angle ("angles": {"trunk_flexion": 40, ...}), degrees:
+/// trunk_flexion, left_/right_hip_flexion (forward lean from vertical,
+/// -180..180), left_/right_elbow_flexion, left_/right_knee_flexion (0 =
+/// straight, 0..180), left_/right_shoulder_elevation (upper arm from
+/// hanging down, 0..180).
+struct AngleSpec {
+  std::string name;
+  double deg = 0.0;
+  double tolerance_deg = 0.0;  // >= 0
+  std::optional<double> weight;
+};
+
+/// An end-effector target ("effectors": {"RightHand": {"position_m": [x, y,
+/// z]}}): the joint's origin at a body-frame position, reached by its
+/// two-bone chain (docs/queries.md "Body-frame constraints").
+struct EffectorSpec {
+  std::string name;  // a joint with a parent and grandparent below the root
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  double tolerance_m = 0.0;  // >= 0
+  std::optional<double> weight;
 };
 
 /// One query frame, as written.
@@ -55,9 +87,19 @@ struct QueryFrameSpec {
   /// key pose (docs/queries.md "Timed key poses"). Given on every frame of
   /// a query or on none; the first at 0; strictly increasing.
   std::optional<double> time_s;
+  /// "angles" and "effectors": body-frame constraints (hand-written frames,
+  /// and BVH frames with "only").
+  std::vector<AngleSpec> angles;
+  std::vector<EffectorSpec> effectors;
+  /// "weight" (> 0, default 1): multiplier of this frame's h terms in the
+  /// scores (docs/queries.md "Weights").
+  double weight = 1.0;
 
   /// True when nothing at all is given (an error for a query frame).
   bool empty() const;
+  /// True when the frame has a constraint completed per database frame (a
+  /// direction, an angle, an effector) or a per-joint weight.
+  bool constrained() const;
 };
 
 /// Clip filters; every given list must match (AND between lists, OR inside one).

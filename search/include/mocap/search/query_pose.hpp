@@ -22,6 +22,7 @@
 #include "mocap/common/ground_pose.hpp"
 #include "mocap/common/index.hpp"
 #include "mocap/common/kinematics.hpp"
+#include "mocap/common/pose_constraints.hpp"
 #include "mocap/search/query.hpp"
 
 namespace mocap {
@@ -129,7 +130,40 @@ struct ResolvedQueryPose {
   /// finite-difference rates at the frame (dynamics.hpp), index skeleton and
   /// `model`'s body.
   BodyState state;
+  /// The frame's joint entries, angles and effectors as body-frame
+  /// constraints (pose_constraints.hpp), parents first: what residuals are
+  /// measured against (a given local rotation of a BVH frame's "only" is
+  /// there unnamed, and has no residual). Empty for frames without any.
+  std::vector<PoseConstraint> constraints;
+  /// The frame is completed per database frame (QueryFrameSpec::constrained):
+  /// `given.joint_rotations` lists every joint the constraints drive, in
+  /// driven_joints order, and solve_given fills their rotations.
+  bool solve = false;
+  /// solve: per joint, the multiplier of its energy terms (the weight of the
+  /// constraint driving it or its nearest driven ancestor; 1 elsewhere);
+  /// empty when every weight is 1.
+  std::vector<double> joint_weights;
+  /// solve: per joint, 1 when it is driven only by body-frame constraints
+  /// (not under a given local rotation, root position or heading): such a
+  /// joint keeps the database frame's rates when the solution leaves it
+  /// where it is (its constraints met within tolerance), and is static (a
+  /// given value) when the solution moves it (solve_given).
+  std::vector<std::uint8_t> keep_rates;
+  /// The frame's "weight": multiplier of its h.
+  double weight = 1.0;
 };
+
+/// A constrained frame's DOFs when completed with a pose of the index
+/// skeleton (world joint origins `pos`, rotations `rot`): `spec` (a copy of
+/// the frame's `given`) gets each driven joint's rotation from
+/// solve_pose_constraints. With `keep_rates`, it receives per joint whether
+/// the joint keeps the pose's rates (PartialQuery::keep_rates): eligible
+/// (ResolvedQueryPose::keep_rates) and not turned by the solution. Does
+/// nothing for a frame with solve == false.
+void solve_given(const ResolvedQueryPose& pose, const DynamicsModel& model,
+                 const Eigen::Vector3d* pos, const Eigen::Quaterniond* rot,
+                 PoseConstraintScratch& scratch, std::vector<Eigen::Quaterniond>& locals,
+                 PartialPoseSpec& spec, std::vector<std::uint8_t>* keep_rates = nullptr);
 
 /// Resolves query frame `i` of `q` on skeleton `sk` (character `model`).
 /// Throws InputError ("query ID: frames[i]...: ...") for unknown joints

@@ -95,6 +95,11 @@ struct SearchResult {
   double h_in_J = 0.0;          // h(Q^h -> F^s)
   double h_out_J = 0.0;         // h(F^e -> Q^h+1)
   double path_cost_J = 0.0;     // P[e] - P[s], the clip's own energy (lambda not applied)
+  /// How far F^s misses each named constraint of Q^h (residuals_from) and
+  /// F^e each of Q^h+1 (residuals_to), by name: metres for effectors,
+  /// degrees for joint rotations, directions and angles
+  /// (constraint_residual). Empty for frames without constraints.
+  std::vector<std::pair<std::string, double>> residuals_from, residuals_to;
 };
 
 struct PairResults {
