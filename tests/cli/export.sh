@@ -67,6 +67,12 @@ cmp -s "$tmp/from-results.bvh" "$tmp/by-name.bvh" || fail "--results and --clip 
 "$indexer" build -q --shards 2 --out "$tmp/c2.json" "$clip" "$w" "$d/dataset-1_bow_active_001.bvh" >/dev/null 2>&1
 "$search" export --index "$tmp/c2.json" --clip "$(basename "$clip")" --frames "$s-$e" --out "$tmp/from-collection.bvh" >/dev/null
 cmp -s "$tmp/from-results.bvh" "$tmp/from-collection.bvh" || fail "a collection wrote other bytes"
+# Results of a search over the collection (its clip numbers) name the same frames.
+"$search" --index "$tmp/c2.json" --queries "$tmp/q.jsonl" --out "$tmp/rc.jsonl" -q
+read -r cclip cs ce < <(python3 -c 'import json, sys; m = json.loads(open(sys.argv[1]).readline())["pairs"][0]["results"][1]; print(m["clip"], m["start_frame"], m["end_frame"])' "$tmp/rc.jsonl")
+"$search" export --index "$tmp/c2.json" --results "$tmp/rc.jsonl" --id walk --pair 1 --rank 2 --out "$tmp/c-results.bvh" >/dev/null
+"$search" export --index "$tmp/set1.h5" --clip "$cclip" --frames "$cs-$ce" --out "$tmp/c-direct.bvh" >/dev/null
+cmp -s "$tmp/c-results.bvh" "$tmp/c-direct.bvh" || fail "results over a collection name other frames"
 
 # Joint positions of every exported frame = the source clip's frames s..e.
 for ((k = 0; k <= e - s; ++k)); do
