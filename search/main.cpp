@@ -9,6 +9,9 @@
 //       MPI"); rank 0 writes the output, identical to one process's.
 //   mocap-search energy --from FILE:FRAME --to FILE:FRAME [--transition-time S]
 //                [--character C.json] [--unit U] [--json]
+//   mocap-search export --index I (--clip NAME --frames S-E | --results R.jsonl --id Q
+//                --pair P --rank K) --out X.bvh [--force]
+//       writes one partial motion as BVH (export_command.hpp).
 // Exit status (docs/cli.md): 0 success; 1 some queries failed (their lines
 // carry "error"); 2 usage error or nothing could be done (the message names
 // the file or the argument). CLI11 parse errors use CLI11's own codes.
@@ -26,6 +29,7 @@
 #include <sstream>
 #include <string>
 
+#include "export_command.hpp"
 #include "mocap/common/atomic_file.hpp"
 #include "mocap/common/collection_manifest.hpp"
 #include "mocap/common/error.hpp"
@@ -301,11 +305,14 @@ int main(int argc, char** argv) {
   app.require_subcommand(0, 1);
   EnergyArgs energy;
   SearchArgs search;
+  mocap::ExportArgs exporting;
   add_search_options(app, search);
   add_energy_command(app, energy);
-  mocap::InputLimitFlags search_limits, energy_limits;
+  CLI::App* export_command = mocap::add_export_command(app, exporting);
+  mocap::InputLimitFlags search_limits, energy_limits, export_limits;
   mocap::add_input_limit_options(app, search_limits);
   mocap::add_input_limit_options(*app.get_subcommand("energy"), energy_limits);
+  mocap::add_input_limit_options(*export_command, export_limits);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -315,6 +322,10 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("energy")) {
       mocap::apply_input_limits(energy_limits);
       return run_energy(energy);
+    }
+    if (export_command->parsed()) {
+      mocap::apply_input_limits(export_limits);
+      return mocap::run_export(exporting);
     }
     mocap::apply_input_limits(search_limits);
     return run_search(search, session);

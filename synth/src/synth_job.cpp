@@ -353,6 +353,11 @@ std::vector<Channel> parse_channels(const std::string& s) {
 
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
                                              const std::string& query_id, const ClipSource& clips) {
+  return read_search_results_line(path, query_id, clips).pairs;
+}
+
+SearchResultsLine read_search_results_line(const std::filesystem::path& path,
+                                           const std::string& query_id, const ClipSource& clips) {
   try {
     (void)check_input_file(path, input_limits().batch_bytes);
   } catch (const InputError& e) {
@@ -420,7 +425,7 @@ std::vector<PairResults> read_search_results(const std::filesystem::path& path,
     } catch (const nlohmann::json::exception& e) {
       throw InputError(path.string(), n, std::string("pairs: ") + e.what());
     }
-    return pairs;
+    return {n, std::move(pairs)};
   }
   std::string known;
   for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
@@ -573,15 +578,40 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   return res;
 }
 
-void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
-  const SynthSkeleton& sk = *result.skeleton;
+namespace {
+
+// Euler angles (degrees) of `q` on a joint's rotation channels: its axes in
+// channel order, completed with the missing axes after them when it has fewer
+// than 3 (the angles of those are 0 for a rotation the channels can hold).
+Eigen::Vector3d channel_euler(const Eigen::Quaterniond& q, const JointChannelMap& cm) {
+  if (cm.rotation_count == 3) return quaternion_to_euler(q, cm.rotation_axis);
+  std::array<std::uint8_t, 3> axes{};
+  std::size_t k = 0;
+  for (; k < cm.rotation_count; ++k) axes[k] = cm.rotation_axis[k];
+  for (std::uint8_t a = 0; a < 3; ++a)
+    if (std::find(axes.begin(), axes.begin() + static_cast<std::ptrdiff_t>(k), a) ==
+        axes.begin() + static_cast<std::ptrdiff_t>(k))
+      axes[k++] = a;
+  return quaternion_to_euler(q, axes);
+}
+
+}  // namespace
+
+RawClip motion_bvh_clip(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                        double frame_time_s, const std::string& source,
+                        std::span<const Eigen::Vector3d> local_translations_m) {
   const Skeleton& s = sk.skeleton;
   const double unit = s.unit_scale_m;
   RawClip raw;
-  raw.source = path.string();
-  raw.frame_time_s = result.frame_time_s;
-  raw.frame_count = result.frames.size();
+  raw.source = source;
+  raw.frame_time_s = frame_time_s;
+  raw.frame_count = frames.size();
   const std::size_t n = s.joint_count();
+  const bool per_frame = !local_translations_m.empty();
+  if (per_frame && local_translations_m.size() != frames.size() * n)
+    throw std::invalid_argument("motion_bvh_clip: " + std::to_string(local_translations_m.size()) +
+                                " translations for " + std::to_string(frames.size()) +
+                                " frames of " + std::to_string(n) + " joints");
   std::vector<std::vector<Channel>> chans(n);
   for (std::size_t j = 0; j < n; ++j) {
     RawJoint rj;
@@ -602,12 +632,12 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
   raw.values.resize(raw.frame_count * raw.channel_count);
   WorldPose w;
   for (std::size_t f = 0; f < raw.frame_count; ++f) {
-    const SynthFrame& fr = result.frames[f];
-    synth_world_pose(sk, fr, w);
+    const SynthFrame& fr = frames[f];
+    if (!per_frame) synth_world_pose(sk, fr, w);
     double* row = raw.values.data() + f * raw.channel_count;
     for (std::size_t j = 0; j < n; ++j) {
-      Eigen::Vector3d t = sk.local_translations_m[j];
-      if (static_cast<int>(j) == sk.root_joint) {
+      Eigen::Vector3d t = per_frame ? local_translations_m[f * n + j] : sk.local_translations_m[j];
+      if (!per_frame && static_cast<int>(j) == sk.root_joint) {
         const int p = s.parents[j];
         t = p < 0 ? fr.root_position_m
                   : Eigen::Vector3d(
@@ -617,7 +647,7 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       t /= unit;
       const auto& cm = s.channels[j];
       Eigen::Vector3d e = Eigen::Vector3d::Zero();
-      if (cm.rotation_count == 3) e = quaternion_to_euler(fr.local_rotations[j], cm.rotation_axis);
+      if (cm.rotation_count > 0) e = channel_euler(fr.local_rotations[j], cm);
       std::size_t col = raw.joints[j].first_column, rot_k = 0;
       for (Channel c : chans[j]) {
         if (channel_is_rotation(c))
@@ -627,7 +657,12 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       }
     }
   }
-  write_bvh_file(raw, path);
+  return raw;
+}
+
+void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
+  write_bvh_file(
+      motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()), path);
 }
 
 }  // namespace mocap

@@ -12,9 +12,11 @@
 #include <cstddef>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "mocap/common/raw_clip.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/clip_source.hpp"
@@ -31,6 +33,14 @@ namespace mocap {
 /// manifest) number clips as one index.
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
                                              const std::string& query_id, const ClipSource& clips);
+/// The same, with the 1-based line of the file that holds them (for messages
+/// about a pair or a rank of that line).
+struct SearchResultsLine {
+  std::size_t line = 0;
+  std::vector<PairResults> pairs;
+};
+SearchResultsLine read_search_results_line(const std::filesystem::path& path,
+                                           const std::string& query_id, const ClipSource& clips);
 
 /// A user's choice: pair h (1-based, joins Q^h and Q^h+1) takes rank r.
 struct Pick {
@@ -117,6 +127,20 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
 /// OFFSET is not read right by loaders that add position channels to the
 /// OFFSET (three.js BVHLoader): docs/synthesis.md "Output".
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path);
+/// What write_motion_bvh writes, for any frames on `sk` (a result's, or a
+/// clip's own: mocap/synth/export.hpp): frame_count = frames.size(), the
+/// frame time given, `source` for messages; write_bvh gives its text.
+/// Rotation channels hold each joint's local rotation as Euler angles in
+/// the channels' order (a joint with fewer than 3 keeps the angles of its
+/// own axes: exact for the rotations they can express). Position channels
+/// hold `sk`'s fixed translations and the root joint's from
+/// SynthFrame::root_position_m, or, when `local_translations_m` is given
+/// (frames.size() x joints, [f * J + j], metres; std::invalid_argument for
+/// another size), every joint's translation of that frame (a clip whose
+/// joints above the pelvis move, as Bandai Namco's joint_Root in a few takes).
+RawClip motion_bvh_clip(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                        double frame_time_s, const std::string& source,
+                        std::span<const Eigen::Vector3d> local_translations_m = {});
 
 /// REPORT.json text ("index": the index file or manifest of `clips`).
 std::string synth_report_json(const ClipSource& clips, const Query& query,
