@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap/common/raw_clip.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/clip_source.hpp"
@@ -108,6 +109,13 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out);
 
+/// Frames on skeleton `sk` as a BVH clip in that skeleton's file layout and
+/// units (write_motion_bvh's; `source` names it in messages): the
+/// skeleton's joints, channels and rest OFFSETs, the root translation on the
+/// pelvis's position channels, the other joints' position channels constant.
+RawClip motion_raw_clip(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                        double frame_time_s, const std::string& source);
+
 /// The motion as BVH in the target skeleton, file units of the first clip:
 /// the skeleton's own joints and channels, OFFSETs its rest offsets. The
 /// pelvis (SynthSkeleton::root_joint) carries the root translation (position
@@ -124,12 +132,17 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                               const SynthResult& result, const SynthOptions& options,
                               double search_ms, double total_ms, const std::string& bvh_path);
 
-/// REPORT.html text: one self-contained page (inline SVG, no scripts, no
-/// network) with filmstrips of the query frames, the ranked partial motions
-/// and the synthesised motion, the ranking table and the energy curve. Each
-/// figure carries data-figure="..." (tests look for them).
+struct PlayerLibrary;  // mocap/synth/player.hpp
+
+/// REPORT.html text: one self-contained page (no network) with the 3D
+/// player (player.hpp synth_player_scene; left out when `player` is null,
+/// the page then says so and why: `player_missing`), and the printable
+/// views in inline SVG: filmstrips of the query frames, the ranked partial
+/// motions and the synthesised motion, the ranking table and the energy
+/// curve. Each figure carries data-figure="..." (tests look for them).
 std::string synth_report_html(const ClipSource& clips, const Query& query,
                               const std::vector<PairResults>& ranked, const SynthResult& result,
-                              const SynthOptions& options);
+                              const SynthOptions& options, const PlayerLibrary* player = nullptr,
+                              const std::string& player_missing = "");
 
 }  // namespace mocap
