@@ -447,15 +447,22 @@ class Player {
       });
     }
     this.playhead = element('div', { class: 'mp-playhead' }, tracks);
+    // The tracks start 90 px into the timeline's padding box (a row's label,
+    // 89 px, and the track's left border), as the playhead does.
     const scrub = (e) => {
       const r = tracks.getBoundingClientRect();
-      const left = r.left + 90;
-      const x = Math.min(1, Math.max(0, (e.clientX - left) / Math.max(1, r.right - left)));
+      const left = r.left + tracks.clientLeft + 90;
+      const right = r.left + tracks.clientLeft + tracks.clientWidth;
+      const x = Math.min(1, Math.max(0, (e.clientX - left) / Math.max(1, right - left)));
       this.setTime(x * spec.duration_s);
     };
     tracks.addEventListener('pointerdown', (e) => {
       this.pause();
-      tracks.setPointerCapture(e.pointerId);
+      try {
+        tracks.setPointerCapture(e.pointerId);
+      } catch {
+        // a synthetic event has no active pointer to capture
+      }
       scrub(e);
       const move = (ev) => scrub(ev);
       const up = () => {
