@@ -12,6 +12,9 @@
 //   mocap-search export --index I (--clip NAME --frames S-E | --results R.jsonl --id Q
 //                --pair P --rank K) --out X.bvh [--force]
 //       writes one partial motion as BVH (export_command.hpp).
+//   mocap-search view --index INDEX.h5 --results R.jsonl --out R.html [--id Q ...]
+//       the 3D player of a results file (also --html on a search;
+//       mocap/synth/player.hpp, docs/cli.md).
 // Exit status (docs/cli.md): 0 success; 1 some queries failed (their lines
 // carry "error"); 2 usage error or nothing could be done (the message names
 // the file or the argument). CLI11 parse errors use CLI11's own codes.
@@ -23,11 +26,13 @@
 #include <chrono>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "export_command.hpp"
 #include "mocap/common/atomic_file.hpp"
@@ -41,6 +46,8 @@
 #include "mocap/search/distributed.hpp"
 #include "mocap/search/energy_command.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/synth/clip_source.hpp"
+#include "mocap/synth/player.hpp"
 #ifdef MOCAP_HAVE_MPI
 #include "mpi_search.hpp"
 #endif
@@ -79,6 +86,15 @@ struct SearchArgs {
   bool no_recall = false;
   bool force = false;
   std::string distribute = "auto";
+  std::string html;
+};
+
+struct ViewArgs {
+  std::string index;
+  std::string results;
+  std::string out;
+  std::vector<std::string> ids;
+  bool force = false;
 };
 
 // The MPI session when started by an MPI launcher (one rank of several), else null.
@@ -102,6 +118,9 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
   app.add_option("--out", a.out,
                  "Write the results here (JSON lines) instead of stdout; replaced atomically "
                  "once every query is answered");
+  app.add_option("--html", a.html,
+                 "Also write the 3D player of the results here (one self-contained HTML page; "
+                 "docs/cli.md \"mocap-search view\")");
   app.add_flag("--force", a.force,
                "Replace --out even when it holds something else (never a folder, device or FIFO; "
                "docs/cli.md \"Output paths\")");
@@ -155,6 +174,44 @@ void add_energy_command(CLI::App& app, EnergyArgs& args) {
                 "Print one JSON object: {h_J, g_J, terms: [{name, kind, h_J, g_J}], ...}");
 }
 
+void add_view_command(CLI::App& app, ViewArgs& args) {
+  CLI::App* cmd = app.add_subcommand(
+      "view",
+      "The 3D player of a results file: every ranked partial motion of each pair plays side by "
+      "side (one self-contained HTML page; scripts/view runs it).");
+  cmd->add_option("--index", args.index,
+                  "The index (or collection manifest) the results were searched in")
+      ->required();
+  cmd->add_option("--results", args.results, "Results file (JSON lines, mocap-search --out)")
+      ->required();
+  cmd->add_option("--out", args.out, "The HTML page to write")->required();
+  cmd->add_option("--id", args.ids, "Only these queries (default: every line with results)");
+  cmd->add_flag("--force", args.force,
+                "Replace --out even when it holds something else (docs/cli.md \"Output paths\")");
+}
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  mocap::AtomicFile file(path);
+  {
+    std::ofstream out(file.temporary_path(), std::ios::binary);
+    if (!out || !(out << text) || !out.flush())
+      throw mocap::InputError(path.string(), 0, "cannot write");
+  }
+  file.commit();
+}
+
+int run_view(const ViewArgs& a) {
+  mocap::check_distinct_outputs({{"--out", a.out}, {"--index", a.index}, {"--results", a.results}});
+  const std::filesystem::path out =
+      mocap::checked_output_path(a.out, mocap::OutputKind::html, a.force, "--out");
+  const mocap::PlayerLibrary player = mocap::load_player_library(mocap::player_dir());
+  const mocap::ClipSource clips = mocap::ClipSource::open(a.index);
+  const std::vector<mocap::ResultsLine> lines = mocap::read_results_file(a.results, clips);
+  write_text(out, mocap::results_player_page(clips, lines, a.ids, a.results, player));
+  std::cout << "html: " << std::filesystem::absolute(out).string() << "\n";
+  return kExitOk;
+}
+
 int run_energy(const EnergyArgs& args) {
   mocap::EnergyCommandOptions o;
   o.from = mocap::parse_frame_spec(args.from, "--from");
@@ -191,17 +248,25 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;
   std::optional<mocap::AtomicFile> out_file;
+  std::filesystem::path html_file;
+  std::optional<mocap::PlayerLibrary> player;
   std::vector<mocap::BatchEntry> batch;
   std::ofstream file;
   // Under MPI every rank reads the batch, rank 0 alone checks and opens the
   // output; any rank's failure ends every rank (mpi_search.hpp).
   const auto prepare = [&] {
-    if (!a.out.empty() && rank0) {
+    if ((!a.out.empty() || !a.html.empty()) && rank0) {
       mocap::check_distinct_outputs({{"--index", a.index},
                                      {"--queries", a.queries.empty() ? a.query : a.queries},
-                                     {"--out", a.out}});
-      out_file.emplace(
-          mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
+                                     {"--out", a.out},
+                                     {"--html", a.html}});
+      if (!a.out.empty())
+        out_file.emplace(
+            mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
+      if (!a.html.empty()) {
+        html_file = mocap::checked_output_path(a.html, mocap::OutputKind::html, a.force, "--html");
+        player = mocap::load_player_library(mocap::player_dir());
+      }
     }
     batch =
         a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
@@ -278,6 +343,15 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
     if (!file) throw mocap::InputError(a.out, 0, "write failed");
     out_file->commit();
   }
+  if (player) {  // the 3D player of the answered queries (mocap/synth/player.hpp)
+    std::vector<mocap::ResultsLine> lines;
+    for (const auto& o : outcomes)
+      lines.push_back(
+          {o.id, o.error.value_or(""), o.error ? std::vector<mocap::PairResults>{} : o.pairs});
+    const mocap::ClipSource clips =
+        index ? mocap::ClipSource(*index) : mocap::ClipSource::open(a.index);
+    write_text(html_file, mocap::results_player_page(clips, lines, {}, "--html", *player));
+  }
   if (!a.quiet)
     fmt::print(stderr,
                "mocap-search: {} queries ({} failed), mode {}, {}, {}answered in {:.3f} s{}\n",
@@ -306,12 +380,15 @@ int main(int argc, char** argv) {
   EnergyArgs energy;
   SearchArgs search;
   mocap::ExportArgs exporting;
+  ViewArgs view;
   add_search_options(app, search);
   add_energy_command(app, energy);
+  add_view_command(app, view);
   CLI::App* export_command = mocap::add_export_command(app, exporting);
-  mocap::InputLimitFlags search_limits, energy_limits, export_limits;
+  mocap::InputLimitFlags search_limits, energy_limits, view_limits, export_limits;
   mocap::add_input_limit_options(app, search_limits);
   mocap::add_input_limit_options(*app.get_subcommand("energy"), energy_limits);
+  mocap::add_input_limit_options(*app.get_subcommand("view"), view_limits);
   mocap::add_input_limit_options(*export_command, export_limits);
   try {
     app.parse(argc, argv);
@@ -319,6 +396,10 @@ int main(int argc, char** argv) {
     return rank0 ? app.exit(e) : app.exit(e, silent, silent);
   }
   try {
+    if (app.got_subcommand("view")) {
+      mocap::apply_input_limits(view_limits);
+      return run_view(view);
+    }
     if (app.got_subcommand("energy")) {
       mocap::apply_input_limits(energy_limits);
       return run_energy(energy);

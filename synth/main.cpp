@@ -25,6 +25,7 @@
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/clip_source.hpp"
+#include "mocap/synth/player.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 
@@ -173,8 +174,20 @@ int main(int argc, char** argv) {
     if (!report_path.empty())
       write_text(report_file, mocap::synth_report_json(clips, query, query_path, ranked, result,
                                                        options, search_ms, total_ms, out_path));
-    if (!html_path.empty())
-      write_text(html_file, mocap::synth_report_html(clips, query, ranked, result, options));
+    if (!html_path.empty()) {
+      // The 3D player needs the three.js copy (player.hpp): without it the
+      // report keeps its printable views and says why.
+      std::optional<mocap::PlayerLibrary> player;
+      std::string missing;
+      try {
+        player = mocap::load_player_library(mocap::player_dir());
+      } catch (const mocap::InputError& e) {
+        missing = e.what();
+        std::cerr << "mocap-synth: warning: the report has no 3D player: " << missing << "\n";
+      }
+      write_text(html_file, mocap::synth_report_html(clips, query, ranked, result, options,
+                                                     player ? &*player : nullptr, missing));
+    }
     std::size_t inserted = 0;
     for (const auto& t : result.transitions) inserted += t.measures.frames;
     std::cout << "motion: " << std::filesystem::absolute(out_path).string() << " ("

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mocap/common/json_text.hpp"
+#include "mocap/synth/player.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "mocap/synth/synth_json.hpp"
 #include "report_views.hpp"
@@ -129,7 +130,8 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
 
 std::string synth_report_html(const ClipSource& clips, const Query& query,
                               const std::vector<PairResults>& ranked, const SynthResult& result,
-                              const SynthOptions& options) {
+                              const SynthOptions& options, const PlayerLibrary* player,
+                              const std::string& player_missing) {
   const SynthSkeleton& sk = *result.skeleton;
   std::ostringstream o;
   o << "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>mocap-synth: "
@@ -143,6 +145,16 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
     << " query frames, " << result.frames.size() << " output frames at "
     << fmt(1, 1.0 / result.frame_time_s) << " fps, transitions by "
     << transition_method_name(options.method) << ".</p>\n";
+  if (player)
+    o << player_html({synth_player_scene(clips, query, ranked, result)}, *player);
+  else
+    o << "<p data-figure=\"player-missing\"><b>The 3D player is not in this report</b>: "
+      << (player_missing.empty()
+              ? std::string("scripts/setup installs its three.js copy into synth/player "
+                            "(MOCAP_PLAYER_DIR names another player folder).")
+              : esc(player_missing))
+      << "</p>\n";
+  o << "<h2>Printable views</h2>\n";
   using synth_detail::filmstrip;
   filmstrip(o, "filmstrip-query", "Query frames (completed, Q_F)", sk, result.query_frames, 12,
             "#1f5fbf");

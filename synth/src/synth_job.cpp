@@ -24,6 +24,7 @@
 #include "mocap/search/query_pose.hpp"
 #include "mocap/search/timing.hpp"
 #include "motion_layout.hpp"
+#include "results_file.hpp"
 
 namespace mocap {
 namespace {
@@ -337,18 +338,6 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
   add_segment("query", H, {res.query_frames.back()});
 }
 
-std::vector<Channel> parse_channels(const std::string& s) {
-  std::vector<Channel> out;
-  std::istringstream in(s);
-  std::string w;
-  static const char* names[] = {"Xposition", "Yposition", "Zposition",
-                                "Xrotation", "Yrotation", "Zrotation"};
-  while (in >> w)
-    for (int k = 0; k < 6; ++k)
-      if (w == names[k]) out.push_back(static_cast<Channel>(k));
-  return out;
-}
-
 }  // namespace
 
 std::vector<PairResults> read_search_results(const std::filesystem::path& path,
@@ -358,75 +347,19 @@ std::vector<PairResults> read_search_results(const std::filesystem::path& path,
 
 SearchResultsLine read_search_results_line(const std::filesystem::path& path,
                                            const std::string& query_id, const ClipSource& clips) {
-  try {
-    (void)check_input_file(path, input_limits().batch_bytes);
-  } catch (const InputError& e) {
-    throw InputError(path.string(), 0, "cannot read the search results: " + e.detail());
-  }
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), 0, "cannot read the search results");
-  std::string line;
-  std::size_t n = 0;
   std::vector<std::string> ids;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(line);
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(path.string(), n, std::string("invalid JSON: ") + e.what());
-    }
-    if (!j.is_object() || !j.contains("id") || !j["id"].is_string())
-      throw InputError(path.string(), n, "expected an object with a string \"id\"");
+  std::optional<SearchResultsLine> found;
+  synth_detail::read_results_lines(path, [&](const nlohmann::json& j, std::size_t n) {
     const std::string id = j["id"].get<std::string>();
     ids.push_back(id);
-    if (id != query_id) continue;
+    if (id != query_id) return true;
     if (j.contains("error"))
       throw InputError(path.string(), n,
                        "the search failed for this query: " + json_text(j["error"]));
-    if (!j.contains("pairs") || !j["pairs"].is_array())
-      throw InputError(path.string(), n, "pairs: expected an array");
-    std::vector<PairResults> pairs;
-    try {
-      for (const auto& jp : j["pairs"]) {
-        PairResults p;
-        p.from = jp.at("from").get<std::size_t>();
-        p.to = jp.at("to").get<std::size_t>();
-        for (const auto& jr : jp.at("results")) {
-          SearchResult r;
-          r.rank = jr.at("rank").get<std::size_t>();
-          r.clip_index = jr.at("clip_index").get<std::size_t>();
-          r.clip = jr.at("clip").get<std::string>();
-          r.start_frame = jr.at("start_frame").get<std::size_t>();
-          r.end_frame = jr.at("end_frame").get<std::size_t>();
-          r.score_J = jr.value("score_J", 0.0);
-          r.h_in_J = jr.value("h_in_J", 0.0);
-          r.h_out_J = jr.value("h_out_J", 0.0);
-          r.path_cost_J = jr.value("path_cost_J", 0.0);
-          if (r.clip_index >= clips.clip_count() ||
-              (clips.clip(r.clip_index).path != r.clip &&
-               base_name(clips.clip(r.clip_index).path) != base_name(r.clip)))
-            throw InputError(path.string(), n,
-                             "unknown clip \"" + r.clip + "\" (clip_index " +
-                                 std::to_string(r.clip_index) + ") in " +
-                                 (clips.is_collection() ? "collection " : "index ") +
-                                 clips.path().string());
-          const std::size_t fc = clips.clip(r.clip_index).frame_count;
-          if (!(r.start_frame < r.end_frame && r.end_frame < fc))
-            throw InputError(path.string(), n,
-                             "frames " + std::to_string(r.start_frame) + ".." +
-                                 std::to_string(r.end_frame) + " out of range for \"" + r.clip +
-                                 "\" (" + std::to_string(fc) + " frames)");
-          p.results.push_back(std::move(r));
-        }
-        pairs.push_back(std::move(p));
-      }
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(path.string(), n, std::string("pairs: ") + e.what());
-    }
-    return {n, std::move(pairs)};
-  }
+    found = SearchResultsLine{n, synth_detail::parse_result_pairs(j, path.string(), n, clips)};
+    return false;
+  });
+  if (found) return std::move(*found);
   std::string known;
   for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
   throw InputError(path.string(), 0,
@@ -576,93 +509,6 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   res.motion_measures = measure_motion(sk, res.frames, out_dt);
   res.synth_ms = ms_since(t0);
   return res;
-}
-
-namespace {
-
-// Euler angles (degrees) of `q` on a joint's rotation channels: its axes in
-// channel order, completed with the missing axes after them when it has fewer
-// than 3 (the angles of those are 0 for a rotation the channels can hold).
-Eigen::Vector3d channel_euler(const Eigen::Quaterniond& q, const JointChannelMap& cm) {
-  if (cm.rotation_count == 3) return quaternion_to_euler(q, cm.rotation_axis);
-  std::array<std::uint8_t, 3> axes{};
-  std::size_t k = 0;
-  for (; k < cm.rotation_count; ++k) axes[k] = cm.rotation_axis[k];
-  for (std::uint8_t a = 0; a < 3; ++a)
-    if (std::find(axes.begin(), axes.begin() + static_cast<std::ptrdiff_t>(k), a) ==
-        axes.begin() + static_cast<std::ptrdiff_t>(k))
-      axes[k++] = a;
-  return quaternion_to_euler(q, axes);
-}
-
-}  // namespace
-
-RawClip motion_bvh_clip(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
-                        double frame_time_s, const std::string& source,
-                        std::span<const Eigen::Vector3d> local_translations_m) {
-  const Skeleton& s = sk.skeleton;
-  const double unit = s.unit_scale_m;
-  RawClip raw;
-  raw.source = source;
-  raw.frame_time_s = frame_time_s;
-  raw.frame_count = frames.size();
-  const std::size_t n = s.joint_count();
-  const bool per_frame = !local_translations_m.empty();
-  if (per_frame && local_translations_m.size() != frames.size() * n)
-    throw std::invalid_argument("motion_bvh_clip: " + std::to_string(local_translations_m.size()) +
-                                " translations for " + std::to_string(frames.size()) +
-                                " frames of " + std::to_string(n) + " joints");
-  std::vector<std::vector<Channel>> chans(n);
-  for (std::size_t j = 0; j < n; ++j) {
-    RawJoint rj;
-    rj.name = s.names[j];
-    rj.parent = s.parents[j];
-    // The rest OFFSET (scaled like the joint's translation): a joint with
-    // position channels gets its translation from them (they replace it).
-    const double scale = s.translation_scales.empty() ? 1.0 : s.translation_scales[j];
-    rj.offset = s.offsets_m[j] * (s.parents[j] < 0 ? 1.0 : scale) / unit;
-    chans[j] = parse_channels(j < sk.channels.size() ? sk.channels[j] : "");
-    rj.channels = chans[j];
-    rj.first_column = raw.channel_count;
-    raw.channel_count += rj.channels.size();
-    rj.has_end_site = s.has_end_site[j] != 0;
-    rj.end_site = s.end_sites_m[j] / unit;
-    raw.joints.push_back(std::move(rj));
-  }
-  raw.values.resize(raw.frame_count * raw.channel_count);
-  WorldPose w;
-  for (std::size_t f = 0; f < raw.frame_count; ++f) {
-    const SynthFrame& fr = frames[f];
-    if (!per_frame) synth_world_pose(sk, fr, w);
-    double* row = raw.values.data() + f * raw.channel_count;
-    for (std::size_t j = 0; j < n; ++j) {
-      Eigen::Vector3d t = per_frame ? local_translations_m[f * n + j] : sk.local_translations_m[j];
-      if (!per_frame && static_cast<int>(j) == sk.root_joint) {
-        const int p = s.parents[j];
-        t = p < 0 ? fr.root_position_m
-                  : Eigen::Vector3d(
-                        w.rotations[static_cast<std::size_t>(p)].conjugate() *
-                        (fr.root_position_m - w.positions_m[static_cast<std::size_t>(p)]));
-      }
-      t /= unit;
-      const auto& cm = s.channels[j];
-      Eigen::Vector3d e = Eigen::Vector3d::Zero();
-      if (cm.rotation_count > 0) e = channel_euler(fr.local_rotations[j], cm);
-      std::size_t col = raw.joints[j].first_column, rot_k = 0;
-      for (Channel c : chans[j]) {
-        if (channel_is_rotation(c))
-          row[col++] = rot_k < 3 ? e[static_cast<Eigen::Index>(rot_k++)] : 0.0;
-        else
-          row[col++] = t[channel_axis(c)];
-      }
-    }
-  }
-  return raw;
-}
-
-void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
-  write_bvh_file(
-      motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()), path);
 }
 
 }  // namespace mocap

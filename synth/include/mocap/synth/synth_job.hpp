@@ -148,12 +148,17 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                               const SynthResult& result, const SynthOptions& options,
                               double search_ms, double total_ms, const std::string& bvh_path);
 
-/// REPORT.html text: one self-contained page (inline SVG, no scripts, no
-/// network) with filmstrips of the query frames, the ranked partial motions
-/// and the synthesised motion, the ranking table and the energy curve. Each
-/// figure carries data-figure="..." (tests look for them).
+struct PlayerLibrary;  // mocap/synth/player.hpp
+
+/// REPORT.html text: one self-contained page (no network) with the 3D
+/// player (player.hpp synth_player_scene; left out when `player` is null,
+/// the page then says so and why: `player_missing`), and the printable
+/// views in inline SVG: filmstrips of the query frames, the ranked partial
+/// motions and the synthesised motion, the ranking table and the energy
+/// curve. Each figure carries data-figure="..." (tests look for them).
 std::string synth_report_html(const ClipSource& clips, const Query& query,
                               const std::vector<PairResults>& ranked, const SynthResult& result,
-                              const SynthOptions& options);
+                              const SynthOptions& options, const PlayerLibrary* player = nullptr,
+                              const std::string& player_missing = "");
 
 }  // namespace mocap
