@@ -368,6 +368,8 @@ class Synthesis:
         self._raw = raw
 
     def __getattr__(self, name):
+        if name == "_raw":  # not set yet (copy, pickle): no recursion
+            raise AttributeError(name)
         return getattr(self._raw, name)
 
     @property
@@ -419,6 +421,8 @@ class Bvh:
         self._raw = raw
 
     def __getattr__(self, name):
+        if name == "_raw":  # not set yet (copy, pickle): no recursion
+            raise AttributeError(name)
         return getattr(self._raw, name)
 
     @property
