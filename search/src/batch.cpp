@@ -12,6 +12,7 @@
 #include "mocap/common/file.hpp"
 #include "mocap/common/input_limits.hpp"
 #include "mocap/common/json_text.hpp"
+#include "mocap/search/batch_entry.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
@@ -27,24 +28,7 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
   while (std::getline(in, line)) {
     ++n;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    BatchEntry e;
-    e.id = fmt::format("line {}", n);
-    try {
-      e.query = parse_query_text(line, path.string(), n, base, e.id);
-      e.id = e.query->id;
-    } catch (const InputError& err) {
-      // Keep the id when the line is valid JSON with one.
-      try {
-        const auto j = nlohmann::json::parse(line);
-        if (j.is_object() && j.contains("id") && j["id"].is_string())
-          e.id = j["id"].get<std::string>();
-        if (j.is_object() && j.contains("id") && j["id"].is_number_integer())
-          e.id = std::to_string(j["id"].get<long long>());
-      } catch (const nlohmann::json::exception&) {
-      }
-      e.error = err.what();
-    }
-    out.push_back(std::move(e));
+    out.push_back(parse_batch_entry(line, path.string(), n, base, fmt::format("line {}", n)));
   }
   return out;
 }
