@@ -1,6 +1,7 @@
 // Retargeting poses across rigs (retarget.hpp).
 #include "mocap/common/retarget.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -205,7 +206,10 @@ bool same_rig(const Skeleton& a, const Skeleton& b) {
   return true;
 }
 
-RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target) {
+RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target,
+                              std::vector<Eigen::Quaterniond> typical_local) {
+  if (!typical_local.empty() && typical_local.size() != target.joint_count())
+    throw std::invalid_argument("make_retarget_map: one typical rotation per target joint");
   const JointClasses cs = classify_joints(source), ct = classify_joints(target);
   const Representatives rs = representatives(cs), rt = representatives(ct);
   RetargetMap m;
@@ -226,6 +230,9 @@ RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target) {
   m.target_axis.assign(n, Eigen::Vector3d::Zero());
   m.source_axis.assign(n, Eigen::Vector3d::Zero());
   m.compared.assign(n, 0);
+  m.has_side_axis.assign(n, 0);
+  m.typical_local = std::move(typical_local);
+  for (Eigen::Quaterniond& q : m.typical_local) q.normalize();
   // Directed classes (by class and side).
   std::array<std::array<std::uint8_t, kSides>, kClasses> directed_class{};
   for (std::size_t j = 0; j < n; ++j) {
@@ -283,6 +290,7 @@ RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target) {
     if (b_t) {
       const Eigen::Matrix3d r = axis_frame(*a_s, *b_s) * axis_frame(*a_t, *b_t).transpose();
       m.correction[j] = Eigen::Quaterniond(r).normalized();
+      m.has_side_axis[j] = 1;
     } else {
       m.correction[j] = (swing(parent_m * *a_t, *a_s) * parent_m).normalized();
     }
@@ -302,11 +310,11 @@ RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target) {
   for (std::size_t j = 0; j < n; ++j) {
     const int p = target.parents[j];
     const double tip =
-        target.has_end_site[j] ? (target.end_sites_m[j] *
-                                  (target.translation_scales.empty() ? 1.0
-                                                                     : target.translation_scales[j]))
-                                     .norm()
-                               : 0.0;
+        target.has_end_site[j]
+            ? (target.end_sites_m[j] *
+               (target.translation_scales.empty() ? 1.0 : target.translation_scales[j]))
+                  .norm()
+            : 0.0;
     if (m.compared[j] || p < 0 || has_child[j] || tip >= kZeroOffsetM ||
         ct[j].first == SegmentClass::none || !m.compared[static_cast<std::size_t>(p)])
       continue;
@@ -337,14 +345,27 @@ void retarget_pose(const RetargetMap& map, const Skeleton& target, const WorldPo
   std::vector<Eigen::Vector3d>& pos = world.positions_m;
   rot.resize(n);
   pos.resize(n);
+  const bool typical = !map.typical_local.empty();
   for (std::size_t j = 0; j < n; ++j) {
     const int src = map.source_joint[j];
     const int p = target.parents[j];
-    if (src >= 0)
-      rot[j] = (source_world.rotations[static_cast<std::size_t>(src)] * map.correction[j])
-                   .normalized();
-    else
-      rot[j] = p >= 0 ? rot[static_cast<std::size_t>(p)] : Eigen::Quaterniond::Identity();
+    const Eigen::Quaterniond parent =
+        p >= 0 ? rot[static_cast<std::size_t>(p)] : Eigen::Quaterniond::Identity();
+    if (src >= 0 && (map.directed[j] || !typical)) {
+      rot[j] =
+          (source_world.rotations[static_cast<std::size_t>(src)] * map.correction[j]).normalized();
+      if (typical && !map.has_side_axis[j]) {
+        // Turned about its own axis a to the twist nearest the typical local
+        // rotation: the twist part of L^-1 L_typ about a (R a unchanged).
+        const Eigen::Quaterniond delta =
+            ((parent.conjugate() * rot[j]).conjugate() * map.typical_local[j]).normalized();
+        const Eigen::Vector3d& a = map.target_axis[j];
+        const double theta = 2.0 * std::atan2(delta.vec().dot(a), delta.w());
+        rot[j] = (rot[j] * Eigen::Quaterniond(Eigen::AngleAxisd(theta, a))).normalized();
+      }
+    } else {
+      rot[j] = typical ? (parent * map.typical_local[j]).normalized() : parent;
+    }
   }
   local.rotations.resize(n);
   local.translations_m.resize(n);
@@ -392,13 +413,63 @@ void retarget_pose(const RetargetMap& map, const Skeleton& target, const WorldPo
   forward_kinematics(target, local, world);
 }
 
+namespace {
+
+// sum_f q_f q_f^T of one joint (4 x 4, w x y z) -> its top eigenvector.
+Eigen::Quaterniond top_eigenvector(const Eigen::Matrix4d& sum) {
+  if (!(sum.trace() > 0.0)) return Eigen::Quaterniond::Identity();  // no frames
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(sum);
+  const Eigen::Vector4d top = eig.eigenvectors().col(3);  // eigenvalues ascend
+  Eigen::Quaterniond q(top[0], top[1], top[2], top[3]);
+  q.normalize();
+  if (q.w() < 0.0) q.coeffs() *= -1.0;
+  return q;
+}
+
+void add_rotation(Eigen::Matrix4d& sum, double w, double x, double y, double z) {
+  const Eigen::Vector4d v(w, x, y, z);
+  sum.noalias() += v * v.transpose();
+}
+
+}  // namespace
+
+std::vector<Eigen::Quaterniond> typical_local_rotations(std::span<const Eigen::Quaterniond> locals,
+                                                        std::size_t joints) {
+  std::vector<Eigen::Matrix4d> sums(joints, Eigen::Matrix4d::Zero());
+  for (std::size_t i = 0; joints > 0 && i < locals.size(); ++i) {
+    const Eigen::Quaterniond& q = locals[i];
+    add_rotation(sums[i % joints], q.w(), q.x(), q.y(), q.z());
+  }
+  std::vector<Eigen::Quaterniond> out;
+  for (const Eigen::Matrix4d& sum : sums) out.push_back(top_eigenvector(sum));
+  return out;
+}
+
+std::vector<Eigen::Quaterniond> typical_local_rotations(const Index& index,
+                                                        std::uint32_t skeleton) {
+  const std::size_t n = index.skeletons().at(skeleton).skeleton.joint_count();
+  std::vector<Eigen::Matrix4d> sums(n, Eigen::Matrix4d::Zero());
+  index.stream_rows(skeleton, "frames", "local_rotations", 4096,
+                    [&](std::uint64_t, std::uint64_t count, const float* v) {
+                      for (std::uint64_t f = 0; f < count; ++f)
+                        for (std::size_t j = 0; j < n; ++j) {
+                          const float* q = v + (f * n + j) * 4;
+                          add_rotation(sums[j], q[0], q[1], q[2], q[3]);
+                        }
+                    });
+  std::vector<Eigen::Quaterniond> out;
+  for (const Eigen::Matrix4d& sum : sums) out.push_back(top_eigenvector(sum));
+  return out;
+}
+
 void retarget_clip_frame(const RetargetMap& map, const ClipMotion& source, std::size_t frame,
                          const Skeleton& target, LocalPose& local, WorldPose& world) {
   const std::size_t n = source.joint_count();
   if (frame >= source.frame_count) throw std::out_of_range("retarget_clip_frame: no such frame");
   thread_local LocalPose source_local;
   thread_local WorldPose source_world;
-  const auto first = static_cast<std::ptrdiff_t>(frame * n), last = first + static_cast<std::ptrdiff_t>(n);
+  const auto first = static_cast<std::ptrdiff_t>(frame * n),
+             last = first + static_cast<std::ptrdiff_t>(n);
   source_local.translations_m.assign(source.local_translations_m.begin() + first,
                                      source.local_translations_m.begin() + last);
   source_local.rotations.assign(source.local_rotations.begin() + first,

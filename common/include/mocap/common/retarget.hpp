@@ -47,6 +47,14 @@
 //    through the parent's M;
 //  - a joint with no counterpart keeps a neutral pose: identity local
 //    rotation (its parent's orientation, the rig's rest shape).
+// With the target rig's *typical pose* (typical_local_rotations: the mean
+// local rotation of each joint over an index's frames of that skeleton),
+// two choices use it instead, because rigs also disagree on how a bone's
+// frame is turned about the bone (Bandai Namco's left thigh points up at
+// rest, its right one down): every joint that is not a directed
+// representative takes its typical local rotation (the neutral pose), and a
+// directed class without a side axis (limbs, neck) keeps its direction but
+// is turned about it to the twist nearest its typical local rotation.
 // Joint translations are the target's own (OFFSET times translation scale),
 // except the pelvis: its ground position (x, z) is the source pelvis's, and
 // its height is set so that the lowest foot point (ankle or toe joint) lies at
@@ -67,10 +75,12 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "mocap/common/index.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/segment_class.hpp"
 #include "mocap/common/skeleton.hpp"
@@ -113,12 +123,31 @@ struct RetargetMap {
   /// Foot points (foot and toes representatives) both rigs have: (source,
   /// target) joints.
   std::vector<std::pair<int, int>> foot_points;
+  /// Per target joint: 1 for a directed class with a side axis (trunk).
+  std::vector<std::uint8_t> has_side_axis;
+  /// The target's typical local rotations (one per joint), or empty.
+  std::vector<Eigen::Quaterniond> typical_local;
 };
 
 /// The map from `source` onto `target` (each as read, its translation
-/// scales applied). Throws InputError("<retarget>", 0, ...) when either
-/// skeleton has no recognised pelvis (no lower trunk).
-RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target);
+/// scales applied), with the target's typical pose when given (one local
+/// rotation per target joint; empty: none). Throws InputError("<retarget>",
+/// 0, ...) when either skeleton has no recognised pelvis (no lower trunk);
+/// std::invalid_argument for a typical pose of another size.
+RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target,
+                              std::vector<Eigen::Quaterniond> typical_local = {});
+
+/// A typical pose: per joint, the average of its local rotations over frames
+/// (the unit quaternion q maximising sum_f (q . q_f)^2, the top eigenvector
+/// of sum_f q_f q_f^T: insensitive to the sign of each q_f; w >= 0).
+/// `locals`: frame-major [f * joints + j]; identity for a joint without
+/// frames.
+std::vector<Eigen::Quaterniond> typical_local_rotations(std::span<const Eigen::Quaterniond> locals,
+                                                        std::size_t joints);
+/// The same over every frame of index skeleton `skeleton` (its
+/// local_rotations, streamed: nothing kept). Throws what reading the index
+/// throws.
+std::vector<Eigen::Quaterniond> typical_local_rotations(const Index& index, std::uint32_t skeleton);
 
 /// Poses `target` like the source pose `source_world` (world pose of the
 /// source skeleton, forward_kinematics): `local` gets the target's local
