@@ -86,8 +86,8 @@ struct ResolvedFrame {
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`
 /// (resolve_query_pose, then the engine's precomputation). Throws InputError ("frames[i]...: ...")
-/// for unknown joints (listing the valid names), unreadable files, frames out of range, unmappable
-/// skeletons. `file`, `typical_pose`: as resolve_query_pose's.
+/// for unknown joints (listing the valid names), unreadable files, frames out of range, skeletons
+/// of another rig that cannot be retargeted. `file`, `typical_pose`: as resolve_query_pose's.
 ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
                             const DynamicsModel& model, double transition_time_s,
                             double index_transition_time_s, BvhCache& cache,

@@ -120,9 +120,8 @@ TEST(CrossRig, ResolvedOnAnotherRigAndComparedOnSharedSegments) {
     // The engine's typical pose: the index's frames of the skeleton.
     const std::vector<Eigen::Quaterniond> typical =
         typical_local_rotations(index, static_cast<std::uint32_t>(c.onto));
-    const ResolvedQueryPose pose = resolve_query_pose(q, 0, sk, model, cache,
-                                                      index.info().unit_option, nullptr,
-                                                      [&] { return &typical; });
+    const ResolvedQueryPose pose = resolve_query_pose(
+        q, 0, sk, model, cache, index.info().unit_option, nullptr, [&] { return &typical; });
     ASSERT_TRUE(pose.cross_rig);
     ASSERT_TRUE(pose.full);
     ASSERT_EQ(pose.compared_joints.size(), sk.skeleton.joint_count());
@@ -145,8 +144,8 @@ TEST(CrossRig, ResolvedOnAnotherRigAndComparedOnSharedSegments) {
     std::size_t masked_differs = 0;
     for (std::size_t f = 0; f < clip.frame_count; ++f) {
       EnergyTerms terms;
-      const double all =
-          approximate_energy(model, pose.state.view(), states.state(f), q.transition_time_s, &terms);
+      const double all = approximate_energy(model, pose.state.view(), states.state(f),
+                                            q.transition_time_s, &terms);
       const double ref = masked_sum(terms, pose.compared_joints);
       const double h = bounds.h[clip.frame_start + f];
       ASSERT_NEAR(h, ref, 1e-4 * ref + 1e-3) << c.clip << " frame " << f;
@@ -179,10 +178,11 @@ TEST(CrossRig, ExactEqualsBrute) {
           bvh_frame(cmu, 540) + "], \"top\": 3}",
       "{\"frames\": [" + bvh_frame(bn, 100) + ", " + bvh_frame(bn, 115) +
           "], \"filter\": {\"clips\": [\"131_*\"]}, \"top\": 3}",
-      "{\"frames\": [" + bvh_frame(bn, 60) + ", " + bvh_frame(cmu, 600) + ", " +
-          bvh_frame(bn, 90) + "], \"top\": 2}",
-      "{\"frames\": [" + bvh_frame(cmu, 600, ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]") +
-          ", " + bvh_frame(cmu, 640, ", \"only\": [\"RightUpLeg\", \"RightLeg\"]") + "]}",
+      "{\"frames\": [" + bvh_frame(bn, 60) + ", " + bvh_frame(cmu, 600) + ", " + bvh_frame(bn, 90) +
+          "], \"top\": 2}",
+      "{\"frames\": [" +
+          bvh_frame(cmu, 600, ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]") + ", " +
+          bvh_frame(cmu, 640, ", \"only\": [\"RightUpLeg\", \"RightLeg\"]") + "]}",
   };
   SearchOptions exact, brute;
   exact.max_length_s = brute.max_length_s = 1.0;
@@ -239,8 +239,8 @@ TEST(CrossRig, OwnRigUnchangedAndWalksFindWalks) {
 // skeleton here: an index of that one Bandai Namco clip makes them equal.)
 TEST(CrossRig, EnergyCommandGivesTheSearchsH) {
   MOCAP_REQUIRE_DATA();
-  const fs::path path = index_of("search-cross-rig-energy", {bn_file("dataset-1_walk_giant_001"),
-                                                             cmu_file("131_01")});
+  const fs::path path = index_of("search-cross-rig-energy",
+                                 {bn_file("dataset-1_walk_giant_001"), cmu_file("131_01")});
   ASSERT_FALSE(path.empty());
   const Index index = Index::open(path);
   const SearchEngine engine(index);

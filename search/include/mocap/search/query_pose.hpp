@@ -153,9 +153,9 @@ using TypicalPoseFn = std::function<const std::vector<Eigen::Quaterniond>*()>;
 
 /// Resolves query frame `i` of `q` on skeleton `sk` (character `model`).
 /// Throws InputError ("query ID: frames[i]...: ...") for unknown joints
-/// (listing the valid names), unreadable files, frames out of range and BVH
-/// files whose skeleton does not map onto `sk` (a segment or the root with
-/// no counterpart). `file`, when given, is the frame's BVH file fetched by an
+/// (listing the valid names), unreadable files, frames out of range and
+/// files of another rig than `sk`'s that cannot be retargeted onto it (no
+/// joint recognised as the pelvis). `file`, when given, is the frame's BVH file fetched by an
 /// earlier call for the same query frame on another skeleton (used when set,
 /// set when fetched here), so the file is looked up once per query frame.
 /// `typical_pose`: `sk`'s typical pose, for a file of another rig.
