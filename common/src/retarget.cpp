@@ -217,12 +217,12 @@ RetargetMap make_retarget_map(const Skeleton& source, const Skeleton& target,
   m.target_joint_count = target.joint_count();
   m.source_pelvis = rs(SegmentClass::lower_trunk, Side::center);
   m.target_pelvis = rt(SegmentClass::lower_trunk, Side::center);
-  for (const auto& [pelvis, which] : {std::pair{m.source_pelvis, "source (the query frame's)"},
-                                      std::pair{m.target_pelvis, "target (the index's)"}})
+  for (const auto& [pelvis, which] :
+       {std::pair{m.source_pelvis, "retargeted"}, std::pair{m.target_pelvis, "retargeted onto"}})
     if (pelvis < 0)
       throw InputError("<retarget>", 0,
-                       std::string("cannot retarget across rigs: the ") + which +
-                           " skeleton has no joint recognised as the pelvis (docs/body-model.md)");
+                       std::string("cannot retarget across rigs: the skeleton ") + which +
+                           " has no joint recognised as the pelvis (docs/body-model.md)");
   const std::size_t n = target.joint_count();
   m.source_joint.assign(n, -1);
   m.correction.assign(n, Eigen::Quaterniond::Identity());

@@ -142,9 +142,9 @@ EnergyReport run_energy_command(const EnergyCommandOptions& o) {
       rig = make_retarget_map(skeleton_b, a.skeleton,
                               typical_local_rotations(a.local_rotations, a.skeleton.joint_count()));
     } catch (const InputError& e) {
-      throw InputError(o.to.file.string(), 0,
-                       "its skeleton is another rig than " + o.from.file.string() +
-                           "'s and cannot be retargeted onto it: " + e.detail());
+      throw InputError(
+          o.to.file.string(), 0,
+          "its skeleton is another rig than that of " + o.from.file.string() + ": " + e.detail());
     }
   }
   const LoadedClip b = rig ? load_retargeted_clip(raw_b, unit_b, a, *rig)
