@@ -373,9 +373,12 @@ HScanTable build_h_scan_table(const DynamicsModel& model, std::span<const ClipDy
 }
 
 HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
-                             double transition_time_s) {
+                             double transition_time_s,
+                             std::span<const std::uint8_t> compared_joints) {
   check_time(transition_time_s);
   check_state(model, state);
+  if (!compared_joints.empty() && compared_joints.size() != model.joint_count())
+    throw std::invalid_argument("make_h_scan_query: compared_joints must have one entry per joint");
   HScanQuery q;
   q.segment_count = model.segments.size();
   q.constants.assign(q.segment_count * HScanQuery::kConstants, 0.0f);
@@ -400,6 +403,7 @@ HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
                                              state.angular_velocities_radps[j]));
     for (int k = 0; k < 3; ++k)
       c[11 + k] = static_cast<float>(model.principal_moments_kgm2[j][k] * half_inv_t2);
+    c[15] = !compared_joints.empty() && compared_joints[j] == 0 ? 1.0f : 0.0f;
   }
   return q;
 }
@@ -439,6 +443,7 @@ void scan_kernel(const float* __restrict values, std::size_t stride, std::size_t
   for (std::size_t i = 0; i < n; ++i) acc[i] = 0.0f;
   for (std::size_t s = 0; s < segments; ++s) {
     const float* k = constants + s * HScanQuery::kConstants;
+    if (k[15] != 0.0f) continue;  // a segment left out (mask)
     const float ax = k[0], ay = k[1], az = k[2], ka = k[3], mg = k[4], mh = k[5];
     const float aw = k[6], qx = k[7], qy = k[8], qz = k[9], kar = k[10];
     const float d0 = k[11], d1 = k[12], d2 = k[13];

@@ -11,7 +11,11 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkeletonTables& tables
   BoundQuery b;
   b.kind = q.kind;
   b.s = tables.padded;
-  if (q.kind == FrameKind::full) {
+  // A frame that compares only some segments (retargeted from another rig):
+  // every bound here sums over all segments, so it gets the partial frames'
+  // bound 0 (and, having no per-frame bounds, is scanned whole).
+  if (!q.compared.empty()) b.kind = FrameKind::partial;
+  if (b.kind == FrameKind::full) {
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->reserve(b.s);
     for (std::size_t s = 0; s < tables.segments; ++s) {
       const float* k = q.scan.constants.data() + s * HScanQuery::kConstants;

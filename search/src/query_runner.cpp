@@ -38,7 +38,8 @@ void QueryRunner::prepare() {
       const SkeletonData& skeleton = *skeletons_[k];
       resolved_[k].push_back(resolve_frame(q_, i, *skeleton.tables.sk, skeleton.tables.model,
                                            q_.transition_time_s, m.t_index, m.bvh_cache,
-                                           m.index->info().unit_option, &files[i]));
+                                           m.index->info().unit_option, &files[i],
+                                           [&] { return &typical_pose(*m.index, skeleton); }));
       set_needed_joints(resolved_[k].back(), skeleton.tables.model);
       set_subtree_plan(resolved_[k].back(), skeleton, *m.index, q_.transition_time_s);
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
@@ -58,7 +59,8 @@ void QueryRunner::prepare() {
         auto& ob = relative_bounds_[k].emplace_back();
         auto& rb = root_bounds_[k].emplace_back();
         for (std::size_t side = 0; side < 2; ++side) {
-          if (q_.placement == FramePlacement::relative && pair[side].kind == FrameKind::full)
+          if (q_.placement == FramePlacement::relative && pair[side].kind == FrameKind::full &&
+              pair[side].compared.empty())  // masked frames: no bound (resolve.hpp)
             ob[side] =
                 make_relative_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
           if (pair[side].kind == FrameKind::root_only)

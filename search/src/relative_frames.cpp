@@ -33,7 +33,7 @@ namespace {
 void move_frame(ResolvedFrame& f, const GroundPose& g, const SkeletonTables& tables, double t) {
   if (f.kind == FrameKind::full) {
     place_state(g, f.state);
-    f.scan = make_h_scan_query(tables.model, f.state.view(), t);
+    f.scan = make_h_scan_query(tables.model, f.state.view(), t, f.compared);
     f.root_m = f.state.joint_positions_m[static_cast<std::size_t>(tables.model.root())];
     return;
   }

@@ -10,6 +10,7 @@
 #include "mocap/common/bvh.hpp"
 #include "mocap/common/error.hpp"
 #include "mocap/common/input_limits.hpp"
+#include "mocap/common/retarget.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
 
@@ -73,6 +74,21 @@ std::vector<int> map_joints(const Query& q, const std::string& path, const Index
                      "canonical body part)",
                      file.string(), missing));
   return map;
+}
+
+// The retargeting of a file skeleton onto index skeleton `skel` when they
+// are different rigs (retarget.hpp), null for the same rig.
+std::unique_ptr<const RetargetMap> cross_rig_map(const Query& q, const std::string& path,
+                                                 const Skeleton& file_skel, const Skeleton& skel,
+                                                 const TypicalPoseFn& typical_pose) {
+  if (same_rig(file_skel, skel)) return nullptr;
+  const std::vector<Eigen::Quaterniond>* typical = typical_pose ? typical_pose() : nullptr;
+  try {
+    return std::make_unique<const RetargetMap>(
+        make_retarget_map(file_skel, skel, typical ? *typical : std::vector<Eigen::Quaterniond>{}));
+  } catch (const InputError& e) {
+    fail(q, path + ".bvh", e.detail());
+  }
 }
 
 }  // namespace
@@ -424,7 +440,8 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,
                                      const std::string& unit_option,
-                                     std::shared_ptr<const QueryBvhFile>* file) {
+                                     std::shared_ptr<const QueryBvhFile>* file,
+                                     const TypicalPoseFn& typical_pose) {
   const QueryFrameSpec& spec = q.frames[i];
   const std::string path = field(i);
   const Skeleton& skel = sk.skeleton;
@@ -450,12 +467,18 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       fail(q, path + ".frame",
            fmt::format("frame {} out of range: {} has {} frames (0-based)", spec.bvh_frame,
                        spec.bvh->string(), bvh->file_frame_count));
-    const std::vector<int> map = map_joints(q, path, sk, model, m.skeleton, *spec.bvh);
+    // A file of another rig is retargeted (retarget.hpp); else its local
+    // rotations are copied.
+    const std::unique_ptr<const RetargetMap> rig =
+        cross_rig_map(q, path, m.skeleton, skel, typical_pose);
+    const std::vector<int> map =
+        rig ? rig->source_joint : map_joints(q, path, sk, model, m.skeleton, *spec.bvh);
     // Pose of the file's frames around bvh_frame on the index skeleton: the
     // file's local rotations (identity for unmapped joints), the index
     // skeleton's offsets, the file's translations where both joints have
-    // position channels. The +-2 frame window gives exactly the clip's
-    // finite-difference rates at the frame (dynamics.hpp).
+    // position channels; across rigs, the retargeted pose. The +-2 frame
+    // window gives exactly the clip's finite-difference rates at the frame
+    // (dynamics.hpp).
     const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
     const std::size_t f1 = std::min(bvh->file_frame_count - 1, spec.bvh_frame + 2);
     // Frame f of the file is row f - base of `m` (a window or the whole file).
@@ -481,23 +504,27 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     local.translations_m.resize(nj);
     local.rotations.resize(nj);
     for (std::size_t f = f0; f <= f1; ++f) {
-      for (std::size_t j = 0; j < nj; ++j) {
-        const int fjnt = map[j];
-        const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
-        local.rotations[j] =
-            fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
-                      : Eigen::Quaterniond::Identity();
-        const bool file_pos =
-            fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
-        local.translations_m[j] =
-            (file_pos && skel.channels[j].has_position())
-                ? Eigen::Vector3d(
-                      m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] *
-                      scale)
-                : Eigen::Vector3d(skel.offsets_m[j] * scale);
+      if (rig) {
+        retarget_clip_frame(*rig, m, f - base, skel, local, world);
+      } else {
+        for (std::size_t j = 0; j < nj; ++j) {
+          const int fjnt = map[j];
+          const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
+          local.rotations[j] =
+              fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
+                        : Eigen::Quaterniond::Identity();
+          const bool file_pos =
+              fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
+          local.translations_m[j] =
+              (file_pos && skel.channels[j].has_position())
+                  ? Eigen::Vector3d(
+                        m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] *
+                        scale)
+                  : Eigen::Vector3d(skel.offsets_m[j] * scale);
+        }
+        forward_kinematics(skel, local, world);
       }
       if (f == spec.bvh_frame) locals_at_frame = local.rotations;
-      forward_kinematics(skel, local, world);
       std::copy(world.positions_m.begin(), world.positions_m.end(),
                 positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
       std::copy(world.rotations.begin(), world.rotations.end(),
@@ -510,6 +537,11 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     out.local_rotations = locals_at_frame;
     out.file_joints = map;
     out.file_pose = ground_pose_of(v.joint_positions_m[r], v.rotations[r]);
+    if (rig) {
+      out.cross_rig = true;
+      out.compared_joints = rig->compared;
+      out.compared_classes = rig->compared_classes;
+    }
     if (spec.only.empty()) {
       out.full = true;
       out.state.resize(nj);
@@ -594,8 +626,10 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
                             const DynamicsModel& model, double transition_time_s,
                             double index_transition_time_s, BvhCache& cache,
                             const std::string& unit_option,
-                            std::shared_ptr<const QueryBvhFile>* file) {
-  ResolvedQueryPose pose = resolve_query_pose(q, i, sk, model, cache, unit_option, file);
+                            std::shared_ptr<const QueryBvhFile>* file,
+                            const TypicalPoseFn& typical_pose) {
+  ResolvedQueryPose pose =
+      resolve_query_pose(q, i, sk, model, cache, unit_option, file, typical_pose);
   ResolvedFrame out;
   out.root = frame_root(pose);
   out.constraints = pose.constraints;
@@ -606,7 +640,8 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
   if (pose.full) {
     out.kind = FrameKind::full;
     out.state = std::move(pose.state);
-    out.scan = make_h_scan_query(model, out.state.view(), transition_time_s);
+    out.compared = std::move(pose.compared_joints);
+    out.scan = make_h_scan_query(model, out.state.view(), transition_time_s, out.compared);
     for (int b : model.segments) {
       const std::size_t bb = static_cast<std::size_t>(b);
       out.segment_ke_J.push_back(0.5 * model.masses_kg[bb] *

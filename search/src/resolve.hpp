@@ -40,6 +40,11 @@ struct ResolvedFrame {
   std::vector<double> segment_ke_J;
   /// full: kd feature with the index's T (approx mode candidates).
   std::vector<float> kd;
+  /// full, retargeted from another rig (ResolvedQueryPose::cross_rig): per
+  /// joint, 1 where the segment is compared (the scan query's mask); empty:
+  /// every segment. Such a frame has no box, sketch or relative bounds (they
+  /// sum over every segment): it is scanned whole.
+  std::vector<std::uint8_t> compared;
   /// root_only: scan query; partial: prepared partial query.
   HScanRootQuery root_scan;
   PartialQuery partial;
@@ -90,12 +95,13 @@ struct ResolvedFrame {
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`
 /// (resolve_query_pose, then the engine's precomputation). Throws InputError ("frames[i]...: ...")
-/// for unknown joints (listing the valid names), unreadable files, frames out of range, unmappable
-/// skeletons. `file`: as resolve_query_pose's.
+/// for unknown joints (listing the valid names), unreadable files, frames out of range, skeletons
+/// of another rig that cannot be retargeted. `file`, `typical_pose`: as resolve_query_pose's.
 ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
                             const DynamicsModel& model, double transition_time_s,
                             double index_transition_time_s, BvhCache& cache,
                             const std::string& unit_option,
-                            std::shared_ptr<const QueryBvhFile>* file = nullptr);
+                            std::shared_ptr<const QueryBvhFile>* file = nullptr,
+                            const TypicalPoseFn& typical_pose = {});
 
 }  // namespace mocap::search_detail

@@ -177,7 +177,8 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
   const SkeletonData& skeleton = *m.skeletons[k];
   const SkeletonTables& tables = skeleton.tables;
   ResolvedFrame f = resolve_frame(q, i, *tables.sk, tables.model, q.transition_time_s, m.t_index,
-                                  m.bvh_cache, m.index->info().unit_option);
+                                  m.bvh_cache, m.index->info().unit_option, nullptr,
+                                  [&] { return &typical_pose(*m.index, skeleton); });
   set_needed_joints(f, tables.model);
   const std::size_t n = tables.sk->frame_count;
   FrameBounds out;

@@ -12,6 +12,7 @@
 
 #include "bound_tables.hpp"
 #include "mocap/common/newton_euler.hpp"
+#include "mocap/common/retarget.hpp"
 
 namespace mocap::search_detail {
 
@@ -240,6 +241,14 @@ std::span<const double> clip_prefix(const Index& index, const SkeletonData& skel
     });
   });
   return {caches.prefix.data() + ci.frame_start, ci.frame_count};
+}
+
+const std::vector<Eigen::Quaterniond>& typical_pose(const Index& index,
+                                                    const SkeletonData& skeleton) {
+  SkeletonCaches& caches = skeleton.caches;
+  std::call_once(caches.typical_once,
+                 [&] { caches.typical_pose = typical_local_rotations(index, skeleton.tables.k); });
+  return caches.typical_pose;
 }
 
 }  // namespace mocap::search_detail

@@ -249,6 +249,10 @@ struct SkeletonCaches {
   // The FLANN forest of the frames' kd features (approx mode).
   std::once_flag forest_once;
   std::unique_ptr<KnnIndex> forest;
+  // The skeleton's typical pose (retarget.hpp typical_local_rotations), for
+  // query frames of other rigs: streamed from the index on first use.
+  std::once_flag typical_once;
+  std::vector<Eigen::Quaterniond> typical_pose;
 };
 
 // One skeleton for one character: its tables, a query character's frames
@@ -258,6 +262,11 @@ struct SkeletonData {
   std::unique_ptr<CharacterFrames> character;
   mutable SkeletonCaches caches;
 };
+
+// The skeleton's typical pose (SkeletonCaches::typical_pose), made on first
+// use. Throws what reading the index throws.
+const std::vector<Eigen::Quaterniond>& typical_pose(const Index& index,
+                                                    const SkeletonData& skeleton);
 
 // Model-derived per-segment constants, chains, clip rows, frame -> clip row;
 // the caches' column slots.

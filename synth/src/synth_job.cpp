@@ -11,6 +11,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -19,6 +20,7 @@
 #include "mocap/common/file.hpp"
 #include "mocap/common/input_limits.hpp"
 #include "mocap/common/kinematics.hpp"
+#include "mocap/common/retarget.hpp"
 #include "mocap/common/skeleton.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/search/query_pose.hpp"
@@ -44,11 +46,12 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 // errors naming the query file.
 synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
                                                   const ClipSource& clips, const SynthSkeleton& sk,
-                                                  QueryBvhCache& cache, const std::string& source) {
+                                                  QueryBvhCache& cache, const std::string& source,
+                                                  const TypicalPoseFn& typical_pose) {
   const IndexSkeleton& isk = clips.skeleton(sk.index_skeleton);
   synth_detail::QueryFrameInput out;
   try {
-    out.pose = resolve_query_pose(q, i, isk, sk.model, cache);
+    out.pose = resolve_query_pose(q, i, isk, sk.model, cache, "auto", nullptr, typical_pose);
   } catch (const InputError& e) {
     throw InputError(source, 0, e.detail());
   }
@@ -57,7 +60,7 @@ synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
     Query qn = q;
     qn.frames[i].bvh_frame = frame;
     try {
-      return resolve_query_pose(qn, i, isk, sk.model, cache);
+      return resolve_query_pose(qn, i, isk, sk.model, cache, "auto", nullptr, typical_pose);
     } catch (const InputError&) {
       return std::nullopt;  // past the file's end: the frame itself
     }
@@ -472,8 +475,18 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   const RangeOfMotion rom = range_of_motion(clips, sk, clips.skeleton_clips(target));
   std::vector<synth_detail::QueryFrameInput> qf;
   QueryBvhCache bvh_cache;
+  // The target skeleton's typical pose (over its first clip's index), for
+  // query frames of other rigs: read when one comes.
+  std::optional<std::vector<Eigen::Quaterniond>> typical;
+  const TypicalPoseFn typical_pose = [&]() -> const std::vector<Eigen::Quaterniond>* {
+    if (!typical) {
+      const std::size_t c = clips.skeleton_clips(sk.index_skeleton).at(0);
+      typical = typical_local_rotations(*clips.locate(c).index, clips.clip(c).skeleton);
+    }
+    return &*typical;
+  };
   for (std::size_t i = 0; i < H; ++i)
-    qf.push_back(resolve_query_frame(query, i, clips, sk, bvh_cache, src));
+    qf.push_back(resolve_query_frame(query, i, clips, sk, bvh_cache, src, typical_pose));
   std::vector<std::vector<SynthFrame>> raw(H - 1);
   for (std::size_t h = 0; h + 1 < H; ++h)
     for (std::size_t f = res.chosen[h].start_frame; f <= res.chosen[h].end_frame; ++f)

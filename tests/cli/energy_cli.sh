@@ -42,7 +42,12 @@ expect_fail() {
 }
 expect_fail energy --from "$walk:10" --to "$walk:100000" --json
 expect_fail energy --from "$walk" --to "$walk:1" --json
-expect_fail energy --from "$walk:1" --to "$cmu:1" --json
+# Another rig is compared on the shared segments (docs/cli.md); one whose
+# skeleton has no recognised pelvis cannot be retargeted.
+"$bin" energy --from "$walk:1" --to "$cmu:1" --json | grep -q '"cross_rig":true'
+printf 'HIERARCHY\nROOT a\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n JOINT b\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 10 0\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n0 90 0 0 0 0 0 0 0\n' > "$tmp/odd.bvh"
+expect_fail energy --from "$walk:1" --to "$tmp/odd.bvh:1" --json
+grep -q "pelvis" "$tmp/err"
 expect_fail energy --from /nonexistent.bvh:0 --to "$walk:1" --json
 expect_fail energy --from "$walk:1" --to "$walk:2" --transition-time 0 --json
 expect_fail energy --from "$walk:1" --to "$walk:2" --unit furlong --json

@@ -526,6 +526,9 @@ TEST(HScan, ValueOfAFrameDoesNotDependOnTheRangeScanned) {
   q.segment_count = segments;
   q.constants.resize(segments * HScanQuery::kConstants);
   for (float& c : q.constants) c = u(rng);
+  // Every third segment left out (the mask), the others summed.
+  for (std::size_t s = 0; s < segments; ++s)
+    q.constants[s * HScanQuery::kConstants + 15] = s % 3 == 0 ? 1.0f : 0.0f;
   HScanRootQuery rq;
   rq.position = {0.3f, 0.9f, -0.2f};
   rq.given = {1.0f, 0.0f, 1.0f};

@@ -136,12 +136,74 @@ TEST(EnergyCommand, CharacterWithHeavyArmsRaisesArmTerms) {
     }
 }
 
+// A --to frame of another rig (CMU onto Bandai Namco and back) is retargeted
+// onto the --from skeleton and compared on the segments both share: h and g
+// are the sums of those terms (g >= h term by term), which the report lists
+// with the compared classes; the same rig keeps every term.
+TEST(EnergyCommand, AnotherRigIsRetargetedAndComparedOnSharedSegments) {
+  MOCAP_REQUIRE_DATA();
+  const std::filesystem::path cmu = test::data_dir() / "cmu" / "131_01.bvh";
+  EnergyCommandOptions o = options(100, 0);
+  o.to = {cmu, 600};
+  const EnergyReport r = run_energy_command(o);
+  EXPECT_TRUE(r.cross_rig);
+  EXPECT_EQ(r.to_unit, "cmu");
+  // Onto Bandai Namco every class is compared (head, hands and toes are point
+  // masses there, placed by the segments above them).
+  EXPECT_EQ(r.compared_classes.size(), 21u);
+  double h = 0.0, g = 0.0;
+  for (const auto& t : r.terms) {
+    h += t.h_J;
+    g += t.g_J;
+    EXPECT_GE(t.g_J, t.h_J) << t.name;
+  }
+  EXPECT_NEAR(h, r.h_J, 1e-9 * r.h_J);
+  EXPECT_NEAR(g, r.g_J, 1e-9 * r.g_J);
+  EXPECT_GT(r.h_J, 0.0);
+  EXPECT_GE(r.g_J, r.h_J);
+  const auto j = nlohmann::json::parse(energy_report_json(r));
+  EXPECT_TRUE(j["cross_rig"].get<bool>());
+  EXPECT_EQ(j["compared_classes"].size(), 21u);
+  EXPECT_EQ(j["compared_classes"][0], "head");
+  EXPECT_NE(energy_report_text(r).find("across rigs"), std::string::npos);
+  // Bandai Namco onto CMU: CMU's head, hands and toes have bones whose
+  // direction Bandai Namco does not give: not compared.
+  EnergyCommandOptions back;
+  back.from = {cmu, 600};
+  back.to = {walk(), 100};
+  const EnergyReport rb = run_energy_command(back);
+  EXPECT_TRUE(rb.cross_rig);
+  EXPECT_EQ(rb.compared_classes.size(), 16u);
+  for (const auto& t : rb.terms)
+    for (const char* not_compared : {"Head", "LeftWrist", "RightToe", "LHipJoint"})
+      EXPECT_NE(t.name, not_compared);
+  // The same rig: every term, no compared_classes.
+  const EnergyReport same = run_energy_command(options(10, 25));
+  EXPECT_FALSE(same.cross_rig);
+  const auto js = nlohmann::json::parse(energy_report_json(same));
+  EXPECT_FALSE(js["cross_rig"].get<bool>());
+  EXPECT_FALSE(js.contains("compared_classes"));
+}
+
 TEST(EnergyCommand, BadInputsAreInputErrors) {
   MOCAP_REQUIRE_DATA();
   EXPECT_THROW(run_energy_command(options(0, 100000)), InputError);  // frame out of range
+  // Another rig that cannot be retargeted: no joint is recognised as a pelvis.
+  const auto odd = test::temp_dir("energy-command-rig") / "odd.bvh";
+  std::ofstream(odd) << "HIERARCHY\nROOT a\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition "
+                        "Zposition Zrotation Xrotation Yrotation\n  JOINT b\n  {\n    OFFSET 0 "
+                        "10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    "
+                        "{\n      OFFSET 0 10 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame "
+                        "Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n0 90 0 0 0 0 0 0 0\n";
   EnergyCommandOptions o = options(0, 1);
-  o.to.file = test::data_dir() / "cmu" / "131_01.bvh";  // another skeleton
-  EXPECT_THROW(run_energy_command(o), InputError);
+  o.to.file = odd;
+  try {
+    run_energy_command(o);
+    ADD_FAILURE() << "a skeleton without a pelvis was retargeted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.source(), odd.string());
+    EXPECT_NE(std::string(e.what()).find("pelvis"), std::string::npos) << e.what();
+  }
   o = options(0, 1);
   o.from.file = "/nonexistent/clip.bvh";
   EXPECT_THROW(run_energy_command(o), InputError);

@@ -239,12 +239,20 @@ struct HScanQuery {
   static constexpr std::size_t kConstants = 16;
   std::size_t segment_count = 0;
   /// [s * kConstants + i]: COM x y z, KE_A, m g, m / (2 T^2), conj(q_A P) w x y z,
-  /// KE_A^rot, D_k / (2 T^2) k = 0..2, padding.
+  /// KE_A^rot, D_k / (2 T^2) k = 0..2, and 15: 0 when the segment is summed,
+  /// 1 when it is left out (a segment mask: make_h_scan_query's
+  /// compared_joints).
   std::vector<float> constants;
 };
-/// Prepares h(state -> frame) for a full query state (static or with velocities).
+/// Prepares h(state -> frame) for a full query state (static or with
+/// velocities). `compared_joints` (per joint; empty: every segment) restricts
+/// h to the segments b with compared_joints[b] != 0: the scan sums only their
+/// terms, exactly the sum of approximate_energy's terms of those segments
+/// (segment_J[b] + joint_J[b]). A query frame retargeted from another rig
+/// compares only the segments the rigs share (retarget.hpp).
 HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
-                             double transition_time_s);
+                             double transition_time_s,
+                             std::span<const std::uint8_t> compared_joints = {});
 /// `body` moved by the ground pose g (ground_pose.hpp): the query of the
 /// state placed by g (COM x, z turned and moved, orientations turned; kinetic
 /// energies and heights unchanged), computed in double from body's floats.

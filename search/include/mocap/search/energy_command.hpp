@@ -6,10 +6,15 @@
 //                       [--character C.json] [--unit U] [--json]
 //
 // FRAME is 0-based. Each state is that frame with its clip velocities and
-// accelerations (finite differences over its own clip, dynamics.hpp). Both
-// files must have the same joint names and parents; the character's body is
-// built on the --from file's skeleton (length scales applied) and used for
-// both. --unit applies to both files (default: detected per file).
+// accelerations (finite differences over its own clip, dynamics.hpp). The
+// character's body is built on the --from file's skeleton (length scales
+// applied) and used for both. When the --to file is another rig
+// (retarget.hpp same_rig), its clip is retargeted onto the --from skeleton
+// (every frame, so its rates are the retargeted motion's; the --from clip's
+// frames give the rig's typical pose, typical_local_rotations) and h and g sum
+// only the terms of the segments both rigs share (RetargetMap::compared), as
+// the search compares a query frame of another rig with database frames.
+// --unit applies to both files (default: detected per file).
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -61,15 +66,22 @@ struct EnergyReport {
   std::size_t to_contacts = 0;
   double residual_work_J = 0.0;
   double residual_impulse_J = 0.0;
+  /// The --to file is another rig, retargeted onto the --from skeleton: h_J,
+  /// g_J and `terms` cover only the compared segments, whose classes
+  /// compared_classes names (retarget.hpp class_key_name).
+  bool cross_rig = false;
+  std::vector<std::string> compared_classes;
 };
 
 /// Runs the command. Bad input (unreadable / malformed file, frame out of
-/// range, different skeletons, bad character file, T <= 0) throws InputError.
+/// range, a --to skeleton of another rig that cannot be retargeted (no
+/// pelvis), bad character file, T <= 0) throws InputError.
 EnergyReport run_energy_command(const EnergyCommandOptions& options);
 
 /// {"h_J", "g_J", "terms": [{"name", "kind", "h_J", "g_J"}], "from": {"file", "frame"},
 ///  "to": {...}, "transition_time_s", "character", "total_mass_kg", "unit": {"from", "to"},
-///  "contacts": {"from", "to"}, "residual": {"work_J", "impulse_J"}} on one line.
+///  "contacts": {"from", "to"}, "residual": {"work_J", "impulse_J"}, "cross_rig",
+///  "compared_classes" (only when cross_rig)} on one line.
 std::string energy_report_json(const EnergyReport& report);
 /// Human-readable table.
 std::string energy_report_text(const EnergyReport& report);

@@ -9,10 +9,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "mocap/common/bvh.hpp"
@@ -23,6 +25,7 @@
 #include "mocap/common/index.hpp"
 #include "mocap/common/kinematics.hpp"
 #include "mocap/common/pose_constraints.hpp"
+#include "mocap/common/segment_class.hpp"
 #include "mocap/search/query.hpp"
 
 namespace mocap {
@@ -151,6 +154,17 @@ struct ResolvedQueryPose {
   std::vector<std::uint8_t> keep_rates;
   /// The frame's "weight": multiplier of its h.
   double weight = 1.0;
+  /// from_bvh: the file's skeleton is another rig than the index skeleton
+  /// (retarget.hpp same_rig): the frames were retargeted onto it
+  /// (make_retarget_map, retarget_pose; docs/queries.md "Across rigs"), so
+  /// `local_rotations`, `state` and the given DOFs are the retargeted pose's
+  /// and `file_joints` is RetargetMap::source_joint.
+  bool cross_rig = false;
+  /// cross_rig: per index-skeleton joint, 1 where its segment is compared
+  /// with database frames (RetargetMap::compared), and the compared classes;
+  /// empty otherwise (every segment is compared).
+  std::vector<std::uint8_t> compared_joints;
+  std::vector<std::pair<SegmentClass, Side>> compared_classes;
 };
 
 /// A constrained frame's DOFs when completed with a pose of the index
@@ -165,16 +179,24 @@ void solve_given(const ResolvedQueryPose& pose, const DynamicsModel& model,
                  PoseConstraintScratch& scratch, std::vector<Eigen::Quaterniond>& locals,
                  PartialPoseSpec& spec, std::vector<std::uint8_t>* keep_rates = nullptr);
 
+/// The typical pose of an index skeleton (retarget.hpp
+/// typical_local_rotations: one local rotation per joint), asked for only
+/// when a query frame's file is another rig; null or an empty function:
+/// none (the retargeting's neutral pose is then the rest pose).
+using TypicalPoseFn = std::function<const std::vector<Eigen::Quaterniond>*()>;
+
 /// Resolves query frame `i` of `q` on skeleton `sk` (character `model`).
 /// Throws InputError ("query ID: frames[i]...: ...") for unknown joints
-/// (listing the valid names), unreadable files, frames out of range and BVH
-/// files whose skeleton does not map onto `sk` (a segment or the root with
-/// no counterpart). `file`, when given, is the frame's BVH file fetched by an
+/// (listing the valid names), unreadable files, frames out of range and
+/// files of another rig than `sk`'s that cannot be retargeted onto it (no
+/// joint recognised as the pelvis). `file`, when given, is the frame's BVH file fetched by an
 /// earlier call for the same query frame on another skeleton (used when set,
 /// set when fetched here), so the file is looked up once per query frame.
+/// `typical_pose`: `sk`'s typical pose, for a file of another rig.
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,
                                      const std::string& unit_option = "auto",
-                                     std::shared_ptr<const QueryBvhFile>* file = nullptr);
+                                     std::shared_ptr<const QueryBvhFile>* file = nullptr,
+                                     const TypicalPoseFn& typical_pose = {});
 
 }  // namespace mocap
