@@ -170,12 +170,31 @@ Session::~Session() {
 }
 
 std::vector<std::string> Session::errors(const std::string& mine) const {
-  const int length = static_cast<int>(std::min<std::size_t>(mine.size(), 1 << 20));
-  std::vector<int> lengths(static_cast<std::size_t>(size_)), offsets(lengths.size());
-  check(MPI_Allgather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, MPI_COMM_WORLD),
+  const std::vector<std::string> all = all_gather(mine.substr(0, std::size_t{1} << 20));
+  std::vector<std::string> out;
+  for (std::size_t r = 0; r < all.size(); ++r)
+    if (!all[r].empty()) out.push_back("rank " + std::to_string(r) + ": " + all[r]);
+  return out;
+}
+
+std::vector<std::string> Session::all_gather(const std::string& mine) const {
+  // The lengths in 64 bits, so that every rank alike refuses a total that
+  // an MPI count (int) cannot hold, rather than one rank leaving the others
+  // waiting in the collective.
+  const std::uint64_t mine_length = mine.size();
+  std::vector<std::uint64_t> lengths64(static_cast<std::size_t>(size_));
+  check(MPI_Allgather(&mine_length, 1, MPI_UINT64_T, lengths64.data(), 1, MPI_UINT64_T,
+                      MPI_COMM_WORLD),
         "MPI_Allgather");
+  std::uint64_t sum = 0;
+  for (const std::uint64_t n : lengths64) sum += n;
+  if (sum > static_cast<std::uint64_t>(std::numeric_limits<int>::max()))
+    throw std::runtime_error("MPI: all_gather: more bytes than an MPI count holds");
+  const int length = static_cast<int>(mine_length);
+  std::vector<int> lengths(lengths64.size()), offsets(lengths.size());
   int total = 0;
   for (std::size_t r = 0; r < lengths.size(); ++r) {
+    lengths[r] = static_cast<int>(lengths64[r]);
     offsets[r] = total;
     total += lengths[r];
   }
@@ -185,10 +204,8 @@ std::vector<std::string> Session::errors(const std::string& mine) const {
         "MPI_Allgatherv");
   std::vector<std::string> out;
   for (std::size_t r = 0; r < lengths.size(); ++r)
-    if (lengths[r] > 0)
-      out.push_back(
-          "rank " + std::to_string(r) + ": " +
-          all.substr(static_cast<std::size_t>(offsets[r]), static_cast<std::size_t>(lengths[r])));
+    out.push_back(
+        all.substr(static_cast<std::size_t>(offsets[r]), static_cast<std::size_t>(lengths[r])));
   return out;
 }
 
@@ -258,6 +275,17 @@ DistributedResult run_distributed_batch(
     sources = manifest_shards(index, manifest, by_shards ? &mine : nullptr);
   });
   result.shards_here = sources.size();
+  // Dealt shards: each rank holds part of the collection, and query filters
+  // are checked against the union of every rank's label values.
+  LabelValues labels;
+  const bool dealt = by_shards && ranks > 1;
+  if (dealt) {
+    std::string here;
+    on_every_rank(session, [&] { here = encode_label_values(shard_label_values(sources)); });
+    for (const std::string& bytes : session.all_gather(here))
+      for (const auto& [key, values] : decode_label_values(bytes))
+        labels[key].insert(values.begin(), values.end());
+  }
 
   // This rank's entries: all of them (shards), or every K-th (queries).
   std::vector<BatchEntry> mine;
@@ -269,9 +297,10 @@ DistributedResult run_distributed_batch(
     }
   const auto progress_here = rank == 0 ? progress : std::function<void(std::size_t, std::size_t)>{};
   std::vector<QueryOutcome> answered;
-  if (by_shards && ranks > 1) {
+  if (dealt) {
     Thresholds thresholds(mine);
-    const ShardHooks hooks = thresholds.hooks(rank * mine.size() / ranks);
+    ShardHooks hooks = thresholds.hooks(rank * mine.size() / ranks);
+    hooks.labels = &labels;
     std::string error;
     run_exchanging(thresholds, [&] {
       try {

@@ -57,6 +57,9 @@ class Session {
   /// gets the errors of all, as "rank k: message", in rank order (empty
   /// when no rank failed).
   std::vector<std::string> errors(const std::string& mine) const;
+  /// A collective: every rank passes its bytes; every rank gets all ranks'
+  /// bytes, in rank order.
+  std::vector<std::string> all_gather(const std::string& mine) const;
   /// A collective: the maximum over the ranks.
   double max(double value) const;
 

@@ -13,7 +13,28 @@ namespace mocap {
 
 namespace {
 constexpr double kNoCeiling = std::numeric_limits<double>::infinity();
+
+void check_shard_clips(const ShardSource& s, const Index& index) {
+  if (s.clips && index.clips().size() != *s.clips)
+    throw InputError(s.file.string(), 0,
+                     "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +
+                         " clips, the manifest says " + std::to_string(*s.clips));
+}
 }  // namespace
+
+LabelValues shard_label_values(const std::vector<ShardSource>& shards) {
+  LabelValues out;
+  for (const ShardSource& s : shards) {
+    if (s.open) {
+      add_label_values(out, *s.open);
+      continue;
+    }
+    const Index index = Index::open(s.file);
+    check_shard_clips(s, index);
+    add_label_values(out, index);
+  }
+  return out;
+}
 
 std::vector<QueryOutcome> merge_shard_outcomes(
     const std::vector<std::vector<QueryOutcome>>& per_shard,
@@ -89,14 +110,17 @@ std::vector<QueryOutcome> search_shards(
   std::vector<std::vector<double>> own(batch.size());
   std::size_t done_before = 0;
   const std::size_t total = batch.size() * shards.size();
+  // The labels query filters may name: every shard's (a single one's are its own).
+  std::optional<LabelValues> labels;
+  if (hooks.labels)
+    labels = *hooks.labels;
+  else if (shards.size() > 1)
+    labels = shard_label_values(shards);
   for (const ShardSource& s : shards) {
     std::optional<Index> opened;
     const Index& index = s.open ? *s.open : opened.emplace(Index::open(s.file));
-    if (s.clips && index.clips().size() != *s.clips)
-      throw InputError(s.file.string(), 0,
-                       "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +
-                           " clips, the manifest says " + std::to_string(*s.clips));
-    const SearchEngine engine(index);
+    check_shard_clips(s, index);
+    const SearchEngine engine = labels ? SearchEngine(index, *labels) : SearchEngine(index);
     BatchControl control;
     control.first = hooks.first;
     control.ceilings = [&](std::size_t i) {

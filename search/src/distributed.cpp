@@ -147,4 +147,25 @@ std::vector<QueryOutcome> decode_outcomes(std::string_view bytes) {
   }
 }
 
+std::string encode_label_values(const LabelValues& values) {
+  json all = json::object();
+  for (const auto& [key, set] : values) all[key] = std::vector<std::string>(set.begin(), set.end());
+  const std::vector<std::uint8_t> bytes = json::to_cbor(all);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+LabelValues decode_label_values(std::string_view bytes) {
+  try {
+    const json all = json::from_cbor(bytes.begin(), bytes.end());
+    if (!all.is_object()) throw std::invalid_argument("decode_label_values: not an object");
+    LabelValues out;
+    for (auto it = all.begin(); it != all.end(); ++it)
+      for (const json& v : it.value()) out[it.key()].insert(v.get<std::string>());
+    return out;
+  } catch (const json::exception& e) {
+    throw std::invalid_argument(std::string("decode_label_values: not encoded label values: ") +
+                                e.what());
+  }
+}
+
 }  // namespace mocap

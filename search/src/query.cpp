@@ -261,7 +261,15 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
     if (!js.is_object()) c.fail(path + ".joints", "expected an object {\"JointName\": {...}}");
     for (auto it = js.begin(); it != js.end(); ++it) {
       if (it.key().empty()) c.fail(path + ".joints", "empty joint name");
-      f.joints.push_back(joint_entry(c, it.key(), it.value(), path + ".joints." + it.key()));
+      // An invalid value waits until the name is known (joint_value_error).
+      try {
+        f.joints.push_back(joint_entry(c, it.key(), it.value(), path + ".joints." + it.key()));
+      } catch (const InputError& e) {
+        JointRotationSpec kept;
+        kept.name = it.key();
+        f.joints.push_back(std::move(kept));
+        if (!f.joint_value_error) f.joint_value_error = e;
+      }
     }
   }
   const bool has_amc = v.contains("amc");

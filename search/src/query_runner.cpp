@@ -44,6 +44,10 @@ void QueryRunner::prepare() {
       set_subtree_plan(resolved_[k].back(), skeleton, *m.index, q_.transition_time_s);
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
     }
+  // Resolution reported a deferred joint value after the frame's names; an
+  // index without skeletons has no names to check first.
+  for (const QueryFrameSpec& f : q_.frames)
+    if (f.joint_value_error) throw *f.joint_value_error;
   if (q_.relative()) {
     body_.assign(skeletons_.size(), {});
     for (std::size_t k = 0; k < skeletons_.size(); ++k)

@@ -13,6 +13,7 @@
 #include "mocap/common/retarget.hpp"
 #include "mocap/common/units.hpp"
 #include "mocap/common/xxh64.hpp"
+#include "mocap/search/query_validation.hpp"
 
 namespace mocap {
 
@@ -563,7 +564,6 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     }
     for (std::size_t k = 0; k < spec.only.size(); ++k) {
       const std::string& dof = spec.only[k];
-      const std::string p = fmt::format("{}.only[{}]", path, k);
       if (dof == "root_position") {
         for (int a = 0; a < 3; ++a)
           partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
@@ -573,7 +573,7 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       } else if (dof == "root_heading") {
         partial.root_heading_rad = heading_rad(v.rotations[r]);
       } else {
-        const int j = resolve_joint(q, p, skel, dof);
+        const int j = resolve_only_joint(q, i, k, m.skeleton, skel, map);
         partial.joint_rotations.emplace_back(j, locals_at_frame[static_cast<std::size_t>(j)]);
       }
     }
@@ -586,6 +586,8 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
       partial.joint_rotations.emplace_back(j, jr.rotation);
     }
+    // Every name is known: now the joint value parse_query deferred.
+    if (spec.joint_value_error) throw *spec.joint_value_error;
   }
   // Deduplicate joints named twice through different aliases: the last wins.
   {

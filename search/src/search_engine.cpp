@@ -53,9 +53,15 @@ void validate_search_options(const SearchOptions& options) {
     throw std::invalid_argument("SearchOptions::min_length_s must not exceed max_length_s");
 }
 
+SearchEngine::SearchEngine(const Index& index, LabelValues filter_labels) : SearchEngine(index) {
+  impl_->filter_labels = std::move(filter_labels);
+  impl_->filter_labels_of = "the collection";
+}
+
 SearchEngine::SearchEngine(const Index& index) : impl_(std::make_unique<Impl>(index)) {
   Impl& m = *impl_;
   m.t_index = index.info().transition_time_s;
+  m.filter_labels = label_values(index);
   for (std::size_t i = 0; i < index.label_keys().size(); ++i) {
     if (index.label_keys()[i] == "content") m.content_key = static_cast<int>(i);
     if (index.label_keys()[i] == "style") m.style_key = static_cast<int>(i);
@@ -133,6 +139,7 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options,
   if (q.frames.size() < 2)
     throw InputError("query " + q.id, 0, "frames: at least 2 query frames are needed");
   validate_search_options(options);
+  check_filter_labels(q, m.filter_labels, m.filter_labels_of);
   // The query's character: the index's tables, or tables recomputed for it
   // (built once per engine and character, shared by the queries using it).
   const std::shared_ptr<const search_detail::CharacterTables> character =

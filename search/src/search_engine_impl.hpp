@@ -23,6 +23,10 @@ struct SearchEngine::Impl {
   std::vector<std::unique_ptr<search_detail::SkeletonData>> skeletons;
   // Label columns of Index::label_keys() for query filters, -1 if absent.
   int content_key = -1, style_key = -1;
+  // The label values filters are checked against (the index's, or its
+  // collection's) and what messages call their holder.
+  LabelValues filter_labels;
+  std::string filter_labels_of = "the index";
   mutable search_detail::BvhCache bvh_cache;
   search_detail::CharacterTableCache characters;
   // Per-thread scratch, used only between blocking points (no task of

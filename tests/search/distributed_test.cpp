@@ -54,6 +54,9 @@ TEST(Distributed, InvalidInputs) {
   EXPECT_THROW(assign_shards(manifest_of({1, 2}), 0), std::invalid_argument);
   EXPECT_THROW(decode_outcomes("not cbor at all"), std::invalid_argument);
   EXPECT_THROW(decode_outcomes(""), std::invalid_argument);
+  EXPECT_THROW(decode_label_values("not cbor at all"), std::invalid_argument);
+  EXPECT_THROW(decode_label_values(""), std::invalid_argument);
+  EXPECT_THROW(decode_label_values(encode_outcomes({})), std::invalid_argument);  // an array
   EXPECT_FALSE(parse_distribution("auto"));
   EXPECT_FALSE(parse_distribution("Shards"));
   EXPECT_EQ(parse_distribution("shards"), Distribution::shards);
@@ -173,6 +176,16 @@ TEST(Distributed, OutcomesRoundTripExactly) {
   ASSERT_EQ(back.size(), all.size());
   for (std::size_t i = 0; i < all.size(); ++i) expect_same(all[i], back[i]);
   EXPECT_TRUE(decode_outcomes(encode_outcomes({})).empty());
+}
+
+// The label values every rank sends for the union that filters are checked
+// against (ShardHooks::labels).
+TEST(Distributed, LabelValuesRoundTrip) {
+  const LabelValues values = {{"content", {"bow", "walk", "walk-back"}},
+                              {"style", {"happy", "not-confident", "\u00e9l\u00e9gant"}},
+                              {"take", {""}}};
+  EXPECT_EQ(decode_label_values(encode_label_values(values)), values);
+  EXPECT_TRUE(decode_label_values(encode_label_values({})).empty());
 }
 
 }  // namespace

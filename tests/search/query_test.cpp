@@ -80,19 +80,50 @@ TEST(QueryValidityTest, KeyPoseTimes) {
   EXPECT_FALSE(parse(two("", "")).timed());
 }
 
+// An invalid joint value parses: its error waits in the frame's
+// joint_value_error (reported at resolution, after the joint names), naming
+// the query file, line and field; the joint is kept with no rotation.
+void expect_deferred(const std::string& text, std::size_t frame, const std::string& field) {
+  const Query q = parse(text);
+  const QueryFrameSpec& f = q.frames.at(frame);
+  ASSERT_TRUE(f.joint_value_error.has_value()) << "no deferred error: " << text;
+  const std::string msg = f.joint_value_error->what();
+  EXPECT_NE(msg.find("q.jsonl:7: "), std::string::npos) << msg;
+  EXPECT_NE(msg.find(field), std::string::npos) << "expected '" << field << "' in: " << msg;
+  ASSERT_FALSE(f.joints.empty());
+  EXPECT_TRUE(f.joints.front().rotation.isApprox(Eigen::Quaterniond::Identity()));
+}
+
 TEST(QueryValidityTest, JointRotations) {
   const std::string pre = R"({"frames": [{"root_position": [0,0,0]}, {"joints": {"RightArm": )";
-  expect_error(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})",
-               "frames[1].joints.RightArm.order: expected 3 distinct");
-  expect_error(pre + R"({"euler_deg": [1, 2, 3]}}}]})", "frames[1].joints.RightArm.order");
-  expect_error(pre + R"({"euler_deg": [1, 2], "order": "ZXY"}}}]})",
-               "frames[1].joints.RightArm.euler_deg: expected 3");
-  expect_error(pre + R"({"quat": [0, 0, 0, 0]}}}]})",
-               "frames[1].joints.RightArm.quat: must not be zero");
-  expect_error(pre + R"({"quat": [1, 0, 0, 0], "euler_deg": [1, 2, 3]}}}]})", "exactly one of");
-  expect_error(pre + R"({"quat": [1, 0, 0, 0], "order": "XYZ"}}}]})",
-               "RightArm.order: only with euler_deg");
-  expect_error(pre + R"(42}}]})", "frames[1].joints.RightArm: expected");
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"joints": []}]})",
+               "frames[1].joints: expected an object");
+  expect_error(R"({"frames": [{"root_position": [0,0,0]}, {"joints": {"": {"quat": [1,0,0,0]}}}]})",
+               "frames[1].joints: empty joint name");
+  expect_deferred(pre + R"({"euler_deg": [1, 2, 3], "order": "ZZY"}}}]})", 1,
+                  "frames[1].joints.RightArm.order: expected 3 distinct");
+  expect_deferred(pre + R"({"euler_deg": [1, 2, 3]}}}]})", 1, "frames[1].joints.RightArm.order");
+  expect_deferred(pre + R"({"euler_deg": [1, 2], "order": "ZXY"}}}]})", 1,
+                  "frames[1].joints.RightArm.euler_deg: expected 3");
+  expect_deferred(pre + R"({"quat": [0, 0, 0, 0]}}}]})", 1,
+                  "frames[1].joints.RightArm.quat: must not be zero");
+  expect_deferred(pre + R"({"quat": [1, 0, 0, 0], "euler_deg": [1, 2, 3]}}}]})", 1,
+                  "exactly one of");
+  expect_deferred(pre + R"({"quat": [1, 0, 0, 0], "order": "XYZ"}}}]})", 1,
+                  "RightArm.order: only with euler_deg");
+  expect_deferred(pre + R"(42}}]})", 1, "frames[1].joints.RightArm: expected");
+  // The first invalid value of a frame is kept; the valid ones keep theirs.
+  const Query q = parse(
+      R"({"frames": [{"joints": {"A": {"quat": [0, 1, 0, 0]}, "B": {"euler_deg": [1, 2, 3]},
+                                 "C": {"quat": [0, 0, 0, 0]}}}, {"root_position": [0,0,0]}]})");
+  ASSERT_TRUE(q.frames[0].joint_value_error);
+  EXPECT_NE(std::string(q.frames[0].joint_value_error->what()).find("joints.B.order"),
+            std::string::npos);
+  ASSERT_EQ(q.frames[0].joints.size(), 3u);
+  EXPECT_TRUE(q.frames[0].joints[0].rotation.isApprox(Eigen::Quaterniond(0, 1, 0, 0)));
+  EXPECT_FALSE(q.frames[1].joint_value_error);
+  // An error outside the joints' values is still thrown while parsing.
+  expect_error(pre + R"({"euler_deg": [1, 2, 3]}}, "frame": 2}]})", "frames[1].frame: only with");
 }
 
 TEST(QueryValidityTest, BvhFrames) {

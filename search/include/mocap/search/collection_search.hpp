@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mocap/common/collection_manifest.hpp"
+#include "mocap/search/query_validation.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
@@ -38,6 +39,11 @@ struct ShardSource {
   const Index* open = nullptr;
 };
 
+/// The union of the shards' label values (add_label_values): from the
+/// index when `open`, else from the file, opened for it and closed (its clip
+/// count checked as search_shards checks it). Throws InputError as Index::open.
+LabelValues shard_label_values(const std::vector<ShardSource>& shards);
+
 /// How search_shards shares thresholds with searches elsewhere (other MPI
 /// ranks). Optional members; the results do not depend on them.
 struct ShardHooks {
@@ -49,11 +55,18 @@ struct ShardHooks {
   std::function<void(std::size_t, const std::vector<double>&)> reached;
   /// BatchControl::first.
   std::size_t first = 0;
+  /// The label values of the whole collection, when the shards given are
+  /// only part of it (other ranks search the rest); null: the union of the
+  /// given shards'. Query filters are checked against them (SearchEngine).
+  const LabelValues* labels = nullptr;
 };
 
 /// Opens the shards one at a time, in the order given (which must be their
 /// clip order), answers the batch on each (run_query_batch) pruning against
-/// the r-th best of the shards before it, and merges. Throws InputError for
+/// the r-th best of the shards before it, and merges. A query's filter is
+/// checked against the label values of all the shards (or hooks.labels), so
+/// that it names a label some shard holds: the shards not open yet are
+/// opened first for their labels (a single shard is not). Throws InputError for
 /// a shard that cannot be opened or whose clip count is not the manifest's.
 /// `progress(done, total)` counts the queries of every shard.
 std::vector<QueryOutcome> search_shards(

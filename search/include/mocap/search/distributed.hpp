@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "mocap/common/collection_manifest.hpp"
+#include "mocap/search/query_validation.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap {
@@ -65,5 +66,12 @@ double shared_ceiling(double own, double shared);
 /// write.
 std::string encode_outcomes(const std::vector<QueryOutcome>& outcomes);
 std::vector<QueryOutcome> decode_outcomes(std::string_view bytes);
+
+/// Label values as bytes (CBOR) and back, for the union of every rank's
+/// shards that query filters are checked against when the shards are dealt
+/// to the ranks (ShardHooks::labels). decode_label_values throws
+/// std::invalid_argument on bytes it did not write.
+std::string encode_label_values(const LabelValues& values);
+LabelValues decode_label_values(std::string_view bytes);
 
 }  // namespace mocap

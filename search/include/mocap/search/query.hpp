@@ -12,7 +12,10 @@
 // Errors: InputError(source, line, "<field path>: what was expected"), where
 // `source` is the query file and `line` its line in a batch (0 for a single
 // query file), e.g. "queries.jsonl:3: frames[1].joints.RightArm.order:
-// expected 3 distinct letters of X, Y, Z, got \"ZZY\"".
+// expected 3 distinct letters of X, Y, Z, got \"ZZY\"". An invalid joint
+// value is the one error parse_query does not throw: it is kept in
+// QueryFrameSpec::joint_value_error and reported when the query is resolved,
+// after the joint names (query_validation.hpp gives the order of the checks).
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
@@ -23,6 +26,8 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "mocap/common/error.hpp"
 
 namespace mocap {
 
@@ -94,6 +99,12 @@ struct QueryFrameSpec {
   /// "weight" (> 0, default 1): multiplier of this frame's h terms in the
   /// scores (docs/queries.md "Weights").
   double weight = 1.0;
+  /// The first invalid joint value of `joints` (e.g. euler_deg without its
+  /// order), as parsing reported it (query file and line); that joint is
+  /// kept, with an identity rotation. Resolution reports it once every joint
+  /// name of the frame is known on the skeleton, so that a misspelt joint is
+  /// reported as unknown first (query_validation.hpp "Order of the checks").
+  std::optional<InputError> joint_value_error;
 
   /// True when nothing at all is given (an error for a query frame).
   bool empty() const;

@@ -187,11 +187,15 @@ using TypicalPoseFn = std::function<const std::vector<Eigen::Quaterniond>*()>;
 
 /// Resolves query frame `i` of `q` on skeleton `sk` (character `model`).
 /// Throws InputError ("query ID: frames[i]...: ...") for unknown joints
-/// (listing the valid names), unreadable files, frames out of range and
-/// files of another rig than `sk`'s that cannot be retargeted onto it (no
-/// joint recognised as the pelvis). `file`, when given, is the frame's BVH file fetched by an
-/// earlier call for the same query frame on another skeleton (used when set,
-/// set when fetched here), so the file is looked up once per query frame.
+/// (hand-written: listing `sk`'s joints; in `only`: listing the root fields
+/// and the file's joints, resolve_only_joint), unreadable files, frames out
+/// of range and files of another rig than `sk`'s that cannot be retargeted
+/// onto it (no joint recognised as the pelvis); then a hand-written frame's
+/// deferred joint-value error (QueryFrameSpec::joint_value_error), once its
+/// joint names are known (order: query_validation.hpp). `file`, when given,
+/// is the frame's BVH file fetched by an earlier call for the same query
+/// frame on another skeleton (used when set, set when fetched here), so the
+/// file is looked up once per query frame.
 /// `typical_pose`: `sk`'s typical pose, for a file of another rig.
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,

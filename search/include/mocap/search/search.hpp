@@ -48,6 +48,7 @@
 
 #include "mocap/common/index.hpp"
 #include "mocap/search/query.hpp"
+#include "mocap/search/query_validation.hpp"
 
 namespace mocap {
 
@@ -168,14 +169,21 @@ struct FrameBounds {
 class SearchEngine {
  public:
   explicit SearchEngine(const Index& index);
+  /// The same, checking the label values of query filters against
+  /// `filter_labels` (messages: "the collection has: ...") instead of the
+  /// index's own: the engine of one shard of a collection, whose queries may
+  /// name labels that only other shards' clips carry (collection_search.hpp).
+  SearchEngine(const Index& index, LabelValues filter_labels);
   SearchEngine(SearchEngine&&) noexcept;
   ~SearchEngine();
 
   const Index& index() const;
 
   /// Answers one query. Throws InputError for a query that does not fit the
-  /// index (unknown joint: the message lists the valid names; unreadable BVH;
-  /// frame out of range; an unreadable or invalid character file), and
+  /// index (a filter label value no clip carries: check_filter_labels;
+  /// unknown joint: the message lists the valid names; unreadable BVH; frame
+  /// out of range; an unreadable or invalid character file; order:
+  /// query_validation.hpp), and
   /// std::invalid_argument for invalid options (validate_search_options).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
   /// The same with, per pair, a score `ceilings[h]` the results need not

@@ -1,0 +1,71 @@
+#pragma once
+// Checks of a parsed query against what it is run on (docs/queries.md
+// "Validation"): the label values of its filter against those the index or
+// collection holds, and the names of a BVH (or AMC) frame's `only` against
+// the file's own skeleton.
+//
+// Order of the checks. parse_query (query.hpp) checks the JSON: fields,
+// types, ranges, files named, all but the value of a hand-written joint
+// (QueryFrameSpec::joint_value_error). A query that parses is then checked
+// where it runs (SearchEngine::run, mocap-synth):
+//  1. the filter's label values (check_filter_labels), before any frame;
+//  2. per query frame, in order: a hand-written frame's joint names against
+//     each index skeleton (an unknown name lists that skeleton's joints),
+//     then the frame's deferred joint-value error (so that an unknown joint
+//     written without its "order" is reported as unknown, not as missing its
+//     order); a file frame's file (readable, frame in range, mapping onto
+//     the index skeleton), then each `only` name against the file's skeleton
+//     (resolve_only_joint).
+// The first failed check is the query's error: InputError("query ID", 0,
+// "<field path>: what"), except a deferred joint-value error, which keeps the
+// query file and line it was parsed from.
+#include <filesystem>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mocap/common/index.hpp"
+#include "mocap/common/skeleton.hpp"
+#include "mocap/search/query.hpp"
+
+namespace mocap {
+
+/// Label key ("content", "style", ...) -> the non-empty values clips carry
+/// for it, sorted (byte order). A key no clip has a value for is absent.
+using LabelValues = std::map<std::string, std::set<std::string>>;
+
+/// Adds the label values of `index`'s clips to `values` (a collection's are
+/// the union of its shards').
+void add_label_values(LabelValues& values, const Index& index);
+/// The label values of one index.
+LabelValues label_values(const Index& index);
+
+/// Throws InputError("query ID", 0, "filter.KEY: unknown value \"V\"; WHERE
+/// has: a, b, c") for the first value of the filter's `content` and `style`
+/// lists (in that order, each in its written order) that no clip carries,
+/// or "...; WHERE has no KEY labels" when none carries one for that key.
+/// `where`: "the index" or "the collection", as the message should say.
+/// Globs (`clips`, `exclude`) are not checked: a pattern matching no file is
+/// a valid, empty filter.
+void check_filter_labels(const Query& q, const LabelValues& values,
+                         const std::string& where = "the index");
+
+/// The `only` fields that are not joints, in the order the messages list them.
+inline constexpr const char* kOnlyRootFields[] = {"root_position", "root_position_xz",
+                                                  "root_heading"};
+
+/// The index skeleton joint that entry `k` of frame `i`'s `only` (a joint
+/// name; the root fields are the caller's) takes the rotation of. The name
+/// is read on the file's skeleton (the BVH's, or an AMC take's ASF, which
+/// the messages name), by name or alias (find_joint_by_alias);
+/// the index joint is the one whose file joint (`file_joints`, index joint ->
+/// file joint or -1, as resolve_query_pose maps them) it is, preferring the
+/// one the name means on the index skeleton. Throws InputError("query ID",
+/// 0, "frames[i].only[k]: ...") when the file's skeleton has no such joint
+/// (listing the root fields and the file's joints) or no index joint maps to
+/// it (listing the index skeleton's joints).
+int resolve_only_joint(const Query& q, std::size_t i, std::size_t k, const Skeleton& file_skeleton,
+                       const Skeleton& index_skeleton, const std::vector<int>& file_joints);
+
+}  // namespace mocap
