@@ -1,5 +1,6 @@
 // mocap-synth: query -> target motion (docs/synthesis.md).
-//   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json [--results R.jsonl]
+//   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json|Q.jsonl [--id ID]
+//               [--results R.jsonl]
 //               [--pick PAIR:RANK ...] --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
@@ -14,7 +15,6 @@
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
 
 #include "mocap/common/atomic_file.hpp"
 #include "mocap/common/error.hpp"
@@ -23,6 +23,7 @@
 #include "mocap/common/output_path.hpp"
 #include "mocap/search/collection_search.hpp"
 #include "mocap/search/query.hpp"
+#include "mocap/search/query_file.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/clip_source.hpp"
 #include "mocap/synth/player.hpp"
@@ -54,7 +55,12 @@ int main(int argc, char** argv) {
   app.add_option("--index", index_path,
                  "index file or collection manifest (mocap-index build [--shards N])")
       ->required();
-  app.add_option("--query", query_path, "query file (one JSON query)")->required();
+  app.add_option("--query", query_path,
+                 "query file: one JSON query, or a JSONL batch (pick one with --id)")
+      ->required();
+  std::string query_id;
+  app.add_option("--id", query_id,
+                 "the id of the query to run in --query (required when it holds several)");
   app.add_option("--results", results_path,
                  "search results (mocap-search JSONL); without it the search runs here");
   app.add_option("--pick", picks,
@@ -126,14 +132,10 @@ int main(int argc, char** argv) {
             ? std::filesystem::path()
             : mocap::checked_output_path(html_path, mocap::OutputKind::html, force, "--html");
 
-    (void)mocap::check_input_file(query_path, mocap::input_limits().json_file_bytes);
-    std::ifstream qin(query_path);
-    if (!qin) throw mocap::InputError(query_path, 0, "cannot read the query");
-    std::stringstream qs;
-    qs << qin.rdbuf();
-    const std::filesystem::path qp(query_path);
+    // One query, or the one of a batch that --id names (the batch reader
+    // mocap-search uses).
     const mocap::Query query =
-        mocap::parse_query_text(qs.str(), query_path, 0, qp.parent_path(), qp.stem().string());
+        mocap::select_query(mocap::read_query_file(query_path), query_id, query_path);
     // An index file, or a collection manifest's shards numbered as one index
     // (a missing or changed shard is an error naming it, before any work).
     const mocap::ClipSource clips = mocap::ClipSource::open(index_path);
