@@ -81,6 +81,36 @@ mpi 2 "$search" -q --index "$tmp/one.h5" --queries "$tmp/q.jsonl" --distribute s
 [ "$(grep -c "needs a collection manifest" "$tmp/err.txt")" -eq 1 ] ||
   fail "the message was printed by more than rank 0: $(cat "$tmp/err.txt")"
 
+# Query filters are checked against the labels of the whole collection, also
+# when its shards are dealt to the ranks (each holding only some labels):
+# every content of set 1 is valid, a misspelt one lists them all.
+python3 - "$set1/data" >"$tmp/labels.jsonl" <<'PY'
+import os, sys
+frames = '[{"root_position": [0, null, 0]}, {"root_position": [0, null, 1]}]'
+for c in sorted({f.split("_")[1] for f in os.listdir(sys.argv[1]) if f.endswith(".bvh")}) + ["wlak"]:
+    print('{"id": "%s", "frames": %s, "filter": {"content": "%s"}, "top": 2}' % (c, frames, c))
+PY
+status=0
+"$search" -q --index "$tmp/one.h5" --queries "$tmp/labels.jsonl" --out "$tmp/l1.jsonl" || status=$?
+[ "$status" -eq 1 ] || fail "labels, one process: exit $status (expected 1: the misspelt one)"
+for n in 2 3; do
+  status=0
+  mpi 2 "$search" -q --threads 1 --index "$tmp/c$n.json" --queries "$tmp/labels.jsonl" \
+    --out "$tmp/l$n.jsonl" --distribute shards 2>"$tmp/err.txt" || status=$?
+  [ "$status" -eq 1 ] || fail "labels, $n shards: exit $status: $(cat "$tmp/err.txt")"
+  python3 - "$tmp/l1.jsonl" "$tmp/l$n.jsonl" <<'PY' || fail "labels over $n shards dealt to 2 ranks"
+import json, sys
+one, dealt = ([json.loads(l) for l in open(p)] for p in sys.argv[1:3])
+assert len(one) == len(dealt) > 10, (len(one), len(dealt))
+for x, y in zip(one[:-1], dealt[:-1]):
+    assert "error" not in x and "error" not in y, (x.get("error"), y.get("error"))
+    assert x["pairs"] == y["pairs"], x["id"]
+e = one[-1]["error"]
+assert e.startswith('query wlak: filter.content: unknown value "wlak"; the index has: bow, '), e
+assert dealt[-1]["error"] == e.replace("the index has", "the collection has"), dealt[-1]
+PY
+done
+
 # Failures: exit 2, the rank and the file named, the output left alone.
 echo "keep me" >"$tmp/keep.jsonl"
 echo "my notes" >"$tmp/notes.txt"
