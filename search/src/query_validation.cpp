@@ -70,14 +70,16 @@ int resolve_only_joint(const Query& q, std::size_t i, std::size_t k, const Skele
                      "canonical joint names such as RightUpperArm, LeftForeArm, Hips also work)",
                      name, file, joined(valid)));
   }
-  const int meant = find_joint_by_alias(index_skeleton, name);
-  if (meant >= 0 && file_joints[static_cast<std::size_t>(meant)] == f) return meant;
-  for (std::size_t j = 0; j < file_joints.size(); ++j)
-    if (file_joints[j] == f) return static_cast<int>(j);
-  fail(q, path,
-       fmt::format("joint \"{}\" of {} ({}) has no counterpart on the index skeleton (joints: {})",
-                   name, file, file_skeleton.names[static_cast<std::size_t>(f)],
-                   joined(index_skeleton.names)));
+  int j = find_joint_by_alias(index_skeleton, name);
+  for (std::size_t c = 0; c < file_joints.size() && j < 0; ++c)
+    if (file_joints[c] == f) j = static_cast<int>(c);
+  if (j < 0)
+    fail(q, path,
+         fmt::format("joint \"{}\" of {} ({}) has no counterpart on the index skeleton (joints: "
+                     "{})",
+                     name, file, file_skeleton.names[static_cast<std::size_t>(f)],
+                     joined(index_skeleton.names)));
+  return j;
 }
 
 }  // namespace mocap

@@ -573,6 +573,8 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
       } else if (dof == "root_heading") {
         partial.root_heading_rad = heading_rad(v.rotations[r]);
       } else {
+        // The name is read on the file's skeleton; the rotation is the
+        // frame's on the index skeleton (retargeted across rigs).
         const int j = resolve_only_joint(q, i, k, m.skeleton, skel, map);
         partial.joint_rotations.emplace_back(j, locals_at_frame[static_cast<std::size_t>(j)]);
       }

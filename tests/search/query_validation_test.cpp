@@ -11,6 +11,7 @@
 
 #include "mocap/common/error.hpp"
 #include "mocap/common/index.hpp"
+#include "mocap/common/joint_classes.hpp"
 #include "mocap/search/collection_search.hpp"
 #include "mocap/search/query_pose.hpp"
 #include "mocap/search/search.hpp"
@@ -243,6 +244,48 @@ TEST(OnlyNames, FileNamesAndAliasesMeanTheSameJoint) {
                             "index names");
   test::expect_same_results(file_name, run(R"(["LeftThigh", "LeftShin", "root_position_xz"])"),
                             "canonical names");
+}
+
+// `only` names are read on the file's skeleton, and keep the rotation the
+// whole frame gives the joint they mean on the index skeleton: copied on the
+// same rig, retargeted across rigs (a Bandai Namco frame on a CMU skeleton).
+TEST(OnlyNames, OnlyKeepsTheWholeFramesRotations) {
+  MOCAP_REQUIRE_DATA();
+  const std::filesystem::path dir = test::temp_dir("query_validation_cmu");
+  std::filesystem::create_directories(dir / "cmu");
+  std::filesystem::copy_file(test::data_dir() / "cmu/131_01.bvh", dir / "cmu/131_01.bvh");
+  const std::filesystem::path out = test::build_index_with_binary(dir / "cmu", dir / "cmu.h5", {});
+  if (out.empty()) GTEST_SKIP() << "mocap-index not built";
+  const Index index = Index::open(out);
+  const IndexSkeleton& sk = index.skeletons().front();
+  const DynamicsModel model = index.dynamics_model(0);
+  QueryBvhCache cache;
+  auto frame = [&](const std::filesystem::path& file, const std::string& only) {
+    return parse(R"({"frames": [{"bvh": ")" + file.string() + R"(", "frame": 30)" + only +
+                 R"(}, {"root_position": [0, null, 0]}]})");
+  };
+  const std::filesystem::path bn =
+      test::data_dir() / "bandai-namco-1/data/dataset-1_byebye_normal_001.bvh";
+  const std::filesystem::path cmu = test::data_dir() / "cmu/131_02.bvh";
+  const std::pair<std::filesystem::path, const char*> cases[] = {
+      {bn, "UpperArm_R"},     {bn, "LowerArm_R"}, {bn, "UpperLeg_L"}, {bn, "RightForeArm"},
+      {cmu, "RightShoulder"}, {cmu, "LeftHip"},   {cmu, "LeftThigh"}, {cmu, "lowerback"}};
+  for (const auto& [file, name] : cases) {
+    const ResolvedQueryPose whole = resolve_query_pose(frame(file, ""), 0, sk, model, cache);
+    const ResolvedQueryPose only = resolve_query_pose(
+        frame(file, std::string(R"(, "only": [")") + name + R"("])"), 0, sk, model, cache);
+    ASSERT_EQ(only.given.joint_rotations.size(), 1u) << name;
+    const int j = only.given.joint_rotations[0].first;
+    EXPECT_EQ(j, find_joint_by_alias(sk.skeleton, name)) << name;
+    EXPECT_TRUE(only.given.joint_rotations[0].second.isApprox(
+        whole.local_rotations[static_cast<std::size_t>(j)], 0.0))
+        << file << " " << name;
+  }
+  // A name of the index's rig that the file's skeleton lacks is refused.
+  const std::string m = error_of(
+      [&] { resolve_query_pose(frame(bn, R"(, "only": ["LThumb"])"), 0, sk, model, cache); });
+  EXPECT_TRUE(has(m, "unknown name \"LThumb\"")) << m;
+  EXPECT_TRUE(has(m, "joint_Root, Hips, Spine")) << m;
 }
 
 // An unknown joint is reported as unknown, whatever is wrong with its value;

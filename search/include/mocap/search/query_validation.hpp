@@ -56,15 +56,16 @@ inline constexpr const char* kOnlyRootFields[] = {"root_position", "root_positio
                                                   "root_heading"};
 
 /// The index skeleton joint that entry `k` of frame `i`'s `only` (a joint
-/// name; the root fields are the caller's) takes the rotation of. The name
-/// is read on the file's skeleton (the BVH's, or an AMC take's ASF, which
-/// the messages name), by name or alias (find_joint_by_alias);
-/// the index joint is the one whose file joint (`file_joints`, index joint ->
-/// file joint or -1, as resolve_query_pose maps them) it is, preferring the
-/// one the name means on the index skeleton. Throws InputError("query ID",
-/// 0, "frames[i].only[k]: ...") when the file's skeleton has no such joint
-/// (listing the root fields and the file's joints) or no index joint maps to
-/// it (listing the index skeleton's joints).
+/// name; the root fields are the caller's) keeps the rotation of. The name
+/// must name a joint of the file's skeleton (the BVH's, or an AMC take's
+/// ASF, which the messages name), by name or alias (find_joint_by_alias);
+/// the index joint is the one it means on the index skeleton the same way,
+/// else the one whose file joint it is (`file_joints`: index joint -> file
+/// joint or -1, as resolve_query_pose poses the frame on the index skeleton).
+/// Throws InputError("query ID", 0, "frames[i].only[k]: ...") when the
+/// file's skeleton has no such joint (listing the root fields and the file's
+/// joints) or the index skeleton has no counterpart for it (listing the
+/// index skeleton's joints).
 int resolve_only_joint(const Query& q, std::size_t i, std::size_t k, const Skeleton& file_skeleton,
                        const Skeleton& index_skeleton, const std::vector<int>& file_joints);
 
