@@ -584,12 +584,17 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     if (spec.root_heading_deg)
       partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
     for (const auto& jr : spec.joints) {
-      if (jr.direction) continue;  // a body-frame constraint (add_constraints)
       const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
+      if (jr.direction) continue;  // a body-frame constraint (add_constraints)
       partial.joint_rotations.emplace_back(j, jr.rotation);
     }
-    // Every name is known: now the joint value parse_query deferred.
-    if (spec.joint_value_error) throw *spec.joint_value_error;
+    // Every joint name is known (effectors' too): now the joint value
+    // parse_query deferred.
+    if (spec.joint_value_error) {
+      for (const EffectorSpec& e : spec.effectors)
+        (void)resolve_joint(q, path + ".effectors." + e.name, skel, e.name);
+      throw *spec.joint_value_error;
+    }
   }
   // Deduplicate joints named twice through different aliases: the last wins.
   {

@@ -27,9 +27,13 @@ const fs::path& index_path() {
   return test::set1_index("search-query-constraints-set1");
 }
 
+// The parse error, or the joint-value error parsing defers to resolution
+// (reported there after the joint names: query_validation.hpp).
 std::string error_of(const std::string& text) {
   try {
-    parse(text);
+    const Query q = parse(text);
+    for (const QueryFrameSpec& f : q.frames)
+      if (f.joint_value_error) return f.joint_value_error->what();
   } catch (const InputError& e) {
     return e.what();
   }
@@ -70,8 +74,9 @@ TEST(QueryConstraints, InvalidFieldsAreRefused) {
   }
   // A frame of constraints alone is a frame.
   EXPECT_EQ(error_of(frame("{\"angles\": {\"trunk_flexion\": 40}}")), "");
-  const Query q = parse(frame("{\"effectors\": {\"LeftFoot\": {\"position_m\": [0.1, 0.3, 0.4], "
-                              "\"tolerance_m\": 0.05, \"weight\": 3}}, \"weight\": 0.5}"));
+  const Query q =
+      parse(frame("{\"effectors\": {\"LeftFoot\": {\"position_m\": [0.1, 0.3, 0.4], "
+                  "\"tolerance_m\": 0.05, \"weight\": 3}}, \"weight\": 0.5}"));
   ASSERT_EQ(q.frames[1].effectors.size(), 1u);
   EXPECT_EQ(q.frames[1].effectors[0].tolerance_m, 0.05);
   EXPECT_EQ(q.frames[1].effectors[0].weight, 3.0);
@@ -86,8 +91,8 @@ TEST(QueryConstraints, ResolutionErrorsNameTheEntry) {
   const Index index = Index::open(index_path());
   const SearchEngine engine(index);
   auto error = [&](const std::string& second) -> std::string {
-    const Query q = parse("{\"id\": \"e\", \"frames\": [{\"root_position\": [0, null, 0]}, " +
-                          second + "]}");
+    const Query q =
+        parse("{\"id\": \"e\", \"frames\": [{\"root_position\": [0, null, 0]}, " + second + "]}");
     try {
       engine.run(q, SearchOptions{});
     } catch (const InputError& e) {
@@ -99,9 +104,9 @@ TEST(QueryConstraints, ResolutionErrorsNameTheEntry) {
             std::string::npos);
   EXPECT_NE(error("{\"joints\": {\"Head\": {\"direction\": [0, 1, 0]}}}").find("0 child joints"),
             std::string::npos);
-  EXPECT_NE(error("{\"effectors\": {\"Spine\": {\"position_m\": [0, 1, 0]}}}")
-                .find("two-bone chain"),
-            std::string::npos);
+  EXPECT_NE(
+      error("{\"effectors\": {\"Spine\": {\"position_m\": [0, 1, 0]}}}").find("two-bone chain"),
+      std::string::npos);
   EXPECT_NE(error("{\"effectors\": {\"Rihgt\": {\"position_m\": [0, 1, 0]}}}")
                 .find("unknown joint \"Rihgt\""),
             std::string::npos);
@@ -129,7 +134,9 @@ TEST(QueryConstraints, ExactEqualsBruteSet1) {
       R"({"frames": [{"joints": {"RightArm": {"direction": [0, 1, 0]}, "LeftUpLeg": {"direction": [0, -1, 0.3]}}},
           {"angles": {"right_shoulder_elevation": 90, "left_knee_flexion": {"deg": 60, "tolerance_deg": 10}}}]})",
       R"({"frames": [{"bvh": ")" + walk + R"(", "frame": 40},
-          {"bvh": ")" + walk + R"(", "frame": 70, "only": ["root_position_xz"], "effectors": {"RightHand": {"position_m": [-0.25, 1.29, 0.2], "tolerance_m": 0.05}}}],
+          {"bvh": ")" +
+          walk +
+          R"(", "frame": 70, "only": ["root_position_xz"], "effectors": {"RightHand": {"position_m": [-0.25, 1.29, 0.2], "tolerance_m": 0.05}}}],
           "filter": {"clips": ["*walk*", "*bye*"], "exclude": ["*walk_normal_001*"]}})",
   };
   SearchOptions exact, brute;
@@ -179,9 +186,8 @@ TEST(QueryConstraints, ResidualsMeasureTheResultFrames) {
     // F^e: the hand's distance from the body-frame target.
     const std::size_t e = r.end_frame;
     const double psi = heading(e);
-    const Eigen::Vector3d world =
-        Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitY()) * target +
-        Eigen::Vector3d(at(e, hips).x(), 0.0, at(e, hips).z());
+    const Eigen::Vector3d world = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitY()) * target +
+                                  Eigen::Vector3d(at(e, hips).x(), 0.0, at(e, hips).z());
     EXPECT_NEAR(r.residuals_to[0].second, (at(e, hand) - world).norm(), 2e-5) << c.path;
     // F^s: the trunk's forward lean from vertical against 20 degrees.
     const std::size_t s = r.start_frame;
@@ -199,7 +205,8 @@ TEST(QueryConstraints, MetConstraintsCostNothing) {
   ASSERT_FALSE(index_path().empty()) << "could not build the set-1 index";
   const Index index = Index::open(index_path());
   const SearchEngine engine(index);
-  const Query q = parse(R"({"frames": [{"angles": {"trunk_flexion": {"deg": 0, "tolerance_deg": 90}}},
+  const Query q =
+      parse(R"({"frames": [{"angles": {"trunk_flexion": {"deg": 0, "tolerance_deg": 90}}},
       {"effectors": {"RightHand": {"position_m": [0, 1, 0], "tolerance_m": 3}}}], "top": 3})");
   const QueryOutcome o = engine.run(q, SearchOptions{});
   ASSERT_FALSE(o.error) << *o.error;

@@ -311,6 +311,23 @@ TEST(CheckOrder, UnknownJointBeforeItsMissingOrder) {
         opt);
   });
   EXPECT_TRUE(has(second, "joints.Tail: unknown joint")) << second;
+  // A misspelt direction joint, or effector, of the frame comes first too.
+  const std::string direction = error_of([&] {
+    engine.run(
+        joints(
+            R"({"RightUpLeg": {"euler_deg": [0, 40, 0]}, "LeftUpLegg": {"direction": [0, -1, 0]}})"),
+        opt);
+  });
+  EXPECT_TRUE(has(direction, "joints.LeftUpLegg: unknown joint")) << direction;
+  const std::string effector = error_of([&] {
+    engine.run(parse_query_text(
+                   R"({"frames": [{"joints": {"RightUpLeg": {"euler_deg": [0, 40, 0]}},
+                                   "effectors": {"LeftFooot": {"position_m": [0.1, 0.1, 0]}}},
+                                  {"root_position": [0, null, 0]}]})",
+                   "q.jsonl", 4, std::filesystem::path(MOCAP_SOURCE_DIR), "q"),
+               opt);
+  });
+  EXPECT_TRUE(has(effector, "effectors.LeftFooot: unknown joint")) << effector;
   const std::string order =
       error_of([&] { engine.run(joints(R"({"RightUpLeg": {"euler_deg": [0, 40, 0]}})"), opt); });
   EXPECT_TRUE(has(order, "q.jsonl:4: frames[0].joints.RightUpLeg.order: expected a string"))

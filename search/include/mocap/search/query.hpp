@@ -101,7 +101,7 @@ struct QueryFrameSpec {
   double weight = 1.0;
   /// The first invalid joint value of `joints` (e.g. euler_deg without its
   /// order), as parsing reported it (query file and line); that joint is
-  /// kept, with an identity rotation. Resolution reports it once every joint
+  /// kept by name only (identity rotation, no direction). Resolution reports it once every joint
   /// name of the frame is known on the skeleton, so that a misspelt joint is
   /// reported as unknown first (query_validation.hpp "Order of the checks").
   std::optional<InputError> joint_value_error;

@@ -9,13 +9,15 @@
 // (QueryFrameSpec::joint_value_error). A query that parses is then checked
 // where it runs (SearchEngine::run, mocap-synth):
 //  1. the filter's label values (check_filter_labels), before any frame;
-//  2. per query frame, in order: a hand-written frame's joint names against
-//     each index skeleton (an unknown name lists that skeleton's joints),
-//     then the frame's deferred joint-value error (so that an unknown joint
-//     written without its "order" is reported as unknown, not as missing its
-//     order); a file frame's file (readable, frame in range, mapping onto
-//     the index skeleton), then each `only` name against the file's skeleton
-//     (resolve_only_joint).
+//  2. per query frame, in order: a hand-written frame's `joints` names
+//     (rotations and directions) against each index skeleton (an unknown
+//     name lists that skeleton's joints), then, where parsing deferred one,
+//     its `effectors` names and the deferred joint-value error (so that an
+//     unknown joint written without its "order" is reported as unknown, not
+//     as missing its order); a file frame's file (readable, frame in range,
+//     mapping onto the index skeleton), then each `only` name against the
+//     file's skeleton (resolve_only_joint); then the body-frame constraints
+//     (angles, directions, effectors: query_pose.hpp).
 // The first failed check is the query's error: InputError("query ID", 0,
 // "<field path>: what"), except a deferred joint-value error, which keeps the
 // query file and line it was parsed from.
