@@ -145,7 +145,8 @@ void apply_angle(const std::vector<int>& parents, const PoseConstraint& c, const
     }
     case PoseConstraintKind::elevation: {
       const Eigen::Vector3d down = -Eigen::Vector3d::UnitY();
-      if (!turn_axis(down, u, Eigen::Vector3d::Zero(), axis) && !bend_axis(u, body, c.bend_hint, axis))
+      if (!turn_axis(down, u, Eigen::Vector3d::Zero(), axis) &&
+          !bend_axis(u, body, c.bend_hint, axis))
         return;
       turn = beyond_tolerance(c.angle_rad - m.angle, c.tolerance);
       break;
@@ -220,10 +221,9 @@ std::vector<int> driven_joints(const std::vector<PoseConstraint>& constraints,
 }
 
 void sort_constraints(std::vector<PoseConstraint>& constraints) {
-  std::stable_sort(constraints.begin(), constraints.end(),
-                   [](const PoseConstraint& a, const PoseConstraint& b) {
-                     return a.joint < b.joint;
-                   });
+  std::stable_sort(
+      constraints.begin(), constraints.end(),
+      [](const PoseConstraint& a, const PoseConstraint& b) { return a.joint < b.joint; });
 }
 
 void solve_pose_constraints(const std::vector<int>& parents, int root,
@@ -267,9 +267,10 @@ void solve_pose_constraints(const std::vector<int>& parents, int root,
       continue;
     }
     const int p = parents[j];
-    locals[i] = p < 0 ? scratch.rot[j]
-                      : (scratch.rot[static_cast<std::size_t>(p)].conjugate() * scratch.rot[j])
-                            .normalized();
+    locals[i] =
+        p < 0
+            ? scratch.rot[j]
+            : (scratch.rot[static_cast<std::size_t>(p)].conjugate() * scratch.rot[j]).normalized();
   }
 }
 

@@ -109,5 +109,4 @@ void write_motion_bvh(const SynthResult& result, const std::filesystem::path& pa
       motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()), path);
 }
 
-
 }  // namespace mocap

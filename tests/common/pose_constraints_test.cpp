@@ -21,10 +21,11 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 // standing, facing +z, world rotations identity.
 struct Body {
   std::vector<int> parents{-1, 0, 1, 2, 3, 4, 0, 6, 7};
-  std::vector<Eigen::Vector3d> pos{{0, 1, 0},        {0, 1.1, 0},       {0, 1.5, 0},
-                                   {-0.2, 1.45, 0},  {-0.2, 1.15, 0},   {-0.2, 0.9, 0},
-                                   {-0.1, 0.95, 0},  {-0.1, 0.5, 0},    {-0.1, 0.05, 0}};
-  std::vector<Eigen::Quaterniond> rot = std::vector<Eigen::Quaterniond>(9, Eigen::Quaterniond::Identity());
+  std::vector<Eigen::Vector3d> pos{{0, 1, 0},       {0, 1.1, 0},     {0, 1.5, 0},
+                                   {-0.2, 1.45, 0}, {-0.2, 1.15, 0}, {-0.2, 0.9, 0},
+                                   {-0.1, 0.95, 0}, {-0.1, 0.5, 0},  {-0.1, 0.05, 0}};
+  std::vector<Eigen::Quaterniond> rot =
+      std::vector<Eigen::Quaterniond>(9, Eigen::Quaterniond::Identity());
   enum { kHips, kSpine, kNeck, kArm, kForeArm, kHand, kUpLeg, kLeg, kFoot };
 };
 
@@ -78,8 +79,8 @@ PoseConstraint angle(PoseConstraintKind kind, int joint, int end, double deg, in
 }
 
 TEST(PoseConstraints, InvalidDrivenJoints) {
-  PoseConstraint a = angle(PoseConstraintKind::hinge_flexion, Body::kForeArm, Body::kHand, 90,
-                           Body::kArm);
+  PoseConstraint a =
+      angle(PoseConstraintKind::hinge_flexion, Body::kForeArm, Body::kHand, 90, Body::kArm);
   PoseConstraint e;
   e.kind = PoseConstraintKind::effector;
   e.joint = Body::kArm;
@@ -115,9 +116,17 @@ TEST(PoseConstraints, EachKindIsMet) {
   hand.middle = Body::kForeArm;
   hand.end = Body::kHand;
   hand.target = Eigen::Vector3d(-0.3, 1.6, 0.25);
-  for (const auto& cs : std::vector<std::vector<PoseConstraint>>{
-           {dir}, {trunk}, {hip}, {knee}, {elbow}, {shoulder}, {hand}, {trunk, hand}, {trunk, dir},
-           {hip, knee}, {trunk, shoulder, elbow}}) {
+  for (const auto& cs : std::vector<std::vector<PoseConstraint>>{{dir},
+                                                                 {trunk},
+                                                                 {hip},
+                                                                 {knee},
+                                                                 {elbow},
+                                                                 {shoulder},
+                                                                 {hand},
+                                                                 {trunk, hand},
+                                                                 {trunk, dir},
+                                                                 {hip, knee},
+                                                                 {trunk, shoulder, elbow}}) {
     const std::vector<double> r = solve_and_measure(b, cs);
     for (std::size_t i = 0; i < r.size(); ++i) EXPECT_NEAR(r[i], 0.0, 1e-7) << i;
   }
