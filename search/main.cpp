@@ -190,16 +190,6 @@ void add_view_command(CLI::App& app, ViewArgs& args) {
                 "Replace --out even when it holds something else (docs/cli.md \"Output paths\")");
 }
 
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  mocap::AtomicFile file(path);
-  {
-    std::ofstream out(file.temporary_path(), std::ios::binary);
-    if (!out || !(out << text) || !out.flush())
-      throw mocap::InputError(path.string(), 0, "cannot write");
-  }
-  file.commit();
-}
-
 int run_view(const ViewArgs& a) {
   mocap::check_distinct_outputs({{"--out", a.out}, {"--index", a.index}, {"--results", a.results}});
   const std::filesystem::path out =
@@ -207,7 +197,8 @@ int run_view(const ViewArgs& a) {
   const mocap::PlayerLibrary player = mocap::load_player_library(mocap::player_dir());
   const mocap::ClipSource clips = mocap::ClipSource::open(a.index);
   const std::vector<mocap::ResultsLine> lines = mocap::read_results_file(a.results, clips);
-  write_text(out, mocap::results_player_page(clips, lines, a.ids, a.results, player));
+  mocap::write_file_atomically(out,
+                               mocap::results_player_page(clips, lines, a.ids, a.results, player));
   std::cout << "html: " << std::filesystem::absolute(out).string() << "\n";
   return kExitOk;
 }
@@ -350,7 +341,8 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
           {o.id, o.error.value_or(""), o.error ? std::vector<mocap::PairResults>{} : o.pairs});
     const mocap::ClipSource clips =
         index ? mocap::ClipSource(*index) : mocap::ClipSource::open(a.index);
-    write_text(html_file, mocap::results_player_page(clips, lines, {}, "--html", *player));
+    mocap::write_file_atomically(html_file,
+                                 mocap::results_player_page(clips, lines, {}, "--html", *player));
   }
   if (!a.quiet)
     fmt::print(stderr,

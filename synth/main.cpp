@@ -30,21 +30,6 @@
 #include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 
-namespace {
-
-// Writes `text` to `path` atomically (a complete file or the old one).
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  mocap::AtomicFile file(path);
-  {
-    std::ofstream out(file.temporary_path(), std::ios::binary);
-    if (!out || !(out << text) || !out.flush())
-      throw mocap::InputError(path.string(), 0, "cannot write");
-  }
-  file.commit();
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
   CLI::App app{
       "mocap-synth: synthesise the target motion of a query (A* supplementation, paper 2.4)"};
@@ -174,8 +159,9 @@ int main(int argc, char** argv) {
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!report_path.empty())
-      write_text(report_file, mocap::synth_report_json(clips, query, query_path, ranked, result,
-                                                       options, search_ms, total_ms, out_path));
+      mocap::write_file_atomically(
+          report_file, mocap::synth_report_json(clips, query, query_path, ranked, result, options,
+                                                search_ms, total_ms, out_path));
     if (!html_path.empty()) {
       // The 3D player needs the three.js copy (player.hpp): without it the
       // report keeps its printable views and says why.
@@ -187,8 +173,9 @@ int main(int argc, char** argv) {
         missing = e.what();
         std::cerr << "mocap-synth: warning: the report has no 3D player: " << missing << "\n";
       }
-      write_text(html_file, mocap::synth_report_html(clips, query, ranked, result, options,
-                                                     player ? &*player : nullptr, missing));
+      mocap::write_file_atomically(html_file,
+                                   mocap::synth_report_html(clips, query, ranked, result, options,
+                                                            player ? &*player : nullptr, missing));
     }
     std::size_t inserted = 0;
     for (const auto& t : result.transitions) inserted += t.measures.frames;

@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <system_error>
 
@@ -102,6 +103,15 @@ OutputLock::OutputLock(const fs::path& target) {
 
 OutputLock::~OutputLock() {
   if (fd_ >= 0) ::close(fd_);  // releases the lock
+}
+
+void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  AtomicFile file(path);
+  {
+    std::ofstream out(file.temporary_path(), std::ios::binary);
+    if (!out || !(out << text) || !out.flush()) throw InputError(path.string(), 0, "cannot write");
+  }
+  file.commit();
 }
 
 }  // namespace mocap

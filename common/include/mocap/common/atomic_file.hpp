@@ -5,6 +5,7 @@
 // any moment leaves the target as it was, and at worst a stale temporary file
 // that the next replacement of the same target removes.
 #include <filesystem>
+#include <string>
 
 namespace mocap {
 
@@ -55,6 +56,11 @@ class OutputLock {
   std::filesystem::path path_;
   int fd_ = -1;
 };
+
+/// Writes `text` to `path` through an AtomicFile: afterwards the path holds
+/// the complete text or what it held before. Throws InputError(path, 0,
+/// reason) when the folder cannot be created or a write or the commit fails.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text);
 
 /// Removes the temporary files ".NAME.tmp-PID" of `target` left by processes
 /// that no longer run (and by this process). Names with a non-numeric PID and
