@@ -252,7 +252,8 @@ void solve_pose_constraints(const std::vector<int>& parents, int root,
   }
   // The driven joints' local rotations, in index order (a given local
   // rotation exactly as given).
-  std::vector<std::pair<int, const PoseConstraint*>> driven;
+  auto& driven = scratch.driven;
+  driven.clear();
   for (const PoseConstraint& c : constraints) {
     driven.emplace_back(c.joint, &c);
     if (c.kind == PoseConstraintKind::effector) driven.emplace_back(c.middle, nullptr);

@@ -201,18 +201,9 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   }
 }
 
-void frame_pose(const SkeletonData& skeleton, const Index& index, std::size_t g,
-                std::vector<Eigen::Vector3d>& pos, std::vector<Eigen::Quaterniond>& rot) {
-  const FrameArrays& fa = frame_arrays(index, skeleton);
-  const std::size_t nj = skeleton.tables.model.joint_count();
-  pos.resize(nj);
-  rot.resize(nj);
-  for (std::size_t j = 0; j < nj; ++j) {
-    const float* p = fa.pos + (g * nj + j) * 3;
-    const float* q = fa.rot + (g * nj + j) * 4;
-    pos[j] = Eigen::Vector3d(p[0], p[1], p[2]);
-    rot[j] = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
-  }
+FrameRef database_frame(const SkeletonData& skeleton, const Index& index, std::size_t g,
+                        Scratch& scratch) {
+  return frame_ref(skeleton.tables, frame_arrays(index, skeleton), g, scratch, {}, {});
 }
 
 void set_needed_joints(ResolvedFrame& q, const DynamicsModel& model) {

@@ -34,10 +34,11 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
                 const std::optional<GroundPose>& place = std::nullopt,
                 const std::uint8_t* skip = nullptr, const HScanView* tile = nullptr);
 
-// World joint origins and rotations of skeleton frame g (the frame arrays,
-// in double).
-void frame_pose(const SkeletonData& skeleton, const Index& index, std::size_t g,
-                std::vector<Eigen::Vector3d>& pos, std::vector<Eigen::Quaterniond>& rot);
+// Skeleton frame g converted into `scratch` (double, every joint): what
+// evaluate_h reads of a database frame, for callers that measure it
+// (residuals). Valid until `scratch` is used again.
+FrameRef database_frame(const SkeletonData& skeleton, const Index& index, std::size_t g,
+                        Scratch& scratch);
 
 // Sets q.need_joints / q.local_joints: the joints partial_approximate_energy
 // reads of a database frame (frame_ref) for a partial frame that does not

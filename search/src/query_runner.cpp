@@ -553,29 +553,26 @@ class PairSearch {
 };
 
 void QueryRunner::add_residuals(PairResults& pair) const {
-  std::vector<Eigen::Vector3d> pos;
-  std::vector<Eigen::Quaterniond> rot;
-  for (SearchResult& r : pair.results)
-    for (std::size_t k = 0; k < skeletons_.size(); ++k) {
-      const SkeletonTables& tables = skeletons_[k]->tables;
-      for (const ClipInfo& ci : tables.clips) {
-        if (ci.clip != r.clip_index) continue;
-        const DynamicsModel& model = tables.model;
-        for (const bool in : {true, false}) {
-          const ResolvedFrame& f = resolved_[k][in ? pair.from : pair.to];
-          auto& out = in ? r.residuals_from : r.residuals_to;
-          bool named = false;
-          for (const PoseConstraint& c : f.constraints) named = named || !c.name.empty();
-          if (!named) continue;
-          frame_pose(*skeletons_[k], *engine_.index,
-                     ci.frame_start + (in ? r.start_frame : r.end_frame), pos, rot);
-          for (const PoseConstraint& c : f.constraints)
-            if (!c.name.empty())
-              out.emplace_back(c.name, constraint_residual(model.parents, model.root(), c,
-                                                           pos.data(), rot.data()));
-        }
-      }
+  Scratch& scratch = engine_.scratch.local();
+  for (SearchResult& r : pair.results) {
+    const IndexClip& clip = engine_.index->clips()[r.clip_index];
+    const SkeletonData& skeleton = *skeletons_[clip.skeleton];
+    const DynamicsModel& model = skeleton.tables.model;
+    for (const bool in : {true, false}) {
+      const ResolvedFrame& f = resolved_[clip.skeleton][in ? pair.from : pair.to];
+      auto& out = in ? r.residuals_from : r.residuals_to;
+      bool named = false;
+      for (const PoseConstraint& c : f.constraints) named = named || !c.name.empty();
+      if (!named) continue;
+      const FrameRef frame = database_frame(
+          skeleton, *engine_.index, clip.frame_start + (in ? r.start_frame : r.end_frame), scratch);
+      for (const PoseConstraint& c : f.constraints)
+        if (!c.name.empty())
+          out.emplace_back(
+              c.name, constraint_residual(model.parents, model.root(), c,
+                                          frame.state.joint_positions_m, frame.state.rotations));
     }
+  }
 }
 
 PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {

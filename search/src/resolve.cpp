@@ -283,41 +283,33 @@ void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
   std::vector<std::pair<int, Eigen::Quaterniond>> rotations;
   for (int j : driven) rotations.emplace_back(j, Eigen::Quaterniond::Identity());
   given.joint_rotations = std::move(rotations);
-  // Joints whose nearest driven joint is a body-frame constraint's keep F's
-  // rates (a constraint gives a pose); under a given local rotation, root
-  // position or heading they are static, as in any partial frame.
-  {
-    std::vector<int> kind(nj, -1);  // -1 none, 0 local rotation, 1 body-frame constraint
-    for (const PoseConstraint& c : out.constraints) {
-      const int k = c.kind == PoseConstraintKind::local_rotation ? 0 : 1;
-      kind[static_cast<std::size_t>(c.joint)] = k;
-      if (c.kind == PoseConstraintKind::effector) kind[static_cast<std::size_t>(c.middle)] = k;
-    }
-    const bool whole = given.root_heading_rad || given.root_position_m[0] ||
-                       given.root_position_m[1] || given.root_position_m[2];
-    out.keep_rates.assign(nj, 0);
-    std::vector<int> nearest(nj, -1);
-    for (std::size_t j = 0; j < nj; ++j) {
-      const int p = model.parents[j];
-      nearest[j] = kind[j] >= 0 ? kind[j] : (p >= 0 ? nearest[static_cast<std::size_t>(p)] : -1);
-      out.keep_rates[j] = !whole && nearest[j] == 1;
-    }
-  }
-  bool weighted = false;
-  for (const PoseConstraint& c : out.constraints) weighted = weighted || c.weight != 1.0;
-  if (!weighted) return;
-  // A joint's terms take the weight of the nearest driven joint at or above it.
-  std::vector<double> w(nj, 1.0);
-  std::vector<double> own(nj, 0.0);
+  // Per joint, the constraint driving it or its nearest driven ancestor.
+  // Joints under a body-frame constraint keep F's rates (a constraint gives
+  // a pose); under a given local rotation, root position or heading they are
+  // static, as in any partial frame. A joint's terms take that constraint's
+  // weight.
+  std::vector<const PoseConstraint*> nearest(nj, nullptr);
   for (const PoseConstraint& c : out.constraints) {
-    own[static_cast<std::size_t>(c.joint)] = c.weight;
-    if (c.kind == PoseConstraintKind::effector) own[static_cast<std::size_t>(c.middle)] = c.weight;
+    nearest[static_cast<std::size_t>(c.joint)] = &c;
+    if (c.kind == PoseConstraintKind::effector) nearest[static_cast<std::size_t>(c.middle)] = &c;
   }
   for (std::size_t j = 0; j < nj; ++j) {
     const int p = model.parents[j];
-    w[j] = own[j] > 0.0 ? own[j] : (p >= 0 ? w[static_cast<std::size_t>(p)] : 1.0);
+    if (nearest[j] == nullptr && p >= 0) nearest[j] = nearest[static_cast<std::size_t>(p)];
   }
-  out.joint_weights = std::move(w);
+  const bool whole = given.root_heading_rad || given.root_position_m[0] ||
+                     given.root_position_m[1] || given.root_position_m[2];
+  out.keep_rates.assign(nj, 0);
+  bool weighted = false;
+  for (std::size_t j = 0; j < nj; ++j) {
+    out.keep_rates[j] =
+        !whole && nearest[j] != nullptr && nearest[j]->kind != PoseConstraintKind::local_rotation;
+    weighted = weighted || (nearest[j] != nullptr && nearest[j]->weight != 1.0);
+  }
+  if (!weighted) return;
+  out.joint_weights.assign(nj, 1.0);
+  for (std::size_t j = 0; j < nj; ++j)
+    if (nearest[j] != nullptr) out.joint_weights[j] = nearest[j]->weight;
 }
 
 }  // namespace

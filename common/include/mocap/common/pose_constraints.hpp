@@ -100,6 +100,9 @@ struct PoseConstraintScratch {
   /// (a constraint not met within its tolerance, or a given local rotation,
   /// moved it or an ancestor); 0 where the pose is F's.
   std::vector<std::uint8_t> turned;
+  /// The driven joints with their constraints (null: an effector's middle
+  /// joint), in index order: kept to spare an allocation per frame.
+  std::vector<std::pair<int, const PoseConstraint*>> driven;
 };
 
 /// Solves the constraints on a pose: world joint origins `pos` and world
