@@ -51,29 +51,11 @@ int resolve_joint(const Query& q, const std::string& path, const Skeleton& skel,
   return j;
 }
 
-// Index-skeleton joint -> file joint: same name, else the same body part by alias.
-std::vector<int> map_joints(const Query& q, const std::string& path, const IndexSkeleton& sk,
-                            const DynamicsModel& model, const Skeleton& file_skel,
-                            const std::filesystem::path& file) {
-  const Skeleton& s = sk.skeleton;
-  std::vector<int> map(s.joint_count(), -1);
-  for (std::size_t j = 0; j < s.joint_count(); ++j) {
-    int f = file_skel.find(s.names[j]);
-    if (f < 0) f = find_joint_by_alias(file_skel, s.names[j]);
-    map[j] = f;
-  }
-  std::string missing;
-  for (int j : model.segments)
-    if (map[static_cast<std::size_t>(j)] < 0)
-      missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(j)];
-  if (map[static_cast<std::size_t>(sk.root_joint)] < 0 &&
-      missing.find(s.names[static_cast<std::size_t>(sk.root_joint)]) == std::string::npos)
-    missing += (missing.empty() ? "" : ", ") + s.names[static_cast<std::size_t>(sk.root_joint)];
-  if (!missing.empty())
-    fail(q, path + ".bvh",
-         fmt::format("{} does not map onto the index skeleton: no joint for {} (by name or "
-                     "canonical body part)",
-                     file.string(), missing));
+// Index-skeleton joint -> file joint of the same rig (retarget.hpp same_rig:
+// the same joint names and parents), by name.
+std::vector<int> map_joints(const Skeleton& skel, const Skeleton& file_skel) {
+  std::vector<int> map(skel.joint_count(), -1);
+  for (std::size_t j = 0; j < skel.joint_count(); ++j) map[j] = file_skel.find(skel.names[j]);
   return map;
 }
 
@@ -464,8 +446,7 @@ ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexS
     // rotations are copied.
     const std::unique_ptr<const RetargetMap> rig =
         cross_rig_map(q, path, m.skeleton, skel, typical_pose);
-    const std::vector<int> map =
-        rig ? rig->source_joint : map_joints(q, path, sk, model, m.skeleton, *spec.bvh);
+    const std::vector<int> map = rig ? rig->source_joint : map_joints(skel, m.skeleton);
     // Pose of the file's frames around bvh_frame on the index skeleton: the
     // file's local rotations (identity for unmapped joints), the index
     // skeleton's offsets, the file's translations where both joints have

@@ -126,7 +126,8 @@ struct ResolvedQueryPose {
   PartialPoseSpec given;
   /// from_bvh: the frame's local rotation of every skeleton joint (identity
   /// where the file has no counterpart) and the file joint of each skeleton
-  /// joint (-1: none; by name, else by canonical body part).
+  /// joint (-1: none; the same rig: by name; another rig:
+  /// RetargetMap::source_joint).
   std::vector<Eigen::Quaterniond> local_rotations;
   std::vector<int> file_joints;
   /// full: world state (joint origins, rotations, COMs) with the file's own
