@@ -4,8 +4,8 @@
 # write pages that headless Chromium (scripts/synth-setup), with every
 # network request refused, runs from file:// with no console message; the
 # player reports itself ready with the motions of the query; the figures
-# move (the view's pixels differ between two screenshots taken a moment
-# apart while it plays) and show the motion colours on the grid. The pages
+# play (the clock advances on its own) and move (the view's pixels differ
+# between screenshots one second of motion apart) and show the motion colours on the grid. The pages
 # carry the motions as BVH (checked against the synthesised BVH) and the
 # feet's contact states. Without the three.js copy mocap-synth still writes
 # its report (saying why) and mocap-search refuses --html.
@@ -162,9 +162,18 @@ view=$(view_of dom-report)
 view_results=$(view_of dom-results)
 [ -n "$view" ] && [ -n "$view_results" ] || fail "no data-player-view (the canvas's place on the page)"
 
-# Two screenshots a moment apart while playing, and one of the search page.
-run_chromium shot1 "$tmp/report.html" 3000 --screenshot="$art/report-1.png"
-run_chromium shot2 "$tmp/report.html" 4500 --screenshot="$art/report-2.png"
+# It plays on its own: after the page's virtual time has run, the clock has
+# left 0 (the page starts playing at t = 0) and the button offers pause.
+time_of() { grep -o 'data-player-time="[0-9]*"' "$tmp/$1.out" | grep -o '[0-9][0-9]*'; }
+played=$(time_of dom-report)
+[ -n "$played" ] && [ "$played" -gt 0 ] || fail "dom-report: the clock did not advance (t = ${played:-none} ms)"
+grep -q 'pause</button>' "$tmp/dom-report.out" || fail "dom-report: not playing"
+# Two screenshots one second of motion apart (the page's #t=S&paused, so the
+# moments do not depend on how fast this machine loads the page: playing
+# loops, and two budgets a moment apart can land a whole loop apart), and
+# one of the search page.
+run_chromium shot1 "$tmp/report.html#t=1.0&paused" 3000 --screenshot="$art/report-1.png"
+run_chromium shot2 "$tmp/report.html#t=2.0&paused" 3000 --screenshot="$art/report-2.png"
 run_chromium shot3 "$tmp/r.html" 3000 --screenshot="$art/results.png"
 /usr/bin/python3 "$root/tests/cli/lib/png_view.py" --moving "$view" "$art/report-1.png" "$art/report-2.png" \
   --figures "$view_results" "$art/results.png" || fail "screenshots (kept in $art)"
