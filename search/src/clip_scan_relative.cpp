@@ -1,5 +1,6 @@
 // The clip scan of the relative placements (clip_scans.hpp).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <span>
 
@@ -43,7 +44,8 @@ void root_block_pass(const RootBoundQuery& q, std::size_t s_end, const LengthFra
 // The root-only bound of a term over a whole clip (box = its clip_root_boxes
 // row): Q^h ("in") lands at F^s plus its body offset d exactly; Q^h+1
 // ("out") at F^s + d turned, at least |d| minus the clip's root extent
-// from any F^e (per axis under "position").
+// from any F^e (per axis under "position"); for a frame that turns the body,
+// its height alone (relative_bounds.hpp).
 double clip_root_bound(const PairContext& pair, const RootBoundQuery& q,
                        const std::array<double, 9>& box, bool in) {
   const double dx = q.root_body.x(), dz = q.root_body.z();
@@ -51,7 +53,9 @@ double clip_root_bound(const PairContext& pair, const RootBoundQuery& q,
   const double yq = q.root_body.y();
   const double dy = yq < box[2] ? box[2] - yq : (yq > box[3] ? yq - box[3] : 0.0);
   double gx = 0.0, gz = 0.0;
-  if (pair.placement == FramePlacement::relative) {
+  if (q.turns) {
+    // A turn moves the segments otherwise than the root: the height alone.
+  } else if (pair.placement == FramePlacement::relative) {
     gx = std::max(0.0, std::hypot(dx, dz) - std::hypot(ex, ez));
   } else {
     gx = std::max(0.0, std::abs(dx) - ex);
@@ -111,13 +115,28 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   const bool bounded_a = prune && pair.in_bound != nullptr;
   const bool root_a = prune && !bounded_a && pair.root_in != nullptr;
   const bool root_b = prune && pair.out_bound == nullptr && pair.root_out != nullptr;
+  const bool turns = (root_a && pair.root_in->turns) || (root_b && pair.root_out->turns);
+  const double* headings = nullptr;  // and heading_cos_sin, 2 a frame
+  const double* cos_sin = nullptr;
+  const float* moments = nullptr;
   if (root_a || root_b) {
     ensure_frame_kinetic(skeleton);
-    if (pair.placement == FramePlacement::relative) frame_headings(skeleton);
-    scratch.root_blocks.build(skeleton, ci.frame_start, k);
+    if (pair.placement == FramePlacement::relative || turns) {
+      headings = frame_headings(skeleton).data() + ci.frame_start;
+      cos_sin = skeleton.caches.heading_cos_sin.data() + 2 * ci.frame_start;
+    }
+    if (turns) moments = frame_turn_moments(skeleton).data() + 4 * ci.frame_start;
+    if (root_b && !pair.root_out->turns) scratch.root_blocks.build(skeleton, ci.frame_start, k);
   }
   auto placed = [&](const RootBoundQuery& q, std::size_t f) {
     return place_point(skeleton, pair.placement, ci.frame_start + f, q.root_body);
+  };
+  // cos and sin of where a partial motion starting at f turns a turning
+  // frame (world).
+  auto placed_heading = [&](const RootBoundQuery& q, std::size_t f) {
+    const double psi =
+        q.heading_body + (pair.placement == FramePlacement::relative ? headings[f] : 0.0);
+    return std::array<double, 2>{std::cos(psi), std::sin(psi)};
   };
   const float* kin = skeleton.caches.kinetic.data() + ci.frame_start;
   const float* kin_rot = skeleton.caches.kinetic_rot.data() + ci.frame_start;
@@ -126,8 +145,13 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     const std::size_t st = skeleton.tables.frame_count;
     return Eigen::Vector3d(r[0], r[st], r[2 * st]);
   };
-  // A root-only frame's bound at frame f with its root placed at p (world).
-  auto root_frame_bound = [&](const RootBoundQuery& q, std::size_t f, const Eigen::Vector3d& p) {
+  // A root frame's bound at frame f with its root placed at p (world) and,
+  // for a turning one, its heading's cos and sin psi.
+  auto root_frame_bound = [&](const RootBoundQuery& q, std::size_t f, const Eigen::Vector3d& p,
+                              const std::array<double, 2>& psi) {
+    if (q.turns)
+      return turn_root_bound(q, moments + 4 * f, kin[f], kin_rot[f], root_at(f), cos_sin + 2 * f, p,
+                             psi[0], psi[1]);
     const Eigen::Vector3d d = p - root_at(f);
     return root_bound(q, kin[f], kin[f], kin_rot[f], d.x(), d.y(), d.z());
   };
@@ -138,7 +162,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
                                     place(s).apply(pair.in_bound->com_body));
   } else if (root_a) {
     for (std::size_t s = 0; s < s_end; ++s)
-      scratch.a[s] = root_frame_bound(*pair.root_in, s, placed(*pair.root_in, s));
+      scratch.a[s] = root_frame_bound(*pair.root_in, s, placed(*pair.root_in, s),
+                                      placed_heading(*pair.root_in, s));
   } else {
     for (std::size_t s = 0; s < s_end; ++s)
       evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
@@ -171,7 +196,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   } else {
     scratch.la.assign(s_end, 0.0);
   }
-  if (root_b) root_block_pass(*pair.root_out, s_end, len, tau, placed, scratch);
+  if (root_b && !pair.root_out->turns)
+    root_block_pass(*pair.root_out, s_end, len, tau, placed, scratch);
   double min_lb = kInf;
   for (std::size_t s = 0; s < s_end; ++s) min_lb = std::min(min_lb, scratch.a[s] + scratch.la[s]);
   if (prune && safe(min_lb) > tau) {
@@ -220,18 +246,21 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
       }
     } else if (root_b) {
       // Per block of end frames: the box of its roots against the placed
-      // query root (relative_bounds.hpp RootBlocks); path costs only grow.
+      // query root (relative_bounds.hpp RootBlocks), frame by frame for a
+      // turning frame; path costs only grow.
+      const RootBoundQuery& q = *pair.root_out;
       const RootBlocks& blocks = scratch.root_blocks;
-      const Eigen::Vector3d p = placed(*pair.root_out, s);
+      const Eigen::Vector3d p = placed(q, s);
+      const std::array<double, 2> psi =
+          q.turns ? placed_heading(q, s) : std::array<double, 2>{1.0, 0.0};
       const double base = scratch.a[s] - pair.lambda * prefix[s];
       constexpr std::size_t B = RootBlocks::kBlock;
       for (std::size_t j = e0 / B; j <= e1 / B; ++j) {
         const std::size_t lo = std::max(e0, j * B), hi = std::min(e1, j * B + B - 1);
-        const double lb = base + pair.lambda * prefix[lo] + blocks.bound(*pair.root_out, j, p);
-        if (safe(lb) > thr) continue;
+        if (!q.turns && safe(base + pair.lambda * prefix[lo] + blocks.bound(q, j, p)) > thr)
+          continue;
         for (std::size_t e = lo; e <= hi; ++e)  // then frame by frame
-          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(*pair.root_out, e, p)) <=
-              thr) {
+          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(q, e, p, psi)) <= thr) {
             first = std::min(first, e);
             last = e;
           }

@@ -112,7 +112,54 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
   for (std::size_t a = 0; a < 3; ++a)
     if (q.given[a])
       out.root_body[static_cast<Eigen::Index>(a)] = q.root_m[static_cast<Eigen::Index>(a)];
+  if (q.kind == FrameKind::partial && q.partial.spec.root_heading_rad) {
+    out.turns = true;
+    out.heading_body = *q.partial.spec.root_heading_rad;
+  }
   return out;
+}
+
+bool turn_bound_applies(const ResolvedFrame& q) {
+  return q.kind == FrameKind::partial && q.partial.spec.root_heading_rad.has_value() &&
+         q.partial.spec.joint_rotations.empty() && !q.solve && q.compared.empty();
+}
+
+const std::vector<float>& frame_turn_moments(const SkeletonData& skeleton) {
+  SkeletonCaches& caches = skeleton.caches;
+  std::call_once(caches.turn_once, [&] {
+    const SkeletonTables& tables = skeleton.tables;
+    const DynamicsModel& model = tables.model;
+    const std::size_t n = tables.frame_count;
+    std::vector<double> acc(4 * n, 0.0);
+    for (std::size_t b = 0; b < tables.segments; ++b) {
+      const auto j = static_cast<std::size_t>(model.segments[b]);
+      const double m = model.masses_kg[j];
+      const Eigen::Vector3d d = model.principal_moments_kgm2[j];
+      tables.for_each_tile_piece(
+          0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+            const std::size_t stride = tables.tile_stride(row);
+            const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
+            for (std::size_t i = 0; i < count; ++i) {
+              const std::size_t g = offset + i;
+              const double px = t[i] - tables.root_position(0, g);
+              const double pz = t[2 * stride + i] - tables.root_position(2, g);
+              // q = R P, world-from-principal: (I_world)_yy = sum_k D_k (q e_k)_y^2.
+              const double w = t[4 * stride + i], x = t[5 * stride + i], y = t[6 * stride + i],
+                           z = t[7 * stride + i];
+              const double n2 = w * w + x * x + y * y + z * z;
+              const double e0 = 2.0 * (x * y + w * z) / n2, e1 = 1.0 - 2.0 * (x * x + z * z) / n2,
+                           e2 = 2.0 * (y * z - w * x) / n2;
+              double* a = acc.data() + 4 * g;
+              a[0] += m * (px * px + pz * pz);
+              a[1] += m * px;
+              a[2] += m * pz;
+              a[3] += d.x() * e0 * e0 + d.y() * e1 * e1 + d.z() * e2 * e2;
+            }
+          });
+    }
+    caches.turn_moments.assign(acc.begin(), acc.end());
+  });
+  return caches.turn_moments;
 }
 
 void ensure_frame_kinetic(const SkeletonData& skeleton) {

@@ -68,13 +68,63 @@ inline double relative_bound(const RelativeBoundQuery& q, const RelativeBoundFra
 //     >= M g |d_y| + max(K, M |d|^2 / T^2 - K) + K^rot
 // (the sum of maxima is at least the maximum of the sums); over frames with
 // K in [K_lo, K_hi] and K^rot >= R_lo, max(K_lo, M |d|^2 / T^2 - K_hi) + R_lo.
+//
+// A root frame that also gives the heading (no joint rotations: the whole
+// body of F turned by delta = heading - F's heading about the vertical
+// through its root, then moved by d, every segment static) moves segment b
+// by d_b = (R_y(delta) - I) p_b + d, with p_b = c_b - root. Summed exactly,
+//   sum_b m_b |d_b|^2 = 2 (1 - cos delta) S + 2 d_xz . (R_y(delta) - I) P + M |d|^2
+// with S = sum_b m_b |p_b,xz|^2 and P = sum_b m_b p_b,xz, and every segment
+// turns by delta about +y, so sum_b 2 K^rot_u,b = delta^2 / T^2 J with
+// J = sum_b (I_b, world)_yy, and delta^2 >= 2 (1 - cos delta) (delta the short
+// way, |delta| <= pi). With dK >= max(K_A, 2 K_u - K_A) per segment:
+//   h >= M g |d_y| + max(K, sum_b m_b |d_b|^2 / T^2 - K)
+//        + max(K^rot, 2 (1 - cos delta) J / T^2 - K^rot).
+// Without a turn (delta = 0) this is the bound above. A turn can move the
+// segments less than the root's d (the cross term is negative), so the
+// boxes of root positions (RootBlocks, the clip's root box) bound a turning
+// frame through its height alone.
 struct RootBoundQuery {
   double mass = 0.0, g = 0.0, inv_t2 = 0.0;
   std::array<bool, 3> given{false, false, false};
   Eigen::Vector3d root_body = Eigen::Vector3d::Zero();  // given components, body frame
+  bool turns = false;                                   // the frame gives a heading
+  double heading_body = 0.0;                            // that heading in the body frame (radians)
 };
+// For a root_only frame, or a partial one that gives the root heading (and
+// perhaps root position components) and nothing else (turn_bound_applies).
 RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
                                      double t);
+// A partial frame the turning bound serves: a given heading, no joint
+// rotations or body-frame constraints.
+bool turn_bound_applies(const ResolvedFrame& q);
+
+// Per skeleton frame, S, P_x, P_z and J of the turning bound above, from the
+// scan table's floats (SkeletonCaches::turn_moments, 4 floats a frame);
+// computed once per skeleton.
+const std::vector<float>& frame_turn_moments(const SkeletonData& skeleton);
+
+// The turning bound for skeleton frame g (root r, cos and sin of its heading
+// cs_g, kinetic energies k and krot) and the query frame placed with its
+// root at `p` (world; components not given ignored) and the cos and sin of
+// its heading (world) cq, sq. No trigonometry: cos and sin of delta by the
+// angle-difference formulas, and delta^2 >= 2 (1 - cos delta).
+inline double turn_root_bound(const RootBoundQuery& q, const float* moments, double k, double krot,
+                              const Eigen::Vector3d& r, const double* cs_g,
+                              const Eigen::Vector3d& p, double cq, double sq) {
+  const double c = cq * cs_g[0] + sq * cs_g[1], s = sq * cs_g[0] - cq * cs_g[1];
+  const double dx = q.given[0] ? p.x() - r.x() : 0.0, dy = q.given[1] ? p.y() - r.y() : 0.0,
+               dz = q.given[2] ? p.z() - r.z() : 0.0;
+  const double px = static_cast<double>(moments[1]), pz = static_cast<double>(moments[2]);
+  const double cross = dx * ((c - 1.0) * px + s * pz) + dz * (-s * px + (c - 1.0) * pz);
+  const double one_minus_c = std::max(0.0, 1.0 - c);
+  const double sum = std::max(0.0, 2.0 * one_minus_c * static_cast<double>(moments[0]) +
+                                       2.0 * cross + q.mass * (dx * dx + dy * dy + dz * dz));
+  const double moved = sum * q.inv_t2 - k;
+  const double turned = 2.0 * one_minus_c * static_cast<double>(moments[3]) * q.inv_t2 - krot;
+  return (q.given[1] ? q.mass * q.g * std::abs(dy) : 0.0) + (moved > k ? moved : k) +
+         (turned > krot ? turned : krot);
+}
 
 // The bound for root distances (dx, dy, dz) (components not given ignored).
 inline double root_bound(const RootBoundQuery& q, double k_lo, double k_hi, double krot_lo,

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
@@ -16,6 +17,8 @@
 #include "mocap/search/search.hpp"
 #include "partial_bounds.hpp"
 #include "query_runner.hpp"
+#include "relative_bounds.hpp"
+#include "relative_frames.hpp"
 #include "search_engine_impl.hpp"
 #include "subtree_kernel.hpp"
 
@@ -251,6 +254,22 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
       evaluate_h(f, skeleton, *m.index, q.transition_time_s, g0, g1, h.data() + g0, scratch,
                  std::nullopt, nullptr, &tile);
     }
+  out.turn_lower.assign(n, 0.0);
+  if (turn_bound_applies(f)) {
+    const RootBoundQuery rq = make_root_bound_query(f, tables, q.transition_time_s);
+    ensure_frame_kinetic(skeleton);
+    frame_headings(skeleton);
+    const std::vector<float>& moments = frame_turn_moments(skeleton);
+    const double psi = *f.partial.spec.root_heading_rad;
+    for (std::size_t g = 0; g < n; ++g) {
+      const Eigen::Vector3d r(tables.root_position(0, g), tables.root_position(1, g),
+                              tables.root_position(2, g));
+      out.turn_lower[g] = turn_root_bound(
+          rq, moments.data() + 4 * g, static_cast<double>(skeleton.caches.kinetic[g]),
+          static_cast<double>(skeleton.caches.kinetic_rot[g]), r,
+          skeleton.caches.heading_cos_sin.data() + 2 * g, f.root_m, std::cos(psi), std::sin(psi));
+    }
+  }
   out.engine_h = h;
   set_subtree_plan(f, skeleton, *m.index, q.transition_time_s);
   if (!f.subtree.empty()) subtree_energy(f, tables, 0, n, out.engine_h.data(), scratch);

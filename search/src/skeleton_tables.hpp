@@ -243,6 +243,11 @@ struct SkeletonCaches {
   // segments, J (root-only bounds of relative placements; relative_bounds.hpp).
   std::once_flag kinetic_once;
   std::vector<float> kinetic, kinetic_rot;
+  // Per frame, the moments a turn of the whole body about the vertical
+  // through its root needs (root frames giving a heading;
+  // relative_bounds.hpp TurnMoments), made on first use.
+  std::once_flag turn_once;
+  std::vector<float> turn_moments;
   // Per clip row: ranges of the root x, y, z and of the kinetic energy
   // totals (RootBlocks's fields for the whole clip).
   std::vector<std::array<double, 9>> clip_root_boxes;
