@@ -209,6 +209,14 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   ClipBest best;
   bool have = false;
   scratch.b.resize(l);
+  // A Q^h+1 whose h does not depend on where it is placed (joint rotations,
+  // body-frame constraints: placement_free) is evaluated once per end frame,
+  // not once per (start, end) pair.
+  const bool b_free = placement_free(*pair.qb);
+  if (b_free) {
+    scratch.b_free.resize(k);
+    scratch.b_free_done.assign(k, 0);
+  }
   double best_out = 0.0;
   for (std::size_t s = 0; s < s_end; ++s) {
     const std::size_t e0 = s + len.min, e1 = std::min(k - 1, s + l);
@@ -273,12 +281,29 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
       first = e0;
       last = e1;
     }
-    evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + first,
-               ci.frame_start + last + 1, scratch.b.data(), scratch, at);
+    const double* bv = scratch.b.data() - first;  // bv[e] = b(s, e)
+    if (b_free) {
+      // The runs of [first, last] not yet computed, once per clip.
+      for (std::size_t e = first; e <= last;) {
+        if (scratch.b_free_done[e]) {
+          ++e;
+          continue;
+        }
+        std::size_t end = e;
+        while (end <= last && !scratch.b_free_done[end]) scratch.b_free_done[end++] = 1;
+        evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + e,
+                   ci.frame_start + end, scratch.b_free.data() + e, scratch, at);
+        e = end;
+      }
+      bv = scratch.b_free.data();
+    } else {
+      evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + first,
+                 ci.frame_start + last + 1, scratch.b.data(), scratch, at);
+    }
     counters.evaluated += last - first + 1;
     counters.pruned += (e1 - e0 + 1) - (last - first + 1);
     for (std::size_t e = first; e <= last; ++e) {
-      const double b = scratch.b[e - first];
+      const double b = bv[e];
       const double score = (b + pair.lambda * prefix[e]) + (scratch.a[s] - pair.lambda * prefix[s]);
       if (better(score, e, s, best, have)) {
         best = {score, s, e};

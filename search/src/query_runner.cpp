@@ -94,14 +94,6 @@ void QueryRunner::prepare_caches() {
     }
 }
 
-namespace {
-// A frame whose h does not depend on where it is placed: joint rotations only.
-bool placement_free(const ResolvedFrame& f) {
-  return f.kind == FrameKind::partial && !f.given[0] && !f.given[1] && !f.given[2] &&
-         !f.partial.spec.root_heading_rad;
-}
-}  // namespace
-
 bool QueryRunner::relative_pair(std::size_t h) const {
   if (!q_.relative()) return false;
   for (const auto& frames : resolved_)

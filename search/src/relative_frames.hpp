@@ -14,6 +14,14 @@
 
 namespace mocap::search_detail {
 
+// A frame whose h does not depend on where it is placed: a partial frame
+// giving no root position or heading (joint rotations, body-frame
+// constraints; they are completed in F's own body frame).
+inline bool placement_free(const ResolvedFrame& f) {
+  return f.kind == FrameKind::partial && !f.given[0] && !f.given[1] && !f.given[2] &&
+         !f.partial.spec.root_heading_rad;
+}
+
 // The given root x/z (f.root_m, f.given) and given heading of a frame that
 // is not full, moved by g (ground_pose.hpp): written into `spec` and
 // `root_scan` where not null (only the given components); returns f.root_m

@@ -50,6 +50,10 @@ struct Scratch {
   RelativeBoundFrames out_frames, in_frames;
   RootBlocks root_blocks;
   std::vector<std::uint8_t> a_exact;
+  // b(e) of a placement-free Q^h+1 (its h does not depend on s), per clip
+  // frame, and which of them are computed.
+  std::vector<double> b_free;
+  std::vector<std::uint8_t> b_free_done;
   HScanRootQuery shifted_root;
   PartialQuery shifted_partial;
   // Constrained frames: the solver's pose, the solved rotations, the terms.

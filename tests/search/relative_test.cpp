@@ -108,11 +108,15 @@ TEST(RelativeQuery, TurnedAndMovedQueryClipGivesTheSameResults) {
   const RawClip clip = read_bvh_file(original);
   ASSERT_GT(clip.frame_count, 60u);
   const std::size_t f0 = clip.frame_count / 5, f1 = f0 + 30, f2 = f0 + 45;
+  // Under the sanitizers (test_support.hpp) over the walks alone, one turn,
+  // without the brute runs (exact == brute on relative queries runs there in
+  // ExactEqualsBruteOnHeldOutQueriesSet1).
+  const std::string clips = test::kSanitizerBuild ? "\"clips\": [\"*walk*\"], " : "";
   auto query = [&](const fs::path& bvh, const std::string& relative) {
     return parse("{\"id\": \"turned\", \"relative\": " + relative + ", \"frames\": [" +
                  frame(bvh, f0) + ", " + frame(bvh, f1) + ", " +
                  frame(bvh, f2, ", \"only\": [\"root_position_xz\", \"RightUpperArm\"]") +
-                 "], \"filter\": {\"exclude\": [\"" + original.filename().string() +
+                 "], \"filter\": {" + clips + "\"exclude\": [\"" + original.filename().string() +
                  "\"]}, \"top\": 5}");
   };
   SearchOptions opt;
@@ -122,8 +126,6 @@ TEST(RelativeQuery, TurnedAndMovedQueryClipGivesTheSameResults) {
   ASSERT_EQ(base.pairs[0].results.size(), 5u);
   const QueryOutcome base_position = engine.run(query(original, "\"position\""), opt);
   bool position_changed = false;
-  // Under the sanitizers one turn, without the brute runs (exact == brute on
-  // relative queries runs there in ExactEqualsBruteOnHeldOutQueriesSet1).
   const std::vector<double> yaws = test::kSanitizerBuild
                                        ? std::vector<double>{-137.5}
                                        : std::vector<double>{90.0, -137.5, 180.0, 23.0};
@@ -338,4 +340,47 @@ TEST(RelativeQuery, TurnBoundNeverExceedsHSet1) {
   EXPECT_GT(checked, 50000u);
   EXPECT_GT(lb_sum, 0.9 * h_sum) << "the bound should recover most of h";
   std::printf("turning bound: %.3f of h on average over %zu frames\n", lb_sum / h_sum, checked);
+}
+
+// A placement-free second frame (body-frame constraints, joint rotations)
+// after a full BVH frame: the relative scan evaluates its h once per end
+// frame of a clip and reuses it for every start frame. Each result's h_out
+// is that frame's h against F^e as the world scan computes it
+// (FrameBounds::engine_h), and exact equals brute.
+TEST(RelativeQuery, PlacementFreeSecondFrameIsEvaluatedOncePerEndFrameSet1) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(index_path().empty());
+  const Index index = Index::open(index_path());
+  const SearchEngine engine(index);
+  const std::string walk =
+      (test::data_dir() / "bandai-namco-1/data/dataset-1_walk_normal_001.bvh").string();
+  const std::string seconds[] = {
+      R"({"effectors": {"RightHand": {"position_m": [-0.25, 1.29, 0.2], "tolerance_m": 0.05}}})",
+      R"({"joints": {"RightForeArm": {"euler_deg": [0, 0, 60], "order": "ZXY"}}})",
+  };
+  const std::string filter =
+      test::kSanitizerBuild
+          ? R"("filter": {"clips": ["*_normal_*"], "exclude": ["*walk_normal_001*"]})"
+          : R"("filter": {"exclude": ["*walk_normal_001*"]})";
+  for (const std::string& second : seconds) {
+    const std::string frames = "[" + frame(walk, 40) + ", " + second + "]";
+    const Query q =
+        parse(R"({"top": 5, "max_length_s": 1.5, "frames": )" + frames + ", " + filter + "}");
+    SearchOptions exact, brute;
+    brute.mode = SearchMode::brute;
+    const QueryOutcome e = engine.run(q, exact);
+    ASSERT_FALSE(e.error) << *e.error;
+    ASSERT_EQ(e.pairs[0].results.size(), 5u) << second;
+    test::expect_same_results(e, engine.run(q, brute), second, 0.0);
+    const Query world = parse(R"({"relative": false, "frames": )" + frames + "}");
+    for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
+      const FrameBounds fb = engine.frame_bounds(world, 1, k);
+      for (const SearchResult& r : e.pairs[0].results) {
+        const IndexClip& c = index.clips()[r.clip_index];
+        if (c.skeleton != k) continue;
+        EXPECT_NEAR(r.h_out_J, fb.engine_h[c.frame_start + r.end_frame], 1e-9 * (1.0 + r.h_out_J))
+            << second << " " << r.clip << " " << r.end_frame;
+      }
+    }
+  }
 }
