@@ -64,6 +64,24 @@ double clip_root_bound(const PairContext& pair, const RootBoundQuery& q,
   return root_bound(q, box[6], box[7], box[8], gx, dy, gz);
 }
 
+// b(e) of a placement-free Q^h+1 over the clip frames [first, last]: the
+// runs of them not computed yet for this clip, into scratch.b_free (no
+// placement: the frame's h does not depend on it).
+void evaluate_free_frames(const PairContext& pair, const ClipInfo& ci, std::size_t first,
+                          std::size_t last, Scratch& scratch) {
+  for (std::size_t e = first; e <= last;) {
+    if (scratch.b_free_done[e]) {
+      ++e;
+      continue;
+    }
+    std::size_t end = e;
+    while (end <= last && !scratch.b_free_done[end]) scratch.b_free_done[end++] = 1;
+    evaluate_h(*pair.qb, *pair.skeleton, *pair.index, pair.t, ci.frame_start + e,
+               ci.frame_start + end, scratch.b_free.data() + e, scratch);
+    e = end;
+  }
+}
+
 }  // namespace
 
 double relative_clip_bound(const PairContext& pair, std::size_t row) {
@@ -281,21 +299,12 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
       first = e0;
       last = e1;
     }
-    const double* bv = scratch.b.data() - first;  // bv[e] = b(s, e)
+    const double* bv = scratch.b.data();  // bv[e - b0] = b(s, e)
+    std::size_t b0 = first;
     if (b_free) {
-      // The runs of [first, last] not yet computed, once per clip.
-      for (std::size_t e = first; e <= last;) {
-        if (scratch.b_free_done[e]) {
-          ++e;
-          continue;
-        }
-        std::size_t end = e;
-        while (end <= last && !scratch.b_free_done[end]) scratch.b_free_done[end++] = 1;
-        evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + e,
-                   ci.frame_start + end, scratch.b_free.data() + e, scratch, at);
-        e = end;
-      }
+      evaluate_free_frames(pair, ci, first, last, scratch);
       bv = scratch.b_free.data();
+      b0 = 0;
     } else {
       evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + first,
                  ci.frame_start + last + 1, scratch.b.data(), scratch, at);
@@ -303,7 +312,7 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     counters.evaluated += last - first + 1;
     counters.pruned += (e1 - e0 + 1) - (last - first + 1);
     for (std::size_t e = first; e <= last; ++e) {
-      const double b = bv[e];
+      const double b = bv[e - b0];
       const double score = (b + pair.lambda * prefix[e]) + (scratch.a[s] - pair.lambda * prefix[s]);
       if (better(score, e, s, best, have)) {
         best = {score, s, e};
