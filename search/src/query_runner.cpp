@@ -67,7 +67,7 @@ void QueryRunner::prepare() {
               pair[side].compared.empty())  // masked frames: no bound (resolve.hpp)
             ob[side] =
                 make_relative_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
-          if (pair[side].kind == FrameKind::root_only || turn_bound_applies(pair[side]))
+          if (root_bound_applies(pair[side]))
             rb[side] =
                 make_root_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
         }

@@ -107,7 +107,14 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
   const DynamicsModel& model = tables.model;
   out.g = model.params.gravity_mps2;
   out.inv_t2 = 1.0 / (t * t);
-  for (int b : model.segments) out.mass += model.masses_kg[static_cast<std::size_t>(b)];
+  // The mass outside the given joints' subtrees (all of it for root-only
+  // and turning frames).
+  const std::vector<std::uint8_t>& inside = q.partial.in_subtree;
+  for (int b : model.segments) {
+    const auto j = static_cast<std::size_t>(b);
+    if (q.kind == FrameKind::partial && j < inside.size() && inside[j]) continue;
+    out.mass += model.masses_kg[j];
+  }
   out.given = q.given;
   for (std::size_t a = 0; a < 3; ++a)
     if (q.given[a])
@@ -119,9 +126,12 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
   return out;
 }
 
-bool turn_bound_applies(const ResolvedFrame& q) {
-  return q.kind == FrameKind::partial && q.partial.spec.root_heading_rad.has_value() &&
-         q.partial.spec.joint_rotations.empty() && !q.solve && q.compared.empty();
+bool root_bound_applies(const ResolvedFrame& q) {
+  if (q.kind == FrameKind::root_only) return true;
+  if (q.kind != FrameKind::partial || q.solve || !q.compared.empty()) return false;
+  const PartialPoseSpec& spec = q.partial.spec;
+  if (spec.root_heading_rad) return spec.joint_rotations.empty();
+  return !spec.joint_rotations.empty() && (q.given[0] || q.given[1] || q.given[2]);
 }
 
 const std::vector<float>& frame_turn_moments(const SkeletonData& skeleton) {

@@ -91,13 +91,23 @@ struct RootBoundQuery {
   bool turns = false;                                   // the frame gives a heading
   double heading_body = 0.0;                            // that heading in the body frame (radians)
 };
-// For a root_only frame, or a partial one that gives the root heading (and
-// perhaps root position components) and nothing else (turn_bound_applies).
+//
+// A partial frame giving root position components and joint rotations (a
+// BVH frame with "only": ["root_position_xz", "RightArm"], say) moves the
+// segments outside the given joints' subtrees by d, and makes the ones
+// inside static (dK >= K_b, K_b^rot): the bound above holds with M the mass
+// outside those subtrees (M' <= M), K and K^rot still summed over every
+// segment, since each segment costs at least its own.
+//
+// For a frame root_bound_applies accepts.
 RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
                                      double t);
-// A partial frame the turning bound serves: a given heading, no joint
-// rotations or body-frame constraints.
-bool turn_bound_applies(const ResolvedFrame& q);
+// The frames these bounds serve: root-only frames; partial frames giving the
+// root heading (and perhaps root position components) and no joint
+// rotations (turning frames); partial frames giving root position
+// components and joint rotations but no heading. Never frames with
+// body-frame constraints or a segment mask.
+bool root_bound_applies(const ResolvedFrame& q);
 
 // Per skeleton frame, S, P_x, P_z and J of the turning bound above, from the
 // scan table's floats (SkeletonCaches::turn_moments, 4 floats a frame);

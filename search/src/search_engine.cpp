@@ -254,20 +254,23 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
       evaluate_h(f, skeleton, *m.index, q.transition_time_s, g0, g1, h.data() + g0, scratch,
                  std::nullopt, nullptr, &tile);
     }
-  out.turn_lower.assign(n, 0.0);
-  if (turn_bound_applies(f)) {
+  out.root_lower.assign(n, 0.0);
+  if (root_bound_applies(f)) {
     const RootBoundQuery rq = make_root_bound_query(f, tables, q.transition_time_s);
     ensure_frame_kinetic(skeleton);
     frame_headings(skeleton);
     const std::vector<float>& moments = frame_turn_moments(skeleton);
-    const double psi = *f.partial.spec.root_heading_rad;
+    const double psi = rq.turns ? *f.partial.spec.root_heading_rad : 0.0;
     for (std::size_t g = 0; g < n; ++g) {
       const Eigen::Vector3d r(tables.root_position(0, g), tables.root_position(1, g),
                               tables.root_position(2, g));
-      out.turn_lower[g] = turn_root_bound(
-          rq, moments.data() + 4 * g, static_cast<double>(skeleton.caches.kinetic[g]),
-          static_cast<double>(skeleton.caches.kinetic_rot[g]), r,
-          skeleton.caches.heading_cos_sin.data() + 2 * g, f.root_m, std::cos(psi), std::sin(psi));
+      const auto kin = static_cast<double>(skeleton.caches.kinetic[g]);
+      const auto krot = static_cast<double>(skeleton.caches.kinetic_rot[g]);
+      const Eigen::Vector3d d = f.root_m - r;
+      out.root_lower[g] = rq.turns ? turn_root_bound(rq, moments.data() + 4 * g, kin, krot, r,
+                                                     skeleton.caches.heading_cos_sin.data() + 2 * g,
+                                                     f.root_m, std::cos(psi), std::sin(psi))
+                                   : root_bound(rq, kin, kin, krot, d.x(), d.y(), d.z());
     }
   }
   out.engine_h = h;

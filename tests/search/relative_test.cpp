@@ -291,55 +291,74 @@ TEST(RelativeQuery, ExactEqualsBruteOnHeldOutQueriesSet1) {
   EXPECT_GE(pruned, count / 2) << "exact mode should prune";
 }
 
-// Root frames that give a heading (and no joint rotations) get the turning
-// bound in relative placements (relative_bounds.hpp): the whole body turned
-// about the vertical through its root, then moved. It never exceeds h, with
-// the slack the engine compares with, on every frame of set 1, for headings
-// all round, with and without root position components and a given height,
-// and T = 0.25..1 s; and it is not vacuous where the turn is large.
-TEST(RelativeQuery, TurnBoundNeverExceedsHSet1) {
+// Root frames get per-frame bounds in relative placements
+// (relative_bounds.hpp): root-only frames; frames giving a heading and no
+// joint rotations (the whole body turned about the vertical through its
+// root, then moved); frames giving root position components and joint
+// rotations (the mass outside the given subtrees moved). Each never exceeds
+// h, with the slack the engine compares with, on every frame of set 1:
+// headings all round, with and without root positions and a given height,
+// BVH frames with the root's ground position and an arm, hand-written root
+// positions with a forearm, T = 0.25..1 s; and the turning bound recovers
+// most of h.
+TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
   MOCAP_REQUIRE_DATA();
   ASSERT_FALSE(index_path().empty());
   const Index index = Index::open(index_path());
   const SearchEngine engine(index);
   std::mt19937 rng(404);
-  const std::size_t count = test::kSanitizerBuild ? 3 : 9;
-  double lb_sum = 0.0, h_sum = 0.0;
+  const std::size_t count = test::kSanitizerBuild ? 5 : 15;
+  double turn_lb = 0.0, turn_h = 0.0, joint_lb = 0.0, joint_h = 0.0;
   std::size_t checked = 0;
+  const auto& clips = index.clips();
   for (std::size_t i = 0; i < count; ++i) {
     const int heading = static_cast<int>(rng() % 360) - 180;
     const double x = static_cast<double>(rng() % 600) / 100.0 - 3.0;
-    std::string root;
-    switch (i % 3) {
+    const IndexClip& c = clips[rng() % clips.size()];
+    const std::size_t fr = rng() % c.frame_count;
+    const std::string h = "\"root_heading_deg\": " + std::to_string(heading);
+    std::string f;
+    switch (i % 5) {
       case 0:  // the heading alone
+        f = "{" + h + "}";
         break;
       case 1:
-        root = "\"root_position\": [" + std::to_string(x) + ", null, -1.0], ";
+        f = "{\"root_position\": [" + std::to_string(x) + ", null, -1.0], " + h + "}";
         break;
-      default:
-        root = "\"root_position\": [" + std::to_string(x) + ", 0.9, 0.4], ";
+      case 2:
+        f = "{\"root_position\": [" + std::to_string(x) + ", 0.9, 0.4], " + h + "}";
+        break;
+      case 3:  // a BVH frame's root ground position and an arm
+        f = "{\"bvh\": \"" + c.path + "\", \"frame\": " + std::to_string(fr) +
+            ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+        break;
+      default:  // a root position and a forearm
+        f = "{\"root_position\": [" + std::to_string(x) +
+            ", 0.95, 0.2], \"joints\": {\"RightForeArm\": {\"euler_deg\": [" +
+            std::to_string(heading) + ", 30, 0], \"order\": \"ZXY\"}}}";
     }
     const double t = i % 3 == 0 ? 0.25 : (i % 3 == 1 ? 0.5 : 1.0);
-    const std::string f = "{" + root + "\"root_heading_deg\": " + std::to_string(heading) + "}";
     const Query q = parse(
         "{\"relative\": false, \"frames\": [" + f +
         ", {\"root_position\": [0, null, 0]}], \"transition_time\": " + std::to_string(t) + "}");
     for (std::size_t k = 0; k < index.skeletons().size(); ++k) {
       const FrameBounds bounds = engine.frame_bounds(q, 0, k);
-      ASSERT_EQ(bounds.turn_lower.size(), bounds.h.size());
+      ASSERT_EQ(bounds.root_lower.size(), bounds.h.size());
       for (std::size_t g = 0; g < bounds.h.size(); ++g) {
-        const double lb = bounds.turn_lower[g], h = bounds.h[g];
-        ASSERT_TRUE(std::isfinite(lb) && std::isfinite(h)) << f << " frame " << g;
-        ASSERT_LE(lb * (1.0 - 1e-4) - 1e-3, h) << f << " T " << t << " frame " << g;
-        lb_sum += lb;
-        h_sum += h;
+        const double lb = bounds.root_lower[g], hv = bounds.h[g];
+        ASSERT_TRUE(std::isfinite(lb) && std::isfinite(hv)) << f << " frame " << g;
+        ASSERT_LE(lb * (1.0 - 1e-4) - 1e-3, hv) << f << " T " << t << " frame " << g;
+        (i % 5 < 3 ? turn_lb : joint_lb) += lb;
+        (i % 5 < 3 ? turn_h : joint_h) += hv;
         ++checked;
       }
     }
   }
-  EXPECT_GT(checked, 50000u);
-  EXPECT_GT(lb_sum, 0.9 * h_sum) << "the bound should recover most of h";
-  std::printf("turning bound: %.3f of h on average over %zu frames\n", lb_sum / h_sum, checked);
+  EXPECT_GT(checked, 100000u);
+  EXPECT_GT(turn_lb, 0.9 * turn_h) << "the turning bound should recover most of h";
+  EXPECT_GT(joint_lb, 0.0) << "the root-and-joints bound should not be the zero bound";
+  std::printf("root bounds: turning %.3f, root and joints %.3f of h on average over %zu frames\n",
+              turn_lb / turn_h, joint_lb / joint_h, checked);
 }
 
 // A placement-free second frame (body-frame constraints, joint rotations)

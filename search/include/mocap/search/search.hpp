@@ -157,10 +157,12 @@ struct FrameBounds {
   /// docs/search.md "Partial queries"), and as the double reference computes
   /// it; 0 for other frames.
   std::vector<double> partial_lower, partial_reference;
-  /// Partial frames that give the root heading and no joint rotations: the
-  /// turning bound of relative placements (docs/search.md "Relative
-  /// placements"), for the frame placed as written; 0 for other frames.
-  std::vector<double> turn_lower;
+  /// Root-only frames, frames giving the root heading and no joint
+  /// rotations, and frames giving root position components and joint
+  /// rotations: the per-frame root bound of relative placements
+  /// (docs/search.md "Root-only frames", "Turning frames"), for the frame
+  /// placed as written; 0 for other frames.
+  std::vector<double> root_lower;
 };
 
 /// The engine: per-skeleton tables (h scan table transposed from the index,
