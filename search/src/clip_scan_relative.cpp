@@ -136,14 +136,18 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   const bool turns = (root_a && pair.root_in->turns) || (root_b && pair.root_out->turns);
   const double* headings = nullptr;  // and heading_cos_sin, 2 a frame
   const double* cos_sin = nullptr;
-  const float* moments = nullptr;
+  const float* moments_in = nullptr;  // the turning frames' moments (turn_moments_of)
+  const float* moments_out = nullptr;
   if (root_a || root_b) {
     ensure_frame_kinetic(skeleton);
     if (pair.placement == FramePlacement::relative || turns) {
       headings = frame_headings(skeleton).data() + ci.frame_start;
       cos_sin = skeleton.caches.heading_cos_sin.data() + 2 * ci.frame_start;
     }
-    if (turns) moments = frame_turn_moments(skeleton).data() + 4 * ci.frame_start;
+    if (root_a && pair.root_in->turns)
+      moments_in = turn_moments_of(*pair.root_in, skeleton) + 4 * ci.frame_start;
+    if (root_b && pair.root_out->turns)
+      moments_out = turn_moments_of(*pair.root_out, skeleton) + 4 * ci.frame_start;
     if (root_b && !pair.root_out->turns) scratch.root_blocks.build(skeleton, ci.frame_start, k);
   }
   auto placed = [&](const RootBoundQuery& q, std::size_t f) {
@@ -168,8 +172,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
   auto root_frame_bound = [&](const RootBoundQuery& q, std::size_t f, const Eigen::Vector3d& p,
                               const std::array<double, 2>& psi) {
     if (q.turns)
-      return turn_root_bound(q, moments + 4 * f, kin[f], kin_rot[f], root_at(f), cos_sin + 2 * f, p,
-                             psi[0], psi[1]);
+      return turn_root_bound(q, (&q == pair.root_in ? moments_in : moments_out) + 4 * f, kin[f],
+                             kin_rot[f], root_at(f), cos_sin + 2 * f, p, psi[0], psi[1]);
     const Eigen::Vector3d d = p - root_at(f);
     return root_bound(q, kin[f], kin[f], kin_rot[f], d.x(), d.y(), d.z());
   };

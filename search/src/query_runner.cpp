@@ -68,8 +68,7 @@ void QueryRunner::prepare() {
             ob[side] =
                 make_relative_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
           if (root_bound_applies(pair[side]))
-            rb[side] =
-                make_root_bound_query(pair[side], skeletons_[k]->tables, q_.transition_time_s);
+            rb[side] = make_root_bound_query(pair[side], *skeletons_[k], q_.transition_time_s);
         }
       }
   }

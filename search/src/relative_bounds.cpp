@@ -101,19 +101,61 @@ void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& ta
     }
 }
 
-RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
+namespace {
+
+// Adds segment b's terms of S, P_x, P_z and J (relative_bounds.hpp) to each
+// skeleton frame's 4 values in `acc`, from the scan table's floats.
+void add_turn_moments(const SkeletonTables& tables, std::size_t b, std::vector<double>& acc) {
+  const DynamicsModel& model = tables.model;
+  const auto j = static_cast<std::size_t>(model.segments[b]);
+  const double m = model.masses_kg[j];
+  const Eigen::Vector3d d = model.principal_moments_kgm2[j];
+  tables.for_each_tile_piece(
+      0, tables.frame_count,
+      [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
+        const std::size_t stride = tables.tile_stride(row);
+        const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
+        for (std::size_t i = 0; i < count; ++i) {
+          const std::size_t g = offset + i;
+          const double px = t[i] - tables.root_position(0, g);
+          const double pz = t[2 * stride + i] - tables.root_position(2, g);
+          // q = R P, world-from-principal: (I_world)_yy = sum_k D_k (q e_k)_y^2.
+          const double w = t[4 * stride + i], x = t[5 * stride + i], y = t[6 * stride + i],
+                       z = t[7 * stride + i];
+          const double n2 = w * w + x * x + y * y + z * z;
+          const double e0 = 2.0 * (x * y + w * z) / n2, e1 = 1.0 - 2.0 * (x * x + z * z) / n2,
+                       e2 = 2.0 * (y * z - w * x) / n2;
+          double* a = acc.data() + 4 * g;
+          a[0] += m * (px * px + pz * pz);
+          a[1] += m * px;
+          a[2] += m * pz;
+          a[3] += d.x() * e0 * e0 + d.y() * e1 * e1 + d.z() * e2 * e2;
+        }
+      });
+}
+
+}  // namespace
+
+RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonData& skeleton,
                                      double t) {
   RootBoundQuery out;
+  const SkeletonTables& tables = skeleton.tables;
   const DynamicsModel& model = tables.model;
   out.g = model.params.gravity_mps2;
   out.inv_t2 = 1.0 / (t * t);
   // The mass outside the given joints' subtrees (all of it for root-only
-  // and turning frames).
+  // frames and frames without joint rotations).
   const std::vector<std::uint8_t>& inside = q.partial.in_subtree;
-  for (int b : model.segments) {
-    const auto j = static_cast<std::size_t>(b);
-    if (q.kind == FrameKind::partial && j < inside.size() && inside[j]) continue;
-    out.mass += model.masses_kg[j];
+  auto outside = [&](std::size_t b) {
+    const auto j = static_cast<std::size_t>(model.segments[b]);
+    return q.kind != FrameKind::partial || j >= inside.size() || !inside[j];
+  };
+  bool all = true;
+  for (std::size_t b = 0; b < model.segments.size(); ++b) {
+    if (outside(b))
+      out.mass += model.masses_kg[static_cast<std::size_t>(model.segments[b])];
+    else
+      all = false;
   }
   out.given = q.given;
   for (std::size_t a = 0; a < 3; ++a)
@@ -122,6 +164,12 @@ RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTable
   if (q.kind == FrameKind::partial && q.partial.spec.root_heading_rad) {
     out.turns = true;
     out.heading_body = *q.partial.spec.root_heading_rad;
+    if (!all) {  // a heading and joint rotations: the moments of the segments outside
+      std::vector<double> acc(4 * tables.frame_count, 0.0);
+      for (std::size_t b = 0; b < model.segments.size(); ++b)
+        if (outside(b)) add_turn_moments(tables, b, acc);
+      out.moments.assign(acc.begin(), acc.end());
+    }
   }
   return out;
 }
@@ -130,46 +178,23 @@ bool root_bound_applies(const ResolvedFrame& q) {
   if (q.kind == FrameKind::root_only) return true;
   if (q.kind != FrameKind::partial || q.solve || !q.compared.empty()) return false;
   const PartialPoseSpec& spec = q.partial.spec;
-  if (spec.root_heading_rad) return spec.joint_rotations.empty();
-  return !spec.joint_rotations.empty() && (q.given[0] || q.given[1] || q.given[2]);
+  return spec.root_heading_rad ||
+         (!spec.joint_rotations.empty() && (q.given[0] || q.given[1] || q.given[2]));
 }
 
 const std::vector<float>& frame_turn_moments(const SkeletonData& skeleton) {
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.turn_once, [&] {
     const SkeletonTables& tables = skeleton.tables;
-    const DynamicsModel& model = tables.model;
-    const std::size_t n = tables.frame_count;
-    std::vector<double> acc(4 * n, 0.0);
-    for (std::size_t b = 0; b < tables.segments; ++b) {
-      const auto j = static_cast<std::size_t>(model.segments[b]);
-      const double m = model.masses_kg[j];
-      const Eigen::Vector3d d = model.principal_moments_kgm2[j];
-      tables.for_each_tile_piece(
-          0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
-            const std::size_t stride = tables.tile_stride(row);
-            const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
-            for (std::size_t i = 0; i < count; ++i) {
-              const std::size_t g = offset + i;
-              const double px = t[i] - tables.root_position(0, g);
-              const double pz = t[2 * stride + i] - tables.root_position(2, g);
-              // q = R P, world-from-principal: (I_world)_yy = sum_k D_k (q e_k)_y^2.
-              const double w = t[4 * stride + i], x = t[5 * stride + i], y = t[6 * stride + i],
-                           z = t[7 * stride + i];
-              const double n2 = w * w + x * x + y * y + z * z;
-              const double e0 = 2.0 * (x * y + w * z) / n2, e1 = 1.0 - 2.0 * (x * x + z * z) / n2,
-                           e2 = 2.0 * (y * z - w * x) / n2;
-              double* a = acc.data() + 4 * g;
-              a[0] += m * (px * px + pz * pz);
-              a[1] += m * px;
-              a[2] += m * pz;
-              a[3] += d.x() * e0 * e0 + d.y() * e1 * e1 + d.z() * e2 * e2;
-            }
-          });
-    }
+    std::vector<double> acc(4 * tables.frame_count, 0.0);
+    for (std::size_t b = 0; b < tables.segments; ++b) add_turn_moments(tables, b, acc);
     caches.turn_moments.assign(acc.begin(), acc.end());
   });
   return caches.turn_moments;
+}
+
+const float* turn_moments_of(const RootBoundQuery& q, const SkeletonData& skeleton) {
+  return q.moments.empty() ? frame_turn_moments(skeleton).data() : q.moments.data();
 }
 
 void ensure_frame_kinetic(const SkeletonData& skeleton) {

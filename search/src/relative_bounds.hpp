@@ -90,29 +90,35 @@ struct RootBoundQuery {
   Eigen::Vector3d root_body = Eigen::Vector3d::Zero();  // given components, body frame
   bool turns = false;                                   // the frame gives a heading
   double heading_body = 0.0;                            // that heading in the body frame (radians)
+  // A turning frame with joint rotations: S, P_x, P_z, J over the segments
+  // outside the given subtrees, 4 floats per skeleton frame; empty: every
+  // segment (frame_turn_moments).
+  std::vector<float> moments;
 };
 //
-// A partial frame giving root position components and joint rotations (a
-// BVH frame with "only": ["root_position_xz", "RightArm"], say) moves the
-// segments outside the given joints' subtrees by d, and makes the ones
-// inside static (dK >= K_b, K_b^rot): the bound above holds with M the mass
-// outside those subtrees (M' <= M), K and K^rot still summed over every
-// segment, since each segment costs at least its own.
+// A partial frame giving root position components or a heading, and joint
+// rotations (a BVH frame with "only": ["root_position_xz", "RightArm"],
+// say) moves the segments outside the given joints' subtrees as above, and
+// makes the ones inside static (dK >= K_b, K_b^rot): the bounds above hold
+// with M, S, P and J over the segments outside those subtrees, K and K^rot
+// still summed over every segment, since each segment costs at least its
+// own.
 //
 // For a frame root_bound_applies accepts.
-RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonTables& tables,
+RootBoundQuery make_root_bound_query(const ResolvedFrame& q, const SkeletonData& skeleton,
                                      double t);
 // The frames these bounds serve: root-only frames; partial frames giving the
-// root heading (and perhaps root position components) and no joint
-// rotations (turning frames); partial frames giving root position
-// components and joint rotations but no heading. Never frames with
-// body-frame constraints or a segment mask.
+// root heading (turning frames), or root position components and joint
+// rotations. Never frames with body-frame constraints or a segment mask.
 bool root_bound_applies(const ResolvedFrame& q);
 
 // Per skeleton frame, S, P_x, P_z and J of the turning bound above, from the
 // scan table's floats (SkeletonCaches::turn_moments, 4 floats a frame);
 // computed once per skeleton.
 const std::vector<float>& frame_turn_moments(const SkeletonData& skeleton);
+// The moments a turning frame's bound reads: its own (q.moments) or the
+// skeleton's (frame_turn_moments); 4 floats per skeleton frame.
+const float* turn_moments_of(const RootBoundQuery& q, const SkeletonData& skeleton);
 
 // The turning bound for skeleton frame g (root r, cos and sin of its heading
 // cs_g, kinetic energies k and krot) and the query frame placed with its

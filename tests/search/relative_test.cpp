@@ -231,7 +231,7 @@ std::vector<Query> held_out_queries(const Index& index, std::size_t count) {
       const std::size_t fr = std::min<std::size_t>(c.frame_count - 1, first + f * (span / 2));
       const std::string bvh = "\"bvh\": \"" + c.path + "\", \"frame\": " + std::to_string(fr);
       std::string one;
-      switch (i % 5) {
+      switch (i % 6) {
         case 0:
         case 1:
           one = "{" + bvh + "}";
@@ -295,11 +295,12 @@ TEST(RelativeQuery, ExactEqualsBruteOnHeldOutQueriesSet1) {
 // (relative_bounds.hpp): root-only frames; frames giving a heading and no
 // joint rotations (the whole body turned about the vertical through its
 // root, then moved); frames giving root position components and joint
-// rotations (the mass outside the given subtrees moved). Each never exceeds
-// h, with the slack the engine compares with, on every frame of set 1:
-// headings all round, with and without root positions and a given height,
-// BVH frames with the root's ground position and an arm, hand-written root
-// positions with a forearm, T = 0.25..1 s; and the turning bound recovers
+// rotations, or a heading and joint rotations (the segments outside the
+// given subtrees moved). Each never exceeds h, with the slack the engine
+// compares with, on every frame of set 1: headings all round, with and
+// without root positions and a given height, BVH frames with the root's
+// ground position (and heading) and an arm, a hand-written heading or root
+// position with a forearm, T = 0.25..1 s; and the turning bound recovers
 // most of h.
 TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
   MOCAP_REQUIRE_DATA();
@@ -307,7 +308,7 @@ TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
   const Index index = Index::open(index_path());
   const SearchEngine engine(index);
   std::mt19937 rng(404);
-  const std::size_t count = test::kSanitizerBuild ? 5 : 15;
+  const std::size_t count = test::kSanitizerBuild ? 6 : 18;
   double turn_lb = 0.0, turn_h = 0.0, joint_lb = 0.0, joint_h = 0.0;
   std::size_t checked = 0;
   const auto& clips = index.clips();
@@ -318,7 +319,7 @@ TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
     const std::size_t fr = rng() % c.frame_count;
     const std::string h = "\"root_heading_deg\": " + std::to_string(heading);
     std::string f;
-    switch (i % 5) {
+    switch (i % 6) {
       case 0:  // the heading alone
         f = "{" + h + "}";
         break;
@@ -328,9 +329,15 @@ TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
       case 2:
         f = "{\"root_position\": [" + std::to_string(x) + ", 0.9, 0.4], " + h + "}";
         break;
-      case 3:  // a BVH frame's root ground position and an arm
+      case 3:  // a BVH frame's root ground position (and heading) and an arm
         f = "{\"bvh\": \"" + c.path + "\", \"frame\": " + std::to_string(fr) +
-            ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}";
+            (i % 12 == 3
+                 ? ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}"
+                 : ", \"only\": [\"root_position_xz\", \"root_heading\", \"LeftUpperArm\"]}");
+        break;
+      case 4:  // a heading and a forearm
+        f = "{" + h + ", \"joints\": {\"LeftForeArm\": {\"euler_deg\": [20, 40, 0], " +
+            "\"order\": \"ZXY\"}}}";
         break;
       default:  // a root position and a forearm
         f = "{\"root_position\": [" + std::to_string(x) +
@@ -348,8 +355,8 @@ TEST(RelativeQuery, RootBoundsNeverExceedHSet1) {
         const double lb = bounds.root_lower[g], hv = bounds.h[g];
         ASSERT_TRUE(std::isfinite(lb) && std::isfinite(hv)) << f << " frame " << g;
         ASSERT_LE(lb * (1.0 - 1e-4) - 1e-3, hv) << f << " T " << t << " frame " << g;
-        (i % 5 < 3 ? turn_lb : joint_lb) += lb;
-        (i % 5 < 3 ? turn_h : joint_h) += hv;
+        (i % 6 < 3 ? turn_lb : joint_lb) += lb;
+        (i % 6 < 3 ? turn_h : joint_h) += hv;
         ++checked;
       }
     }
