@@ -213,10 +213,9 @@ namespace {
 // Held-out relative queries over set 1 ("relative": true; the query's clip
 // excluded): 2 or 3 frames in time order from one clip, a window of up to
 // 1.5 s; in turn full BVH frames (two in five), the root's ground position
-// of BVH frames ("only") with an arm or alone (every other of those alone
-// under "position"), a hand-written root path (every other one with
-// headings; one in four of the others headings alone), and a hand-written
-// first frame before BVH frames.
+// of BVH frames ("only") with an arm (every other one with the heading too) or alone (every other
+// of those alone under "position"), a hand-written root path (every other one with headings; one in
+// four of the others headings alone), and a hand-written first frame before BVH frames.
 std::vector<Query> held_out_queries(const Index& index, std::size_t count) {
   std::mt19937 rng(2026);
   std::vector<Query> out;
@@ -231,15 +230,17 @@ std::vector<Query> held_out_queries(const Index& index, std::size_t count) {
       const std::size_t fr = std::min<std::size_t>(c.frame_count - 1, first + f * (span / 2));
       const std::string bvh = "\"bvh\": \"" + c.path + "\", \"frame\": " + std::to_string(fr);
       std::string one;
-      switch (i % 6) {
+      switch (i % 5) {
         case 0:
         case 1:
           one = "{" + bvh + "}";
           break;
-        case 2:  // the root's ground position with an arm, or alone (root-only bounds)
+        case 2:  // the root's ground position (and heading) with an arm, or alone (root bounds)
           one = "{" + bvh +
-                (i % 10 == 2 ? ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}"
-                             : ", \"only\": [\"root_position_xz\"]}");
+                (i % 20 == 12
+                     ? ", \"only\": [\"root_position_xz\", \"root_heading\", \"LeftUpperArm\"]}"
+                 : i % 10 == 2 ? ", \"only\": [\"root_position_xz\", \"LeftUpperArm\"]}"
+                               : ", \"only\": [\"root_position_xz\"]}");
           break;
         case 3:  // a root path, every other one with headings (turning bounds), or headings alone
           if (i % 20 == 18)
