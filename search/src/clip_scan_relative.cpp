@@ -168,14 +168,12 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     return Eigen::Vector3d(r[0], r[st], r[2 * st]);
   };
   // A root frame's bound at frame f with its root placed at p (world) and,
-  // for a turning one, its heading's cos and sin psi.
-  auto root_frame_bound = [&](const RootBoundQuery& q, std::size_t f, const Eigen::Vector3d& p,
-                              const std::array<double, 2>& psi) {
-    if (q.turns)
-      return turn_root_bound(q, (&q == pair.root_in ? moments_in : moments_out) + 4 * f, kin[f],
-                             kin_rot[f], root_at(f), cos_sin + 2 * f, p, psi[0], psi[1]);
-    const Eigen::Vector3d d = p - root_at(f);
-    return root_bound(q, kin[f], kin[f], kin_rot[f], d.x(), d.y(), d.z());
+  // for a turning one (its moments), its heading's cos and sin psi.
+  auto root_frame_bound = [&](const RootBoundQuery& q, const float* moments, std::size_t f,
+                              const Eigen::Vector3d& p, const std::array<double, 2>& psi) {
+    return frame_root_bound(q, moments == nullptr ? nullptr : moments + 4 * f, kin[f], kin_rot[f],
+                            root_at(f), cos_sin == nullptr ? nullptr : cos_sin + 2 * f, p, psi[0],
+                            psi[1]);
   };
   if (bounded_a) {
     relative_bound_frames(*pair.in_bound, skeleton.tables, ci.frame_start, k, scratch.in_frames);
@@ -184,7 +182,7 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
                                     place(s).apply(pair.in_bound->com_body));
   } else if (root_a) {
     for (std::size_t s = 0; s < s_end; ++s)
-      scratch.a[s] = root_frame_bound(*pair.root_in, s, placed(*pair.root_in, s),
+      scratch.a[s] = root_frame_bound(*pair.root_in, moments_in, s, placed(*pair.root_in, s),
                                       placed_heading(*pair.root_in, s));
   } else {
     for (std::size_t s = 0; s < s_end; ++s)
@@ -290,7 +288,8 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
         if (!q.turns && safe(base + pair.lambda * prefix[lo] + blocks.bound(q, j, p)) > thr)
           continue;
         for (std::size_t e = lo; e <= hi; ++e)  // then frame by frame
-          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(q, e, p, psi)) <= thr) {
+          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(q, moments_out, e, p, psi)) <=
+              thr) {
             first = std::min(first, e);
             last = e;
           }

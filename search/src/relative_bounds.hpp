@@ -151,6 +151,19 @@ inline double root_bound(const RootBoundQuery& q, double k_lo, double k_hi, doub
   return (q.given[1] ? q.mass * q.g * std::abs(dy) : 0.0) + (moved > k_lo ? moved : k_lo) + krot_lo;
 }
 
+// The per-frame bound of any frame root_bound_applies accepts, at a skeleton
+// frame with root r and kinetic energies k, krot: turn_root_bound for a
+// turning frame (its moments for that frame, cos and sin of the frame's
+// heading cs_g and of the placed heading cq, sq), root_bound with the root
+// distances p - r otherwise (moments, cs_g, cq and sq unused).
+inline double frame_root_bound(const RootBoundQuery& q, const float* moments, double k, double krot,
+                               const Eigen::Vector3d& r, const double* cs_g,
+                               const Eigen::Vector3d& p, double cq, double sq) {
+  if (q.turns) return turn_root_bound(q, moments, k, krot, r, cs_g, p, cq, sq);
+  const Eigen::Vector3d d = p - r;
+  return root_bound(q, k, k, krot, d.x(), d.y(), d.z());
+}
+
 // Each skeleton frame's kinetic energies summed over the segments
 // (SkeletonCaches::kinetic, kinetic_rot) and each clip's root box
 // (clip_root_boxes), computed once per skeleton.

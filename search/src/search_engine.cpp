@@ -259,18 +259,16 @@ FrameBounds SearchEngine::frame_bounds(const Query& q, std::size_t i, std::size_
     const RootBoundQuery rq = make_root_bound_query(f, skeleton, q.transition_time_s);
     ensure_frame_kinetic(skeleton);
     frame_headings(skeleton);
-    const float* moments = turn_moments_of(rq, skeleton);
+    const float* moments = rq.turns ? turn_moments_of(rq, skeleton) : nullptr;
     const double psi = rq.turns ? *f.partial.spec.root_heading_rad : 0.0;
+    const double cq = std::cos(psi), sq = std::sin(psi);
     for (std::size_t g = 0; g < n; ++g) {
       const Eigen::Vector3d r(tables.root_position(0, g), tables.root_position(1, g),
                               tables.root_position(2, g));
-      const auto kin = static_cast<double>(skeleton.caches.kinetic[g]);
-      const auto krot = static_cast<double>(skeleton.caches.kinetic_rot[g]);
-      const Eigen::Vector3d d = f.root_m - r;
-      out.root_lower[g] = rq.turns ? turn_root_bound(rq, moments + 4 * g, kin, krot, r,
-                                                     skeleton.caches.heading_cos_sin.data() + 2 * g,
-                                                     f.root_m, std::cos(psi), std::sin(psi))
-                                   : root_bound(rq, kin, kin, krot, d.x(), d.y(), d.z());
+      out.root_lower[g] = frame_root_bound(
+          rq, rq.turns ? moments + 4 * g : nullptr, static_cast<double>(skeleton.caches.kinetic[g]),
+          static_cast<double>(skeleton.caches.kinetic_rot[g]), r,
+          skeleton.caches.heading_cos_sin.data() + 2 * g, f.root_m, cq, sq);
     }
   }
   out.engine_h = h;

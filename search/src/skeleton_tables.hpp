@@ -245,7 +245,7 @@ struct SkeletonCaches {
   std::vector<float> kinetic, kinetic_rot;
   // Per frame, the moments a turn of the whole body about the vertical
   // through its root needs (root frames giving a heading;
-  // relative_bounds.hpp TurnMoments), made on first use.
+  // relative_bounds.hpp frame_turn_moments), made on first use.
   std::once_flag turn_once;
   std::vector<float> turn_moments;
   // Per clip row: ranges of the root x, y, z and of the kinetic energy
