@@ -4,11 +4,12 @@
 # write pages that headless Chromium (scripts/synth-setup), with every
 # network request refused, runs from file:// with no console message; the
 # player reports itself ready with the motions of the query; the figures
-# play (the clock advances on its own) and move (the view's pixels differ
-# between screenshots one second of motion apart) and show the motion colours on the grid. The pages
-# carry the motions as BVH (checked against the synthesised BVH) and the
-# feet's contact states. Without the three.js copy mocap-synth still writes
-# its report (saying why) and mocap-search refuses --html.
+# play (the clock advances on its own), move (the view's pixels differ
+# between screenshots one second of motion apart) and show the motion
+# colours on the grid. The pages carry the motions as BVH (checked against
+# the synthesised BVH) and the feet's contact states. Without the three.js
+# copy mocap-synth still writes its report (saying why) and mocap-search
+# refuses --html.
 # Screenshots are kept in BUILD_DIR/test-artifacts/player/.
 #   bash tests/cli/player.sh BUILD_DIR DATA_DIR
 set -euo pipefail

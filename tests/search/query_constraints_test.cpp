@@ -143,7 +143,7 @@ TEST(QueryConstraints, ExactEqualsBruteSet1) {
   brute.mode = SearchMode::brute;
   for (const std::string& text : queries) {
     Query q = parse(text);
-    // Under the sanitizers (test_support.hpp) over a seventh of set 1's clips.
+    // Under the sanitizers (test_support.hpp) over the normal and sad clips (31 of 174).
     if (test::kSanitizerBuild) q.filter.clips = {"*_normal_*", "*_sad_*"};
     const QueryOutcome e = engine.run(q, exact), b = engine.run(q, brute);
     test::expect_same_results(e, b, text, 0.0);
