@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/asf_amc.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/asf_amc.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace {
 

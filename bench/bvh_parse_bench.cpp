@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/bvh.hpp"
+#include "mocap/common/io/bvh.hpp"
 
 namespace {
 

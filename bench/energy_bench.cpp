@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/body.hpp"
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/energy.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/newton_euler.hpp"
-#include "mocap/common/units.hpp"
+#include "mocap/common/body/body.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/units.hpp"
 
 namespace {
 

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/synth_job.hpp"

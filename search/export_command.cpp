@@ -7,12 +7,13 @@
 #include <iostream>
 #include <string_view>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/output_path.hpp"
-#include "mocap/synth/clip_source.hpp"
-#include "mocap/synth/export.hpp"
-#include "mocap/synth/synth_job.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/motion/export.hpp"
+#include "mocap/common/motion/skeleton_motion.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/output_path.hpp"
+#include "mocap/search/results_file.hpp"
 
 namespace mocap {
 namespace {

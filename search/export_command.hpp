@@ -1,8 +1,9 @@
 #pragma once
 // mocap-search export: a partial motion of the index as BVH (docs/cli.md
 // "mocap-search export"), chosen by clip and frames or by a line of search
-// results. The motion is written by synthesis' writer (mocap/synth/export.hpp),
-// so the mocap-search executable links mocap_synth (docs/architecture.md).
+// results. The motion is written by the writer synthesis uses
+// (mocap/common/motion/export.hpp), so an exported piece and a synthesised
+// motion are written alike.
 #include <CLI/CLI.hpp>
 #include <string>
 

@@ -14,7 +14,7 @@
 //       writes one partial motion as BVH (export_command.hpp).
 //   mocap-search view --index INDEX.h5 --results R.jsonl --out R.html [--id Q ...]
 //       the 3D player of a results file (also --html on a search;
-//       mocap/synth/player.hpp, docs/cli.md).
+//       mocap/player/player.hpp, docs/cli.md).
 // Exit status (docs/cli.md): 0 success; 1 some queries failed (their lines
 // carry "error"); 2 usage error or nothing could be done (the message names
 // the file or the argument). CLI11 parse errors use CLI11's own codes.
@@ -35,19 +35,21 @@
 #include <vector>
 
 #include "export_command.hpp"
-#include "mocap/common/atomic_file.hpp"
-#include "mocap/common/collection_manifest.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/index.hpp"
-#include "mocap/common/input_limits_cli.hpp"
-#include "mocap/common/output_path.hpp"
-#include "mocap/common/units.hpp"
+#include "mocap/common/io/collection_manifest.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/io/units.hpp"
+#include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/util/atomic_file.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/input_limits_cli.hpp"
+#include "mocap/common/util/output_path.hpp"
+#include "mocap/player/player.hpp"
 #include "mocap/search/collection_search.hpp"
 #include "mocap/search/distributed.hpp"
 #include "mocap/search/energy_command.hpp"
+#include "mocap/search/results_file.hpp"
+#include "mocap/search/results_page.hpp"
 #include "mocap/search/search.hpp"
-#include "mocap/synth/clip_source.hpp"
-#include "mocap/synth/player.hpp"
 #ifdef MOCAP_HAVE_MPI
 #include "mpi_search.hpp"
 #endif
@@ -334,7 +336,7 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
     if (!file) throw mocap::InputError(a.out, 0, "write failed");
     out_file->commit();
   }
-  if (player) {  // the 3D player of the answered queries (mocap/synth/player.hpp)
+  if (player) {  // the 3D player of the answered queries (mocap/player/player.hpp)
     std::vector<mocap::ResultsLine> lines;
     for (const auto& o : outcomes)
       lines.push_back(

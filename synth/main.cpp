@@ -16,17 +16,17 @@
 #include <map>
 #include <optional>
 
-#include "mocap/common/atomic_file.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/file.hpp"
-#include "mocap/common/input_limits_cli.hpp"
-#include "mocap/common/output_path.hpp"
+#include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/util/atomic_file.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/file.hpp"
+#include "mocap/common/util/input_limits_cli.hpp"
+#include "mocap/common/util/output_path.hpp"
+#include "mocap/player/player.hpp"
 #include "mocap/search/collection_search.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_file.hpp"
 #include "mocap/search/search.hpp"
-#include "mocap/synth/clip_source.hpp"
-#include "mocap/synth/player.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 

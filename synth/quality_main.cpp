@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/error.hpp"
-#include "mocap/common/index.hpp"
-#include "mocap/common/json_text.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/json_text.hpp"
 #include "mocap/synth/synth.hpp"
 #include "mocap/synth/synth_json.hpp"
 #include "refine_options.hpp"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstddef>
 
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/synth/synth.hpp"
 
 namespace mocap {

@@ -5,9 +5,9 @@
 #include <cctype>
 #include <system_error>
 
-#include "mocap/common/asf_amc.hpp"
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/asf_amc.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace mocap {
 

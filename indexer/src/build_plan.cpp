@@ -12,9 +12,9 @@
 #include <set>
 #include <unordered_map>
 
-#include "mocap/common/error.hpp"
-#include "mocap/common/json_text.hpp"
-#include "mocap/common/xxh64.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/json_text.hpp"
+#include "mocap/common/util/xxh64.hpp"
 
 namespace mocap {
 

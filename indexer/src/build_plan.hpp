@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "index_writer.hpp"
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/file.hpp"
-#include "mocap/common/index.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/util/file.hpp"
 #include "mocap/indexer/collection.hpp"
 #include "mocap/indexer/index_builder.hpp"
 

@@ -7,10 +7,10 @@
 #include <limits>
 #include <stdexcept>
 
-#include "mocap/common/energy.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {

@@ -1,6 +1,6 @@
 // The index writer (index_writer.hpp): appendable columns with running
 // checksums, the skeleton tables, and the record tables and root attributes
-// walked from mocap/common/index_tables.hpp.
+// walked from mocap/common/io/index_tables.hpp.
 #include "index_writer.hpp"
 
 #include <algorithm>
@@ -11,8 +11,8 @@
 #include <type_traits>
 #include <variant>
 
-#include "mocap/common/index_tables.hpp"
-#include "mocap/common/xxh64.hpp"
+#include "mocap/common/io/index_tables.hpp"
+#include "mocap/common/util/xxh64.hpp"
 
 namespace mocap {
 

@@ -1,6 +1,6 @@
 #pragma once
-// The index writer: one HDF5 file in the schema of mocap/common/index.hpp and
-// mocap/common/index_tables.hpp, filled clip by clip (in path order) by the build's
+// The index writer: one HDF5 file in the schema of mocap/common/io/index.hpp and
+// mocap/common/io/index_tables.hpp, filled clip by clip (in path order) by the build's
 // serial stage. Per skeleton it appends the frame, block and clip-bound rows
 // as clips arrive (parsed, or copied from the previous index); finish() writes
 // the skeleton tables, /clips, /skipped and the root attributes and closes
@@ -13,8 +13,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "mocap/common/hdf5.hpp"
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/hdf5.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {

@@ -4,11 +4,11 @@
 
 #include <system_error>
 
-#include "mocap/common/body.hpp"
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/skeleton.hpp"
+#include "mocap/common/body/body.hpp"
+#include "mocap/common/body/skeleton.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/json_text.hpp"
+#include "mocap/common/util/json_text.hpp"
 #include "mocap/indexer/index_builder.hpp"
 
 namespace mocap {

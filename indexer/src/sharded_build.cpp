@@ -5,10 +5,10 @@
 #include <numeric>
 #include <string>
 
-#include "mocap/common/collection_manifest.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/file.hpp"
-#include "mocap/common/xxh64.hpp"
+#include "mocap/common/io/collection_manifest.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/file.hpp"
+#include "mocap/common/util/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
 
 namespace mocap {

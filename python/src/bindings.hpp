@@ -16,7 +16,7 @@
 #include <mutex>
 #include <vector>
 
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap::python {

@@ -1,6 +1,6 @@
 // _mocap.Bvh: BVH files to and from numpy arrays, with the libraries' reader
-// and writer (mocap/common/bvh.hpp) and forward kinematics
-// (mocap/common/kinematics.hpp). A Bvh is a RawClip: the file as it is (file
+// and writer (mocap/common/io/bvh.hpp) and forward kinematics
+// (mocap/common/dynamics/kinematics.hpp). A Bvh is a RawClip: the file as it is (file
 // units, each joint's channels in file order, Euler degrees).
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
@@ -11,11 +11,11 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/raw_clip.hpp"
-#include "mocap/common/units.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/raw_clip.hpp"
+#include "mocap/common/io/units.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/query.hpp"
 
 namespace mocap::python {
@@ -325,7 +325,7 @@ void bind_bvh(py::module_& m) {
           },
           py::arg("tolerance") = 1e-4,
           "The clip in the layout Blender and three.js load alike: position channels on the "
-          "root only (mocap/common/bvh.hpp to_export_layout).")
+          "root only (mocap/common/io/bvh.hpp to_export_layout).")
       .def_static("from_channels", &from_channels, py::arg("joint_names"), py::arg("parents"),
                   py::arg("offsets"), py::arg("channels"), py::arg("values"),
                   py::arg("frame_time_s"), py::arg("end_sites") = std::nullopt,

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace mocap::python {
 

@@ -6,7 +6,7 @@
 #include <pybind11/pybind11.h>
 
 #include "bindings.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace py = pybind11;
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/batch_entry.hpp"
 #include "mocap/search/search.hpp"
 

@@ -15,10 +15,10 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/kinematics.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/query.hpp"
-#include "mocap/synth/clip_source.hpp"
 #include "mocap/synth/synth_job.hpp"
 
 namespace mocap::python {

@@ -13,8 +13,8 @@
 #include <limits>
 #include <thread>
 
-#include "mocap/common/collection_manifest.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/collection_manifest.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/collection_search.hpp"
 
 namespace mocap::mpi {

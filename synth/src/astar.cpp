@@ -10,8 +10,8 @@
 
 #include "foot_planting.hpp"
 #include "measures.hpp"
-#include "mocap/common/energy.hpp"
-#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
 #include "transition_math.hpp"
 
 namespace mocap::synth_detail {

@@ -7,8 +7,8 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "mocap/common/energy.hpp"
-#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/synth/path_cache.hpp"
 #include "transition_math.hpp"
 

@@ -27,8 +27,7 @@ double step_foot_sliding(const SynthSkeleton& sk, const WorldPose& a, const Worl
 /// The foot-skating test of one step (docs/synthesis.md "Measures"): foot
 /// and toe joint origins below kSkatingHeightM above the ground in both
 /// frames while moving horizontally faster than kSkatingSpeedMps.
-inline constexpr double kSkatingHeightM = 0.05;
-inline constexpr double kSkatingSpeedMps = 0.5;
+/// (kSkatingHeightM, kSkatingSpeedMps: mocap/common/motion/skeleton_motion.hpp)
 struct StepSkating {
   std::size_t joints = 0;  // joints that skate in this step
   double speed_sum = 0.0;  // their horizontal speeds summed, m/s

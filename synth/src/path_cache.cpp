@@ -5,7 +5,7 @@
 #include <utility>
 
 #include "measures.hpp"
-#include "mocap/common/energy.hpp"
+#include "mocap/common/dynamics/energy.hpp"
 
 namespace mocap {
 

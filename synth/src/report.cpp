@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "mocap/common/json_text.hpp"
-#include "mocap/synth/player.hpp"
+#include "mocap/common/util/json_text.hpp"
+#include "mocap/synth/player_scene.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "mocap/synth/synth_json.hpp"
 #include "report_views.hpp"
@@ -21,7 +21,7 @@ std::string base_name(const std::string& path) {
 }
 
 std::string esc(const std::string& s) {
-  return synth_detail::html_escape(s);
+  return html_escape(s);
 }
 std::string fmt(int digits, double v) {
   return synth_detail::fixed(digits, v);
@@ -150,7 +150,7 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
   else
     o << "<p data-figure=\"player-missing\"><b>The 3D player is not in this report</b>: "
       << (player_missing.empty()
-              ? std::string("scripts/setup installs its three.js copy into synth/player "
+              ? std::string("scripts/setup installs its three.js copy into common/player/web "
                             "(MOCAP_PLAYER_DIR names another player folder).")
               : esc(player_missing))
       << "</p>\n";

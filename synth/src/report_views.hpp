@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "mocap/common/util/html_text.hpp"
 #include "mocap/synth/synth.hpp"
 #include "mocap/synth/synth_job.hpp"
 
@@ -16,8 +17,6 @@ namespace mocap::synth_detail {
 
 /// Fixed-point text with `digits` decimals.
 std::string fixed(int digits, double v);
-/// Text with &, <, >, " escaped for HTML.
-std::string html_escape(const std::string& s);
 
 /// Which way a filmstrip looks: from the front (screen right = world +x) or
 /// from the side (screen right = world +z). Each figure is centred on its

@@ -1,6 +1,6 @@
 // The synthesis job: results in, assembly, BVH out (synth_job.hpp).
 #include "mocap/synth/synth_job.hpp"
-#include "mocap/common/json_text.hpp"
+#include "mocap/common/util/json_text.hpp"
 
 #include <tbb/parallel_for.h>
 #include <algorithm>
@@ -15,18 +15,17 @@
 #include <sstream>
 #include <utility>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/file.hpp"
-#include "mocap/common/input_limits.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/retarget.hpp"
-#include "mocap/common/skeleton.hpp"
-#include "mocap/common/units.hpp"
+#include "mocap/common/body/retarget.hpp"
+#include "mocap/common/body/skeleton.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/units.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/file.hpp"
+#include "mocap/common/util/input_limits.hpp"
 #include "mocap/search/query_pose.hpp"
 #include "mocap/search/timing.hpp"
 #include "motion_layout.hpp"
-#include "results_file.hpp"
 
 namespace mocap {
 namespace {
@@ -343,31 +342,9 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
 
 }  // namespace
 
-std::vector<PairResults> read_search_results(const std::filesystem::path& path,
-                                             const std::string& query_id, const ClipSource& clips) {
-  return read_search_results_line(path, query_id, clips).pairs;
-}
-
-SearchResultsLine read_search_results_line(const std::filesystem::path& path,
-                                           const std::string& query_id, const ClipSource& clips) {
-  std::vector<std::string> ids;
-  std::optional<SearchResultsLine> found;
-  synth_detail::read_results_lines(path, [&](const nlohmann::json& j, std::size_t n) {
-    const std::string id = j["id"].get<std::string>();
-    ids.push_back(id);
-    if (id != query_id) return true;
-    if (j.contains("error"))
-      throw InputError(path.string(), n,
-                       "the search failed for this query: " + json_text(j["error"]));
-    found = SearchResultsLine{n, synth_detail::parse_result_pairs(j, path.string(), n, clips)};
-    return false;
-  });
-  if (found) return std::move(*found);
-  std::string known;
-  for (const auto& i : ids) known += (known.empty() ? "" : ", ") + i;
-  throw InputError(path.string(), 0,
-                   "no results for query \"" + query_id +
-                       "\" (ids in the file: " + (known.empty() ? "none" : known) + ")");
+void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
+  write_bvh_file(
+      motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()), path);
 }
 
 Pick parse_pick(const std::string& text) {

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mocap/common/dynamics.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
 
 namespace mocap::synth_detail {
 namespace {

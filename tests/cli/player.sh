@@ -19,7 +19,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 chromium="${CHROMIUM:-$(command -v chromium || command -v chromium-browser || true)}"
 [ -n "$chromium" ] || missing_tool scripts/synth-setup "chromium not found"
 [ -x /usr/bin/python3 ] || missing_tool scripts/setup "/usr/bin/python3 not found"
-pdir="${MOCAP_PLAYER_DIR:-$root/synth/player}"
+pdir="${MOCAP_PLAYER_DIR:-$root/common/player/web}"
 [ -f "$pdir/node_modules/three/build/three.module.js" ] ||
   missing_tool scripts/setup "no three.js copy in $pdir/node_modules"
 art="$build/test-artifacts/player"

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/body.hpp"
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/skeleton.hpp"
+#include "mocap/common/body/body.hpp"
+#include "mocap/common/body/skeleton.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
 
 namespace mocap::test {
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """World joint positions of an Acclaim ASF/AMC take, from the format's own definition.
 
-Independent of the C++ reader (common/src/asf_amc.cpp): it follows the Acclaim
+Independent of the C++ reader (common/src/io/asf_amc.cpp): it follows the Acclaim
 spec literally, with row vectors and 4x4 matrices, v' = v L. For a bone b:
 
     L_b = C_b^-1 M_b C_b B_b        world frame F_b = L_b F_parent

@@ -1,4 +1,4 @@
-// libFuzzer target for the AMC (Acclaim motion) reader, common/src/asf_amc.cpp.
+// libFuzzer target for the AMC (Acclaim motion) reader, common/src/io/asf_amc.cpp.
 //
 // The input is an AMC text read against a fixed small skeleton (below: a root
 // with all six dofs, a bone with three rotations, one with one and one with
@@ -14,8 +14,8 @@
 #include <string>
 #include <string_view>
 
-#include "mocap/common/asf_amc.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/asf_amc.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace {
 

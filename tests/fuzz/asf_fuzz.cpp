@@ -1,4 +1,4 @@
-// libFuzzer target for the ASF (Acclaim skeleton) reader, common/src/asf_amc.cpp.
+// libFuzzer target for the ASF (Acclaim skeleton) reader, common/src/io/asf_amc.cpp.
 //
 // Any input must either parse or throw mocap::InputError (never crash, hang or
 // throw anything else). A parsed skeleton must be consistent: every bone has a
@@ -13,8 +13,8 @@
 #include <string>
 #include <string_view>
 
-#include "mocap/common/asf_amc.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/asf_amc.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <string_view>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// libFuzzer target for the character-file parser (common/src/character.cpp).
+// libFuzzer target for the character-file parser (common/src/body/character.cpp).
 //
 // Any input must either parse or throw mocap::InputError (never crash or
 // hang); a parsed character's masses and scales are within docs/cli.md
@@ -10,8 +10,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "mocap/common/character.hpp"
-#include "mocap/common/error.hpp"
+#include "mocap/common/body/character.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// libFuzzer target for the query parser (search/src/query.cpp).
+// libFuzzer target for the query parser (search/src/query/query.cpp).
 //
 // Any input must either parse or throw mocap::InputError (never crash or
 // hang). A parsed query keeps the parser's promises: 2 to input_limits().query_frames
@@ -10,8 +10,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "mocap/common/error.hpp"
-#include "mocap/common/input_limits.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/input_limits.hpp"
 #include "mocap/search/query.hpp"
 
 namespace {

@@ -5,7 +5,7 @@
 
 #include <fstream>
 
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 #include "test_support.hpp"
 
 namespace mocap {

@@ -7,11 +7,11 @@
 #include <sstream>
 #include <thread>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/index.hpp"
-#include "mocap/common/units.hpp"
-#include "mocap/common/xxh64.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/io/units.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/xxh64.hpp"
 #include "mocap/indexer/index_builder.hpp"
 #include "test_support.hpp"
 

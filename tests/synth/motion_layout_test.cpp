@@ -11,7 +11,7 @@
 #include <optional>
 #include <string>
 
-#include "mocap/common/bvh.hpp"
+#include "mocap/common/io/bvh.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/synth_job.hpp"

@@ -1,10 +1,15 @@
-// Tests for synth/src/player.cpp, player_scenes.cpp and results_file.cpp:
+// Tests for the 3D player (common/player/src), its scenes of a synthesis
+// (synth/src/player_scene.cpp) and of search results (search/src
+// results_page.cpp, results_file.cpp):
 // refusals first (a player folder without three.js, no scene, bad results
 // lines), then the motions' BVH read back by our reader against the
 // synthesis's own forward kinematics, the foot states against a slow
 // per-frame reference on those positions, and the page's inlined modules
 // inflated back to the files they came from.
-#include "mocap/synth/player.hpp"
+#include "mocap/player/player.hpp"
+#include "mocap/search/results_file.hpp"
+#include "mocap/search/results_page.hpp"
+#include "mocap/synth/player_scene.hpp"
 
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -15,9 +20,9 @@
 #include <sstream>
 #include <string>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/error.hpp"
-#include "mocap/common/kinematics.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/util/error.hpp"
 #include "synth_fixtures.hpp"
 #include "test_support.hpp"
 
@@ -128,7 +133,7 @@ TEST(Player, DirectoryFromEnvironment) {
   ASSERT_EQ(setenv("MOCAP_PLAYER_DIR", "/some/where", 1), 0);
   EXPECT_EQ(player_dir(), fs::path("/some/where"));
   ASSERT_EQ(setenv("MOCAP_PLAYER_DIR", "", 1), 0);  // empty: the build's folder
-  EXPECT_TRUE(player_dir().string().ends_with("synth/player")) << player_dir();
+  EXPECT_TRUE(player_dir().string().ends_with("common/player/web")) << player_dir();
   ASSERT_EQ(unsetenv("MOCAP_PLAYER_DIR"), 0);
 }
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/synth/synth.hpp"
 #include "test_support.hpp"
 

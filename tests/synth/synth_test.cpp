@@ -11,7 +11,7 @@
 #include <limits>
 #include <string>
 
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/synth/refine.hpp"
 #include "mocap/synth/synth.hpp"
 #include "mocap/synth/synth_job.hpp"

@@ -13,7 +13,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/search/timing.hpp"

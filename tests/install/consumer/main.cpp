@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/search/search.hpp"
 
 int main(int argc, char** argv) {

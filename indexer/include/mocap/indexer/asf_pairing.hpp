@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/raw_clip.hpp"
+#include "mocap/common/io/raw_clip.hpp"
 
 namespace mocap {
 

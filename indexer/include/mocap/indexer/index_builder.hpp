@@ -24,11 +24,11 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/body.hpp"
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/index.hpp"
-#include "mocap/common/raw_clip.hpp"
-#include "mocap/common/units.hpp"
+#include "mocap/common/body/body.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/io/raw_clip.hpp"
+#include "mocap/common/io/units.hpp"
 #include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/units.hpp"
+#include "mocap/common/io/units.hpp"
 #include "mocap/indexer/asf_pairing.hpp"
 
 namespace mocap {

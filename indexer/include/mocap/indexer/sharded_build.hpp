@@ -1,7 +1,7 @@
 #pragma once
 // Sharded builds (docs/index-format.md "Collections"): one collection split
 // into N ordinary index files balanced by frames, and the manifest that
-// names them (mocap/common/collection_manifest.hpp).
+// names them (mocap/common/io/collection_manifest.hpp).
 #include <cstddef>
 #include <filesystem>
 #include <vector>

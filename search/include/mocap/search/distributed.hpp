@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mocap/common/collection_manifest.hpp"
+#include "mocap/common/io/collection_manifest.hpp"
 #include "mocap/search/query_validation.hpp"
 #include "mocap/search/search.hpp"
 

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/units.hpp"
+#include "mocap/common/io/units.hpp"
 
 namespace mocap {
 

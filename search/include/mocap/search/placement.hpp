@@ -18,7 +18,7 @@
 // Units: metres, radians; heading 0 faces +z, +x is the character's left.
 #include <optional>
 
-#include "mocap/common/ground_pose.hpp"
+#include "mocap/common/body/ground_pose.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_pose.hpp"
 

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/error.hpp"
+#include "mocap/common/util/error.hpp"
 
 namespace mocap {
 

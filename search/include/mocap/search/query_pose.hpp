@@ -17,15 +17,15 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/common/bvh.hpp"
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/energy.hpp"
-#include "mocap/common/file.hpp"
-#include "mocap/common/ground_pose.hpp"
-#include "mocap/common/index.hpp"
-#include "mocap/common/kinematics.hpp"
-#include "mocap/common/pose_constraints.hpp"
-#include "mocap/common/segment_class.hpp"
+#include "mocap/common/body/ground_pose.hpp"
+#include "mocap/common/body/pose_constraints.hpp"
+#include "mocap/common/body/segment_class.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/util/file.hpp"
 #include "mocap/search/query.hpp"
 
 namespace mocap {

@@ -27,8 +27,8 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/index.hpp"
-#include "mocap/common/skeleton.hpp"
+#include "mocap/common/body/skeleton.hpp"
+#include "mocap/common/io/index.hpp"
 #include "mocap/search/query.hpp"
 
 namespace mocap {

@@ -46,7 +46,8 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/common/index.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/util/error.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_validation.hpp"
 
@@ -78,9 +79,10 @@ struct SearchOptions {
   bool parallel_clips = true;
 };
 
-/// Checks the options' ranges (0 < min_length_s <= max_length_s). Invalid options are a
-/// caller's error (a command line checks its values where it reads them):
-/// throws std::invalid_argument. SearchEngine::run and run_query_batch call it.
+/// Checks the options' ranges (0 < min_length_s <= max_length_s): values a
+/// user gives (--min-length, --max-length, Python's keywords), so an invalid
+/// one throws InputError naming the flag and the value. SearchEngine::run and
+/// run_query_batch call it.
 void validate_search_options(const SearchOptions& options);
 
 /// One ranked partial motion. Frames are 0-based within the clip.
@@ -190,7 +192,7 @@ class SearchEngine {
   /// unknown joint: the message lists the valid names; unreadable BVH; frame
   /// out of range; an unreadable or invalid character file; order:
   /// query_validation.hpp), and
-  /// std::invalid_argument for invalid options (validate_search_options).
+  /// for invalid options (validate_search_options).
   QueryOutcome run(const Query& query, const SearchOptions& options) const;
   /// The same with, per pair, a score `ceilings[h]` the results need not
   /// reach (exact mode only; brute and approx ignore it): the other shards
@@ -218,7 +220,7 @@ class SearchEngine {
   /// skeleton or frame, InputError as run() for a frame that does not fit.
   FrameBounds frame_bounds(const Query& query, std::size_t i, std::size_t k) const;
 
-  /// Internal tables (search/src/search_engine_impl.hpp).
+  /// Internal tables (search/src/engine/search_engine_impl.hpp).
   struct Impl;
 
  private:
@@ -229,7 +231,10 @@ class SearchEngine {
 struct BatchEntry {
   std::string id;
   std::optional<Query> query;
+  /// Without a query: the InputError's message (source:line: what), and the
+  /// error itself (rethrown where one query was asked for: read_query_file).
   std::string error;
+  std::optional<InputError> failure = std::nullopt;
 };
 
 /// Reads a JSONL batch: one query per non-blank line (default id "line N",

@@ -12,8 +12,8 @@
 #include <cstddef>
 #include <vector>
 
-#include "mocap/common/dynamics.hpp"
-#include "mocap/common/newton_euler.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/synth/synth.hpp"
 
 namespace mocap {

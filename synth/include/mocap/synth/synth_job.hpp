@@ -16,31 +16,14 @@
 #include <string>
 #include <vector>
 
-#include "mocap/common/raw_clip.hpp"
+#include "mocap/common/io/raw_clip.hpp"
+#include "mocap/common/motion/clip_source.hpp"
 #include "mocap/search/query.hpp"
+#include "mocap/search/results_file.hpp"
 #include "mocap/search/search.hpp"
-#include "mocap/synth/clip_source.hpp"
 #include "mocap/synth/synth.hpp"
 
 namespace mocap {
-
-/// Reads the search output (JSONL) and returns the pairs of the line whose
-/// "id" is `query_id` (the results as SearchEngine::run gives them; their
-/// labels are not read: synthesis does not use them). InputError (file:line)
-/// for unreadable files, bad JSON, a missing id, an error line, or results
-/// that do not fit `clips` (unknown clip, frames out of range). clip_index
-/// is the source's number: a collection's results (mocap-search over its
-/// manifest) number clips as one index.
-std::vector<PairResults> read_search_results(const std::filesystem::path& path,
-                                             const std::string& query_id, const ClipSource& clips);
-/// The same, with the 1-based line of the file that holds them (for messages
-/// about a pair or a rank of that line).
-struct SearchResultsLine {
-  std::size_t line = 0;
-  std::vector<PairResults> pairs;
-};
-SearchResultsLine read_search_results_line(const std::filesystem::path& path,
-                                           const std::string& query_id, const ClipSource& clips);
 
 /// A user's choice: pair h (1-based, joins Q^h and Q^h+1) takes rank r.
 struct Pick {
@@ -127,28 +110,13 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
 /// OFFSET is not read right by loaders that add position channels to the
 /// OFFSET (three.js BVHLoader): docs/synthesis.md "Output".
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path);
-/// What write_motion_bvh writes, for any frames on `sk` (a result's, or a
-/// clip's own: mocap/synth/export.hpp): frame_count = frames.size(), the
-/// frame time given, `source` for messages; write_bvh gives its text.
-/// Rotation channels hold each joint's local rotation as Euler angles in
-/// the channels' order (a joint with fewer than 3 keeps the angles of its
-/// own axes: exact for the rotations they can express). Position channels
-/// hold `sk`'s fixed translations and the root joint's from
-/// SynthFrame::root_position_m, or, when `local_translations_m` is given
-/// (frames.size() x joints, [f * J + j], metres; std::invalid_argument for
-/// another size), every joint's translation of that frame (a clip whose
-/// joints above the pelvis move, as Bandai Namco's joint_Root in a few takes).
-RawClip motion_bvh_clip(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
-                        double frame_time_s, const std::string& source,
-                        std::span<const Eigen::Vector3d> local_translations_m = {});
-
 /// REPORT.json text ("index": the index file or manifest of `clips`).
 std::string synth_report_json(const ClipSource& clips, const Query& query,
                               const std::string& query_path, const std::vector<PairResults>& ranked,
                               const SynthResult& result, const SynthOptions& options,
                               double search_ms, double total_ms, const std::string& bvh_path);
 
-struct PlayerLibrary;  // mocap/synth/player.hpp
+struct PlayerLibrary;  // mocap/player/player.hpp
 
 /// REPORT.html text: one self-contained page (no network) with the 3D
 /// player (player.hpp synth_player_scene; left out when `player` is null,

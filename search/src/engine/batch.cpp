@@ -1,0 +1,179 @@
+// Query batches: reading JSONL batches and single queries, running a batch
+// in parallel, and the contract's output line per query (search.hpp).
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/file.hpp"
+#include "mocap/common/util/input_limits.hpp"
+#include "mocap/common/util/json_text.hpp"
+#include "mocap/search/batch_entry.hpp"
+#include "mocap/search/search.hpp"
+
+namespace mocap {
+
+std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
+  (void)check_input_file(path, input_limits().batch_bytes);
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string(), 0, "cannot open the query file");
+  std::vector<BatchEntry> out;
+  std::string line;
+  std::size_t n = 0;
+  const std::filesystem::path base = path.parent_path();
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    out.push_back(parse_batch_entry(line, path.string(), n, base, fmt::format("line {}", n)));
+  }
+  return out;
+}
+
+std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
+  (void)check_input_file(path, input_limits().json_file_bytes);
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string(), 0, "cannot open the query file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  BatchEntry e;
+  e.id = path.stem().string();
+  try {
+    e.query = parse_query_text(ss.str(), path.string(), 0, path.parent_path(), e.id);
+    e.id = e.query->id;
+  } catch (const InputError& err) {
+    e.error = err.what();
+    e.failure = err;
+  }
+  return {std::move(e)};
+}
+
+namespace {
+// Whether a query frame surely moves the whole body other than by a root
+// position alone (a heading, or a root position with joint rotations), so
+// that partial_approximate_energy reads the frame arrays. A frame giving
+// joint rotations alone moves the whole body when one is the root's: the
+// arrays are then loaded on first use. Full frames, root positions alone and
+// joint rotations alone read none (joint rotations: per-joint columns,
+// streamed on first use).
+bool reads_frame_arrays(const QueryFrameSpec& f) {
+  if (f.bvh && f.only.empty()) return false;
+  bool root_position = false, heading = f.root_heading_deg.has_value(), joints = !f.joints.empty();
+  for (const auto& c : f.root_position_m) root_position = root_position || c.has_value();
+  for (const std::string& o : f.only) {
+    if (o == "root_position" || o == "root_position_xz")
+      root_position = true;
+    else if (o == "root_heading")
+      heading = true;
+    else
+      joints = true;
+  }
+  return heading || (root_position && joints);
+}
+}  // namespace
+
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const std::function<void(std::size_t, std::size_t)>& progress,
+    const std::vector<std::vector<double>>* ceilings) {
+  BatchControl control;
+  if (ceilings) control.ceilings = [ceilings](std::size_t i) { return (*ceilings)[i]; };
+  return run_query_batch(engine, batch, options, control, progress);
+}
+
+std::vector<QueryOutcome> run_query_batch(
+    const SearchEngine& engine, const std::vector<BatchEntry>& batch, const SearchOptions& options,
+    const BatchControl& control, const std::function<void(std::size_t, std::size_t)>& progress) {
+  validate_search_options(options);
+  bool whole_body = false;
+  for (const BatchEntry& e : batch)
+    if (e.query)
+      for (const QueryFrameSpec& f : e.query->frames)
+        whole_body = whole_body || reads_frame_arrays(f);
+  engine.prepare(options, whole_body);
+  std::vector<QueryOutcome> out(batch.size());
+  std::mutex progress_mutex;
+  std::size_t done = 0;
+  const std::size_t n = batch.size();
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    const std::size_t i = (k + control.first) % n;
+    const BatchEntry& e = batch[i];
+    if (!e.query) {
+      out[i].id = e.id;
+      out[i].error = e.error;
+    } else {
+      try {
+        std::vector<double> ceilings;
+        if (control.ceilings) ceilings = control.ceilings(i);
+        out[i] = engine.run(*e.query, options, ceilings.empty() ? nullptr : &ceilings);
+      } catch (const InputError& err) {  // bad input; a bug is not caught here
+        out[i] = QueryOutcome{};
+        out[i].id = e.id;
+        out[i].error = err.what();
+      }
+    }
+    if (control.answered) control.answered(i, out[i]);
+    if (progress) {
+      std::lock_guard lock(progress_mutex);
+      progress(++done, n);
+    }
+  });
+  return out;
+}
+
+std::string query_outcome_json(const QueryOutcome& o) {
+  nlohmann::ordered_json j;
+  j["id"] = o.id;
+  if (o.error) {
+    j["error"] = *o.error;
+    return json_text(j);
+  }
+  j["pairs"] = nlohmann::ordered_json::array();
+  for (const PairResults& p : o.pairs) {
+    nlohmann::ordered_json pj;
+    pj["from"] = p.from;
+    pj["to"] = p.to;
+    pj["results"] = nlohmann::ordered_json::array();
+    for (const SearchResult& r : p.results) {
+      nlohmann::ordered_json rj;
+      rj["rank"] = r.rank;
+      rj["clip"] = r.clip;
+      rj["clip_index"] = r.clip_index;
+      nlohmann::ordered_json labels = nlohmann::ordered_json::object();
+      for (const auto& [k, v] : r.labels) labels[k] = v;
+      rj["labels"] = labels;
+      rj["start_frame"] = r.start_frame;
+      rj["end_frame"] = r.end_frame;
+      rj["score_J"] = r.score_J;
+      rj["h_in_J"] = r.h_in_J;
+      rj["h_out_J"] = r.h_out_J;
+      rj["path_cost_J"] = r.path_cost_J;
+      if (!r.residuals_from.empty() || !r.residuals_to.empty()) {
+        nlohmann::ordered_json res = nlohmann::ordered_json::object();
+        for (const auto* side : {&r.residuals_from, &r.residuals_to}) {
+          if (side->empty()) continue;
+          nlohmann::ordered_json by_name = nlohmann::ordered_json::object();
+          for (const auto& [name, v] : *side) by_name[name] = v;
+          res[side == &r.residuals_from ? "from" : "to"] = by_name;
+        }
+        rj["residuals"] = res;
+      }
+      pj["results"].push_back(std::move(rj));
+    }
+    j["pairs"].push_back(std::move(pj));
+  }
+  nlohmann::ordered_json s;
+  s["clips"] = o.stats.clips;
+  s["clips_pruned"] = o.stats.clips_pruned;
+  s["frames_evaluated"] = o.stats.frames_evaluated;
+  s["frames_pruned"] = o.stats.frames_pruned;
+  s["time_ms"] = o.stats.time_ms;
+  if (o.stats.recall) s["recall"] = *o.stats.recall;
+  j["stats"] = s;
+  return json_text(j);
+}
+
+}  // namespace mocap

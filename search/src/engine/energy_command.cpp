@@ -1,0 +1,237 @@
+#include "mocap/search/energy_command.hpp"
+#include "mocap/common/util/json_text.hpp"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "mocap/common/body/body.hpp"
+#include "mocap/common/body/retarget.hpp"
+#include "mocap/common/body/skeleton.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/util/error.hpp"
+
+namespace mocap {
+
+FrameSpec parse_frame_spec(const std::string& text, const std::string& option) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+    throw InputError(option, 0, "expected FILE:FRAME (0-based frame), got '" + text + "'");
+  const std::string frame = text.substr(colon + 1);
+  std::size_t value = 0;
+  const auto [ptr, ec] = std::from_chars(frame.data(), frame.data() + frame.size(), value);
+  if (ec != std::errc() || ptr != frame.data() + frame.size())
+    throw InputError(option, 0,
+                     "frame '" + frame + "' is not a non-negative integer (FILE:FRAME, 0-based)");
+  return {text.substr(0, colon), value};
+}
+
+namespace {
+
+// One clip prepared for a character: its skeleton (length-scaled), model and
+// per-frame dynamics.
+struct LoadedClip {
+  Skeleton skeleton;
+  DynamicsModel model;
+  ClipDynamics dynamics;
+  std::string unit;
+  // Every frame's local rotations, [f * J + j].
+  std::vector<Eigen::Quaterniond> local_rotations;
+};
+
+// The frame's file read as the indexer reads it (Y up), its frame checked.
+RawClip read_frame_clip(const FrameSpec& spec) {
+  RawClip raw = read_bvh_file(spec.file);
+  normalise_up_axis(raw, std::nullopt);  // Y up, as the indexer reads it
+  if (spec.frame >= raw.frame_count)
+    throw InputError(spec.file.string(), 0,
+                     fmt::format("frame {} out of range: the clip has {} frames (0-based)",
+                                 spec.frame, raw.frame_count));
+  return raw;
+}
+
+// World poses of every frame ([f * J + j]) -> the clip's dynamics on `c`'s model.
+void clip_dynamics(LoadedClip& c, std::size_t frames, double frame_time_s,
+                   const std::vector<Eigen::Vector3d>& positions,
+                   const std::vector<Eigen::Quaterniond>& rotations) {
+  compute_clip_dynamics(c.model, frames, frame_time_s, positions.data(), rotations.data(),
+                        c.dynamics);
+}
+
+LoadedClip load_clip(const FrameSpec& spec, const RawClip& raw, const Character& character,
+                     LengthUnit u) {
+  LoadedClip c;
+  c.unit = unit_name(u);
+  c.skeleton = apply_length_scales(build_skeleton(raw, unit_scale_m(u)), character);
+  const Body body = build_body(c.skeleton, character);
+  c.model = build_dynamics_model(c.skeleton, body);
+  if (c.model.segments.empty())
+    throw InputError(spec.file.string(), 0,
+                     "no joint of the skeleton carries mass (no body segment recognised)");
+  const std::size_t n = c.skeleton.joint_count();
+  std::vector<Eigen::Vector3d> positions(raw.frame_count * n);
+  std::vector<Eigen::Quaterniond> rotations(raw.frame_count * n);
+  LocalPose local;
+  WorldPose world;
+  c.local_rotations.reserve(raw.frame_count * n);
+  for (std::size_t f = 0; f < raw.frame_count; ++f) {
+    local_pose_from_row(c.skeleton, raw.frame(f), local);
+    c.local_rotations.insert(c.local_rotations.end(), local.rotations.begin(),
+                             local.rotations.end());
+    forward_kinematics(c.skeleton, local, world);
+    std::copy(world.positions_m.begin(), world.positions_m.end(),
+              positions.begin() + static_cast<std::ptrdiff_t>(f * n));
+    std::copy(world.rotations.begin(), world.rotations.end(),
+              rotations.begin() + static_cast<std::ptrdiff_t>(f * n));
+  }
+  clip_dynamics(c, raw.frame_count, raw.frame_time_s, positions, rotations);
+  return c;
+}
+
+// The clip `raw` of another rig retargeted onto `onto`'s skeleton and body
+// (retarget.hpp), every frame, so that its rates are the retargeted
+// motion's finite differences, as a query frame's are.
+LoadedClip load_retargeted_clip(const RawClip& raw, LengthUnit u, const LoadedClip& onto,
+                                const RetargetMap& map) {
+  LoadedClip c;
+  c.unit = unit_name(u);
+  c.skeleton = onto.skeleton;
+  c.model = onto.model;
+  const ClipMotion source = clip_locals_from_raw(raw, unit_scale_m(u));
+  const std::size_t n = c.skeleton.joint_count();
+  std::vector<Eigen::Vector3d> positions(raw.frame_count * n);
+  std::vector<Eigen::Quaterniond> rotations(raw.frame_count * n);
+  LocalPose local;
+  WorldPose world;
+  for (std::size_t f = 0; f < raw.frame_count; ++f) {
+    retarget_clip_frame(map, source, f, c.skeleton, local, world);
+    std::copy(world.positions_m.begin(), world.positions_m.end(),
+              positions.begin() + static_cast<std::ptrdiff_t>(f * n));
+    std::copy(world.rotations.begin(), world.rotations.end(),
+              rotations.begin() + static_cast<std::ptrdiff_t>(f * n));
+  }
+  clip_dynamics(c, raw.frame_count, raw.frame_time_s, positions, rotations);
+  return c;
+}
+
+}  // namespace
+
+EnergyReport run_energy_command(const EnergyCommandOptions& o) {
+  if (!(o.transition_time_s > 0.0) || !std::isfinite(o.transition_time_s))
+    throw InputError("--transition-time", 0, "must be a positive number of seconds");
+  Character character;
+  if (!o.character.empty()) character = read_character_file(o.character);
+  const RawClip raw_a = read_frame_clip(o.from);
+  const RawClip raw_b = read_frame_clip(o.to);
+  const LengthUnit unit_a = o.unit ? *o.unit : detect_unit(raw_a);
+  const LengthUnit unit_b = o.unit ? *o.unit : detect_unit(raw_b);
+  const LoadedClip a = load_clip(o.from, raw_a, character, unit_a);
+  // The --to frame of another rig is retargeted onto the --from skeleton,
+  // with the --from clip's frames for the rig's typical pose (the search
+  // takes its index's frames of the skeleton).
+  std::optional<RetargetMap> rig;
+  const Skeleton skeleton_b = build_skeleton(raw_b, unit_scale_m(unit_b));
+  if (!same_rig(skeleton_b, a.skeleton)) {
+    try {
+      rig = make_retarget_map(skeleton_b, a.skeleton,
+                              typical_local_rotations(a.local_rotations, a.skeleton.joint_count()));
+    } catch (const InputError& e) {
+      throw InputError(
+          o.to.file.string(), 0,
+          "its skeleton is another rig than that of " + o.from.file.string() + ": " + e.detail());
+    }
+  }
+  const LoadedClip b = rig ? load_retargeted_clip(raw_b, unit_b, a, *rig)
+                           : load_clip(o.to, raw_b, character, unit_b);
+  const DynamicsModel& model = a.model;
+  const StateView sa = a.dynamics.state(o.from.frame);
+  const StateView sb = b.dynamics.state(o.to.frame);
+  NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  EnergyReport r;
+  r.g_J = full_energy(model, sa, sb, o.transition_time_s, ws, &terms);
+  r.h_J = terms.h.total();
+  if (rig) {
+    // Only the segments the rigs share: h and g are the sums of their terms.
+    r.cross_rig = true;
+    r.h_J = r.g_J = 0.0;
+    for (const auto& [c, s] : rig->compared_classes)
+      r.compared_classes.push_back(class_key_name(c, s));
+  }
+  for (const NamedEnergyTerm& t : energy_term_names(model)) {
+    const auto j = static_cast<std::size_t>(t.joint);
+    if (rig && !rig->compared[j]) continue;
+    const double h = t.is_joint ? terms.h.joint_J[j] : terms.h.segment_J[j];
+    const double g = t.is_joint ? terms.g.joint_J[j] : terms.g.segment_J[j];
+    r.terms.push_back({t.name, t.is_joint, h, g});
+    if (rig) {
+      r.h_J += h;
+      r.g_J += g;
+    }
+  }
+  r.from = o.from;
+  r.to = o.to;
+  r.transition_time_s = o.transition_time_s;
+  r.character = character.name;
+  r.from_unit = a.unit;
+  r.to_unit = b.unit;
+  r.total_mass_kg = model.total_mass_kg;
+  r.from_contacts = ws.a.contact_count;
+  r.to_contacts = ws.b.contact_count;
+  r.residual_work_J = terms.residual_work_J;
+  r.residual_impulse_J = terms.residual_impulse_J;
+  return r;
+}
+
+std::string energy_report_json(const EnergyReport& r) {
+  nlohmann::json j;
+  j["h_J"] = r.h_J;
+  j["g_J"] = r.g_J;
+  nlohmann::json terms = nlohmann::json::array();
+  for (const auto& t : r.terms)
+    terms.push_back({{"name", t.name},
+                     {"kind", t.is_joint ? "joint" : "segment"},
+                     {"h_J", t.h_J},
+                     {"g_J", t.g_J}});
+  j["terms"] = std::move(terms);
+  j["from"] = {{"file", r.from.file.string()}, {"frame", r.from.frame}};
+  j["to"] = {{"file", r.to.file.string()}, {"frame", r.to.frame}};
+  j["transition_time_s"] = r.transition_time_s;
+  j["character"] = r.character;
+  j["total_mass_kg"] = r.total_mass_kg;
+  j["unit"] = {{"from", r.from_unit}, {"to", r.to_unit}};
+  j["contacts"] = {{"from", r.from_contacts}, {"to", r.to_contacts}};
+  j["residual"] = {{"work_J", r.residual_work_J}, {"impulse_J", r.residual_impulse_J}};
+  j["cross_rig"] = r.cross_rig;
+  if (r.cross_rig) j["compared_classes"] = r.compared_classes;
+  return json_text(j);
+}
+
+std::string energy_report_text(const EnergyReport& r) {
+  std::string s =
+      fmt::format("{}:{} -> {}:{}  T = {} s  character {} ({:.1f} kg)  units {} / {}\n",
+                  r.from.file.string(), r.from.frame, r.to.file.string(), r.to.frame,
+                  r.transition_time_s, r.character, r.total_mass_kg, r.from_unit, r.to_unit);
+  s += fmt::format(
+      "h = {:.6g} J   g = {:.6g} J   (contacts {} / {}, root residual work {:.4g} J, impulse "
+      "{:.4g} J)\n\n",
+      r.h_J, r.g_J, r.from_contacts, r.to_contacts, r.residual_work_J, r.residual_impulse_J);
+  if (r.cross_rig) {
+    s += "across rigs: the --to frame retargeted onto the --from skeleton; compared:";
+    for (const auto& c : r.compared_classes) s += " " + c;
+    s += "\n\n";
+  }
+  s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
+  for (const auto& t : r.terms)
+    s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",
+                     t.h_J, t.g_J);
+  return s;
+}
+
+}  // namespace mocap
