@@ -541,33 +541,22 @@ inline Eigen::Vector3d contact_moment_about_com(const NewtonEulerData& d, const 
          (d.contact_points_m[j] - s.coms_m[j]).cross(d.contact_forces_N[j]);
 }
 
-}  // namespace
+// full_energy's |x| and max(u, v): exact, or with smoothing s > 0 (J;
+// NewtonEulerWorkspace::smoothing_J) |x| -> sqrt(x^2 + s^2) - s and max(u, v)
+// -> (u + v + |u - v|) / 2.
+struct Smoothing {
+  double s;
+  double abs(double x) const { return s > 0.0 ? std::sqrt(x * x + s * s) - s : std::abs(x); }
+  double max(double u, double v) const { return 0.5 * (u + v + abs(u - v)); }
+};
 
-double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
-                   double transition_time_s, NewtonEulerWorkspace& ws, FullEnergyTerms* terms) {
-  inverse_dynamics(model, a, ws.a);
-  inverse_dynamics(model, b, ws.b);
-  return full_energy(model, a, b, transition_time_s, ws.a, ws.b, ws, terms);
-}
-
-// g = h + work of adjacent, contact and residual forces and of joint torques
-// over the step (trapezoid rule); formulas in the header.
-MOCAP_MULTIVERSION_V3
-double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
-                   double transition_time_s, const NewtonEulerData& da, const NewtonEulerData& db,
-                   NewtonEulerWorkspace& ws, FullEnergyTerms* terms) {
-  const std::size_t n = model.joint_count();
-  if (da.joint_forces_N.size() != n || db.joint_forces_N.size() != n)
-    throw std::invalid_argument("inverse dynamics results do not match the character model");
-  detail::check_transition_time(transition_time_s);
-  ws.rotation_steps.resize(n);
-  Eigen::Vector3d* const __restrict steps = ws.rotation_steps.data();
-  const Eigen::Quaterniond* const qa = a.rotations;
-  const Eigen::Quaterniond* const qb = b.rotations;
-  // Rotation steps log(q_B q_A^-1) of every joint, four at a time: the same
-  // series as rotation_step() (x = |v| / w < 1/8, atan(x) / x to x^18), the
-  // rare larger steps through rotation_vector(). Bitwise equal rotations give
-  // exactly zero (selected, so whatever the compiler fuses).
+// Rotation steps log(q_B q_A^-1) of every joint (rad, world), four at a time:
+// the same series as rotation_step() (x = |v| / w < 1/8, atan(x) / x to
+// x^18), the rare larger steps through rotation_vector(). Bitwise equal
+// rotations give exactly zero (selected, so whatever the compiler fuses).
+[[gnu::always_inline]] inline void rotation_steps_of(std::size_t n, const Eigen::Quaterniond* qa,
+                                                     const Eigen::Quaterniond* qb,
+                                                     Eigen::Vector3d* __restrict steps) {
   for (std::size_t j0 = 0; j0 < n; j0 += 4) {
     const std::size_t idx[4] = {j0, std::min(j0 + 1, n - 1), std::min(j0 + 2, n - 1),
                                 std::min(j0 + 3, n - 1)};
@@ -588,88 +577,204 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
         steps[j0 + l] = rotation_vector(Eigen::Quaterniond(q.w[l], q.x[l], q.y[l], q.z[l]));
     }
   }
-  // The h part (energy.hpp), with the kinetic energies taken from the inverse
-  // dynamics (rotational: principal axes, 1/2 sum D_k w_k^2), four segments at
-  // a time (padding lanes as in inverse_dynamics: massless, discarded). Equal
-  // to approximate_energy(a, b) up to round-off (1e-15 relative).
-  const double inv_t = 1.0 / transition_time_s;
-  const double smooth = ws.smoothing_J;
-  const auto sabs = [smooth](double x) {
-    return smooth > 0.0 ? std::sqrt(x * x + smooth * smooth) - smooth : std::abs(x);
-  };
-  const auto smax = [&sabs](double u, double v) { return 0.5 * (u + v + sabs(u - v)); };
-  ws.h.reset(n);
-  double* const __restrict h_seg_out = ws.h.segment_J.data();
-  double* const __restrict h_joint_out = ws.h.joint_J.data();
-  const std::size_t nseg = model.segments.size();
-  const int* const seg = model.segments.data();
-  const Eigen::Vector3d* const ca = a.coms_m;
-  const Eigen::Vector3d* const cb = b.coms_m;
+}
+
+// One kinetic-energy term dK(K_A, K_u, K_B) = max(|K_B - K_A|, 2 K_u - K_A -
+// K_B) of four segments (J), lane-wise, with its parts d = K_B - K_A and
+// through = 2 K_u - K_A - K_B for the smoothed form.
+struct KineticChange {
+  v4d d, through, h;
+};
+[[gnu::always_inline]] inline void kinetic_change(const v4d& ka, const v4d& ku, const v4d& kb,
+                                                  KineticChange& out) {
+  out.d = kb - ka;
+  const v4d ad = out.d < 0.0 ? -out.d : out.d;
+  out.through = 2.0 * ku - ka - kb;
+  out.h = ad > out.through ? ad : out.through;
+}
+
+// The h terms of four segments (grp) in full_energy, with the kinetic
+// energies of the inverse dynamics: translational h_b = m g |dc_y| +
+// dK(K_A, K_u, K_B), rotational h_j = dK(K_A^rot, K_w, K_B^rot) with w^ in
+// A's principal axes (R P)_A^T dphi / T (J; padding lanes give 0).
+[[gnu::always_inline]] inline void h_lanes(const DynamicsModel& model, const StateView& a,
+                                           const StateView& b, const NewtonEulerData& da,
+                                           const NewtonEulerData& db, const Eigen::Vector3d* steps,
+                                           double inv_t, const Smoothing& sm,
+                                           const lanes::Group& grp, v4d& h_seg, v4d& h_joint) {
+  const std::size_t i0 = grp.idx[0], i1 = grp.idx[1], i2 = grp.idx[2], i3 = grp.idx[3];
+  const v4d live = grp.live;
   const double* const mass_of = model.masses_kg.data();
-  const Eigen::Vector3d* const pm = model.principal_moments_kgm2.data();
-  const Eigen::Matrix3d* const prot_a = da.principal_rotations.data();
+  const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
+  Vec4 ca, cb, st;
+  gather(a.coms_m, grp.idx, ca);
+  gather(b.coms_m, grp.idx, cb);
+  const v4d dcx = cb.x - ca.x, dcy = cb.y - ca.y, dcz = cb.z - ca.z;
+  const v4d grav_signed = m * model.params.gravity_mps2 * dcy;
+  const v4d grav = grav_signed < 0.0 ? -grav_signed : grav_signed;
+  const v4d k_u = 0.5 * m * (dcx * dcx + dcy * dcy + dcz * dcz) * inv_t * inv_t;
   const double* const eta = da.translational_energies_J.data();
   const double* const etb = db.translational_energies_J.data();
+  KineticChange tr;
+  kinetic_change(live * v4d{eta[i0], eta[i1], eta[i2], eta[i3]}, k_u,
+                 live * v4d{etb[i0], etb[i1], etb[i2], etb[i3]}, tr);
+  h_seg = grav + tr.h;
+  gather(steps, grp.idx, st);
+  const v4d sx = inv_t * st.x, sy = inv_t * st.y, sz = inv_t * st.z;
+  const Eigen::Matrix3d* const prot_a = da.principal_rotations.data();
+  const Eigen::Vector3d* const pm = model.principal_moments_kgm2.data();
+  v4d k_w{};
+  for (int k = 0; k < 3; ++k) {  // column k of R P: principal axis k
+    const v4d px{prot_a[i0](0, k), prot_a[i1](0, k), prot_a[i2](0, k), prot_a[i3](0, k)};
+    const v4d py{prot_a[i0](1, k), prot_a[i1](1, k), prot_a[i2](1, k), prot_a[i3](1, k)};
+    const v4d pz{prot_a[i0](2, k), prot_a[i1](2, k), prot_a[i2](2, k), prot_a[i3](2, k)};
+    const v4d dk_m = live * v4d{pm[i0][k], pm[i1][k], pm[i2][k], pm[i3][k]};
+    const v4d wk = px * sx + py * sy + pz * sz;
+    k_w += dk_m * wk * wk;
+  }
+  k_w *= 0.5;
   const double* const era = da.rotational_energies_J.data();
   const double* const erb = db.rotational_energies_J.data();
-  const double g_acc = model.params.gravity_mps2;
+  KineticChange rot;
+  kinetic_change(live * v4d{era[i0], era[i1], era[i2], era[i3]}, k_w,
+                 live * v4d{erb[i0], erb[i1], erb[i2], erb[i3]}, rot);
+  h_joint = rot.h;
+  if (sm.s > 0.0) {
+    // Smoothed (refinement only): |x| -> sqrt(x^2 + s^2) - s, max(a, b) -> (a + b + |a - b|) / 2.
+    for (std::size_t l = 0; l < grp.count; ++l) {
+      h_seg[l] = sm.abs(grav_signed[l]) + sm.max(sm.abs(tr.d[l]), tr.through[l]);
+      h_joint[l] = sm.max(sm.abs(rot.d[l]), rot.through[l]);
+    }
+  }
+}
+
+// The h part of full_energy (energy.hpp) into ws.h, four segments at a time
+// (padding lanes as in inverse_dynamics: massless, discarded); returns its
+// total (J), the lanes added in lane order. Equal to approximate_energy(a,
+// b) up to round-off (1e-15 relative).
+[[gnu::always_inline]] inline double h_part(const DynamicsModel& model, const StateView& a,
+                                            const StateView& b, const NewtonEulerData& da,
+                                            const NewtonEulerData& db, double inv_t,
+                                            const Smoothing& sm, NewtonEulerWorkspace& ws) {
+  ws.h.reset(model.joint_count());
+  double* const __restrict h_seg_out = ws.h.segment_J.data();
+  double* const __restrict h_joint_out = ws.h.joint_J.data();
+  const Eigen::Vector3d* const steps = ws.rotation_steps.data();
+  const std::size_t nseg = model.segments.size();
   v4d h_sum{};
   for (std::size_t k0 = 0; k0 < nseg; k0 += 4) {
     lanes::Group grp;
-    lanes::group(seg, nseg, k0, grp);
-    const std::size_t i0 = grp.idx[0], i1 = grp.idx[1], i2 = grp.idx[2], i3 = grp.idx[3];
-    const v4d live = grp.live;
-    const v4d m = live * v4d{mass_of[i0], mass_of[i1], mass_of[i2], mass_of[i3]};
-    const v4d dcx = v4d{cb[i0].x(), cb[i1].x(), cb[i2].x(), cb[i3].x()} -
-                    v4d{ca[i0].x(), ca[i1].x(), ca[i2].x(), ca[i3].x()};
-    const v4d dcy = v4d{cb[i0].y(), cb[i1].y(), cb[i2].y(), cb[i3].y()} -
-                    v4d{ca[i0].y(), ca[i1].y(), ca[i2].y(), ca[i3].y()};
-    const v4d dcz = v4d{cb[i0].z(), cb[i1].z(), cb[i2].z(), cb[i3].z()} -
-                    v4d{ca[i0].z(), ca[i1].z(), ca[i2].z(), ca[i3].z()};
-    const v4d grav_signed = m * g_acc * dcy;
-    const v4d grav = grav_signed < 0.0 ? -grav_signed : grav_signed;
-    const v4d k_u = 0.5 * m * (dcx * dcx + dcy * dcy + dcz * dcz) * inv_t * inv_t;
-    const v4d ka = live * v4d{eta[i0], eta[i1], eta[i2], eta[i3]};
-    const v4d kb = live * v4d{etb[i0], etb[i1], etb[i2], etb[i3]};
-    // transition_kinetic_change, lane-wise
-    const v4d dk = kb - ka;
-    const v4d adk = dk < 0.0 ? -dk : dk;
-    const v4d through = 2.0 * k_u - ka - kb;
-    v4d h_seg = grav + (adk > through ? adk : through);
-    // w^ in A's principal axes: (R P)_A^T dphi / T.
-    const v4d sx = inv_t * v4d{steps[i0].x(), steps[i1].x(), steps[i2].x(), steps[i3].x()};
-    const v4d sy = inv_t * v4d{steps[i0].y(), steps[i1].y(), steps[i2].y(), steps[i3].y()};
-    const v4d sz = inv_t * v4d{steps[i0].z(), steps[i1].z(), steps[i2].z(), steps[i3].z()};
-    v4d k_w{};
-    for (int k = 0; k < 3; ++k) {  // column k of R P: principal axis k
-      const v4d px{prot_a[i0](0, k), prot_a[i1](0, k), prot_a[i2](0, k), prot_a[i3](0, k)};
-      const v4d py{prot_a[i0](1, k), prot_a[i1](1, k), prot_a[i2](1, k), prot_a[i3](1, k)};
-      const v4d pz{prot_a[i0](2, k), prot_a[i1](2, k), prot_a[i2](2, k), prot_a[i3](2, k)};
-      const v4d dk_m = live * v4d{pm[i0][k], pm[i1][k], pm[i2][k], pm[i3][k]};
-      const v4d wk = px * sx + py * sy + pz * sz;
-      k_w += dk_m * wk * wk;
-    }
-    k_w *= 0.5;
-    const v4d ra = live * v4d{era[i0], era[i1], era[i2], era[i3]};
-    const v4d rb = live * v4d{erb[i0], erb[i1], erb[i2], erb[i3]};
-    const v4d dr = rb - ra;
-    const v4d adr = dr < 0.0 ? -dr : dr;
-    const v4d through_r = 2.0 * k_w - ra - rb;
-    v4d h_joint = adr > through_r ? adr : through_r;
-    if (smooth > 0.0) {
-      // Smoothed (refinement only): |x| -> sqrt(x^2 + s^2) - s, max(a, b) -> (a + b + |a - b|) / 2.
-      for (std::size_t l = 0; l < grp.count; ++l) {
-        h_seg[l] = sabs(grav_signed[l]) + smax(sabs(dk[l]), through[l]);
-        h_joint[l] = smax(sabs(dr[l]), through_r[l]);
-      }
-    }
+    lanes::group(model.segments.data(), nseg, k0, grp);
+    v4d h_seg, h_joint;
+    h_lanes(model, a, b, da, db, steps, inv_t, sm, grp, h_seg, h_joint);
     h_sum += h_seg + h_joint;
     for (std::size_t l = 0; l < grp.count; ++l) {
       h_seg_out[grp.idx[l]] = h_seg[l];
       h_joint_out[grp.idx[l]] = h_joint[l];
     }
   }
-  const double h_total = lanes::sum(h_sum);
+  return lanes::sum(h_sum);
+}
+
+// The work of segment j's contact over the step (J): the mean contact wrench
+// over dc and dphi, plus friction mu F_n over the horizontal path of the
+// contact point carried rigidly from the state where it touches to the other.
+[[gnu::always_inline]] inline double contact_work(const DynamicsModel& model, const StateView& a,
+                                                  const StateView& b, const NewtonEulerData& da,
+                                                  const NewtonEulerData& db, std::size_t j,
+                                                  const Eigen::Vector3d& dc,
+                                                  const Eigen::Vector3d& dphi,
+                                                  const Smoothing& sm) {
+  const Eigen::Vector3d fc = 0.5 * (da.contact_forces_N[j] + db.contact_forces_N[j]);
+  const Eigen::Vector3d tc =
+      0.5 * (contact_moment_about_com(da, a, j) + contact_moment_about_com(db, b, j));
+  double w_contact = sm.abs(fc.dot(dc) + tc.dot(dphi));
+  Eigen::Vector3d slide;
+  if (da.in_contact[j]) {
+    const Eigen::Vector3d& p = da.contact_points_m[j];
+    slide = b.coms_m[j] + (b.rotations[j] * a.rotations[j].conjugate()) * (p - a.coms_m[j]) - p;
+  } else {
+    const Eigen::Vector3d& p = db.contact_points_m[j];
+    slide = p - (a.coms_m[j] + (a.rotations[j] * b.rotations[j].conjugate()) * (p - b.coms_m[j]));
+  }
+  const double normal = std::max(0.0, fc.y());
+  const double friction = model.params.friction_coefficient * normal;
+  const double smooth = sm.s;
+  w_contact +=
+      smooth > 0.0
+          ? std::sqrt(friction * friction * (slide.x() * slide.x() + slide.z() * slide.z()) +
+                      smooth * smooth) -
+                smooth
+          : friction * std::sqrt(slide.x() * slide.x() + slide.z() * slide.z());
+  return w_contact;
+}
+
+// The work of body root j's residual wrench about its COM (mean of A and B)
+// over dc and dphi (J).
+[[gnu::always_inline]] inline double residual_work(
+    const StateView& a, const StateView& b, const NewtonEulerData& da, const NewtonEulerData& db,
+    std::size_t j, const Eigen::Vector3d& dc, const Eigen::Vector3d& dphi, const Smoothing& sm) {
+  const Eigen::Vector3d fr = 0.5 * (da.joint_forces_N[j] + db.joint_forces_N[j]);
+  const Eigen::Vector3d mr =
+      0.5 *
+      (da.joint_torques_Nm[j] + (a.joint_positions_m[j] - a.coms_m[j]).cross(da.joint_forces_N[j]) +
+       db.joint_torques_Nm[j] + (b.joint_positions_m[j] - b.coms_m[j]).cross(db.joint_forces_N[j]));
+  return sm.abs(fr.dot(dc) + mr.dot(dphi));
+}
+
+// g_b - h_b of segment j (J): the work of the adjacent force (what the
+// segment needs minus contact minus, at a root, the residual), of its
+// contact and of its residual wrench (at a body root); by part into terms.
+[[gnu::always_inline]] inline double segment_work(const DynamicsModel& model, const StateView& a,
+                                                  const StateView& b, const NewtonEulerData& da,
+                                                  const NewtonEulerData& db, std::size_t j,
+                                                  const Eigen::Vector3d& dphi, const Smoothing& sm,
+                                                  FullEnergyTerms* terms) {
+  const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
+  const bool root = model.is_body_root[j] != 0;
+  Eigen::Vector3d fa_a = da.required_forces_N[j] - da.contact_forces_N[j];
+  Eigen::Vector3d fa_b = db.required_forces_N[j] - db.contact_forces_N[j];
+  if (root) {
+    fa_a -= da.joint_forces_N[j];
+    fa_b -= db.joint_forces_N[j];
+  }
+  const double w_adj = sm.abs(0.5 * (fa_a + fa_b).dot(dc));
+  const double w_contact = da.in_contact[j] || db.in_contact[j]
+                               ? contact_work(model, a, b, da, db, j, dc, dphi, sm)
+                               : 0.0;
+  const double w_res = root ? residual_work(a, b, da, db, j, dc, dphi, sm) : 0.0;
+  if (terms != nullptr) {
+    terms->adjacent_work_J[j] = w_adj;
+    terms->contact_work_J[j] = w_contact;
+    terms->residual_work_J += w_res;
+  }
+  return w_adj + w_contact + w_res;
+}
+
+}  // namespace
+
+double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
+                   double transition_time_s, NewtonEulerWorkspace& ws, FullEnergyTerms* terms) {
+  inverse_dynamics(model, a, ws.a);
+  inverse_dynamics(model, b, ws.b);
+  return full_energy(model, a, b, transition_time_s, ws.a, ws.b, ws, terms);
+}
+
+// g = h + work of adjacent, contact and residual forces and of joint torques
+// over the step (trapezoid rule); formulas in the header.
+MOCAP_MULTIVERSION_V3
+double full_energy(const DynamicsModel& model, const StateView& a, const StateView& b,
+                   double transition_time_s, const NewtonEulerData& da, const NewtonEulerData& db,
+                   NewtonEulerWorkspace& ws, FullEnergyTerms* terms) {
+  const std::size_t n = model.joint_count();
+  if (da.joint_forces_N.size() != n || db.joint_forces_N.size() != n)
+    throw std::invalid_argument("inverse dynamics results do not match the character model");
+  detail::check_transition_time(transition_time_s);
+  ws.rotation_steps.resize(n);
+  rotation_steps_of(n, a.rotations, b.rotations, ws.rotation_steps.data());
+  const Eigen::Vector3d* const steps = ws.rotation_steps.data();
+  const Smoothing sm{ws.smoothing_J};
+  const double h_total = h_part(model, a, b, da, db, 1.0 / transition_time_s, sm, ws);
   if (terms != nullptr) {
     terms->h = ws.h;
     terms->g.reset(n);
@@ -678,74 +783,18 @@ double full_energy(const DynamicsModel& model, const StateView& a, const StateVi
     terms->joint_work_J.assign(n, 0.0);
     terms->residual_work_J = 0.0;
   }
-  const double mu = model.params.friction_coefficient;
   double extra = 0.0;
   for (int jj : model.term_joints) {
     const auto j = static_cast<std::size_t>(jj);
     const Eigen::Vector3d& dphi = steps[j];
-    double g_seg = 0.0;
-    if (model.masses_kg[j] > 0.0) {
-      const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
-      const bool root = model.is_body_root[j] != 0;
-      // Adjacent force: what the segment needs minus contact minus (at a root) the residual.
-      Eigen::Vector3d fa_a = da.required_forces_N[j] - da.contact_forces_N[j];
-      Eigen::Vector3d fa_b = db.required_forces_N[j] - db.contact_forces_N[j];
-      if (root) {
-        fa_a -= da.joint_forces_N[j];
-        fa_b -= db.joint_forces_N[j];
-      }
-      const double w_adj = sabs(0.5 * (fa_a + fa_b).dot(dc));
-      double w_contact = 0.0;
-      if (da.in_contact[j] || db.in_contact[j]) {
-        const Eigen::Vector3d fc = 0.5 * (da.contact_forces_N[j] + db.contact_forces_N[j]);
-        const Eigen::Vector3d tc =
-            0.5 * (contact_moment_about_com(da, a, j) + contact_moment_about_com(db, b, j));
-        w_contact = sabs(fc.dot(dc) + tc.dot(dphi));
-        // Sliding: the contact point carried rigidly from the state where it
-        // touches to the other one; friction mu F_n over its horizontal path.
-        Eigen::Vector3d slide;
-        if (da.in_contact[j]) {
-          const Eigen::Vector3d& p = da.contact_points_m[j];
-          slide =
-              b.coms_m[j] + (b.rotations[j] * a.rotations[j].conjugate()) * (p - a.coms_m[j]) - p;
-        } else {
-          const Eigen::Vector3d& p = db.contact_points_m[j];
-          slide =
-              p - (a.coms_m[j] + (a.rotations[j] * b.rotations[j].conjugate()) * (p - b.coms_m[j]));
-        }
-        const double normal = std::max(0.0, fc.y());
-        const double friction = mu * normal;
-        w_contact +=
-            smooth > 0.0
-                ? std::sqrt(friction * friction * (slide.x() * slide.x() + slide.z() * slide.z()) +
-                            smooth * smooth) -
-                      smooth
-                : friction * std::sqrt(slide.x() * slide.x() + slide.z() * slide.z());
-      }
-      double w_res = 0.0;
-      if (root) {
-        // Residual wrench of this root about its COM, mean of A and B.
-        const Eigen::Vector3d fr = 0.5 * (da.joint_forces_N[j] + db.joint_forces_N[j]);
-        const Eigen::Vector3d mr =
-            0.5 * (da.joint_torques_Nm[j] +
-                   (a.joint_positions_m[j] - a.coms_m[j]).cross(da.joint_forces_N[j]) +
-                   db.joint_torques_Nm[j] +
-                   (b.joint_positions_m[j] - b.coms_m[j]).cross(db.joint_forces_N[j]));
-        w_res = sabs(fr.dot(dc) + mr.dot(dphi));
-      }
-      g_seg = w_adj + w_contact + w_res;
-      if (terms != nullptr) {
-        terms->adjacent_work_J[j] = w_adj;
-        terms->contact_work_J[j] = w_contact;
-        terms->residual_work_J += w_res;
-      }
-    }
+    const double g_seg =
+        model.masses_kg[j] > 0.0 ? segment_work(model, a, b, da, db, j, dphi, sm, terms) : 0.0;
     double g_joint = 0.0;
-    if (!model.is_body_root[j]) {
+    if (!model.is_body_root[j]) {  // the joint torque's work over the relative rotation step
       const int p = model.parents[j];
       const Eigen::Vector3d rel =
           p >= 0 ? Eigen::Vector3d(dphi - steps[static_cast<std::size_t>(p)]) : dphi;
-      g_joint = sabs(0.5 * (da.joint_torques_Nm[j] + db.joint_torques_Nm[j]).dot(rel));
+      g_joint = sm.abs(0.5 * (da.joint_torques_Nm[j] + db.joint_torques_Nm[j]).dot(rel));
       if (terms != nullptr) terms->joint_work_J[j] = g_joint;
     }
     extra += g_seg + g_joint;
