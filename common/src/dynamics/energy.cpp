@@ -340,18 +340,19 @@ void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::s
     const auto j = static_cast<std::size_t>(model.segments[s]);
     float* base = table.values.data() + s * HScanTable::kFields * st + f;
     const Eigen::Vector3d& c = state.coms_m[j];
-    base[0 * st] = static_cast<float>(c.x());
-    base[1 * st] = static_cast<float>(c.y());
-    base[2 * st] = static_cast<float>(c.z());
-    base[3 * st] =
+    using F = HScanField;
+    base[F::com_x * st] = static_cast<float>(c.x());
+    base[F::com_y * st] = static_cast<float>(c.y());
+    base[F::com_z * st] = static_cast<float>(c.z());
+    base[F::kinetic * st] =
         static_cast<float>(0.5 * model.masses_kg[j] * state.com_velocities_mps[j].squaredNorm());
     Eigen::Quaterniond q = (state.rotations[j] * model.principal_frames[j]).normalized();
     if (q.w() < 0.0) q.coeffs() = -q.coeffs();
-    base[4 * st] = static_cast<float>(q.w());
-    base[5 * st] = static_cast<float>(q.x());
-    base[6 * st] = static_cast<float>(q.y());
-    base[7 * st] = static_cast<float>(q.z());
-    base[8 * st] = static_cast<float>(rotational_ke(
+    base[F::orient_w * st] = static_cast<float>(q.w());
+    base[F::orient_x * st] = static_cast<float>(q.x());
+    base[F::orient_y * st] = static_cast<float>(q.y());
+    base[F::orient_z * st] = static_cast<float>(q.z());
+    base[F::kinetic_rot * st] = static_cast<float>(rotational_ke(
         model.inertias_local_kgm2[j], state.rotations[j], state.angular_velocities_radps[j]));
   }
   const int root = model.root();
@@ -387,23 +388,25 @@ HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
     const auto j = static_cast<std::size_t>(model.segments[s]);
     float* c = q.constants.data() + s * HScanQuery::kConstants;
     const double m = model.masses_kg[j];
-    c[0] = static_cast<float>(state.coms_m[j].x());
-    c[1] = static_cast<float>(state.coms_m[j].y());
-    c[2] = static_cast<float>(state.coms_m[j].z());
-    c[3] = static_cast<float>(0.5 * m * state.com_velocities_mps[j].squaredNorm());
-    c[4] = static_cast<float>(m * model.params.gravity_mps2);
-    c[5] = static_cast<float>(m * half_inv_t2);
+    using C = HScanConstant;
+    c[C::com_x] = static_cast<float>(state.coms_m[j].x());
+    c[C::com_y] = static_cast<float>(state.coms_m[j].y());
+    c[C::com_z] = static_cast<float>(state.coms_m[j].z());
+    c[C::kinetic] = static_cast<float>(0.5 * m * state.com_velocities_mps[j].squaredNorm());
+    c[C::mass_gravity] = static_cast<float>(m * model.params.gravity_mps2);
+    c[C::mass_half_inv_t2] = static_cast<float>(m * half_inv_t2);
     const Eigen::Quaterniond qa =
         (state.rotations[j] * model.principal_frames[j]).normalized().conjugate();
-    c[6] = static_cast<float>(qa.w());
-    c[7] = static_cast<float>(qa.x());
-    c[8] = static_cast<float>(qa.y());
-    c[9] = static_cast<float>(qa.z());
-    c[10] = static_cast<float>(rotational_ke(model.inertias_local_kgm2[j], state.rotations[j],
-                                             state.angular_velocities_radps[j]));
+    c[C::conj_w] = static_cast<float>(qa.w());
+    c[C::conj_x] = static_cast<float>(qa.x());
+    c[C::conj_y] = static_cast<float>(qa.y());
+    c[C::conj_z] = static_cast<float>(qa.z());
+    c[C::kinetic_rot] = static_cast<float>(rotational_ke(
+        model.inertias_local_kgm2[j], state.rotations[j], state.angular_velocities_radps[j]));
     for (int k = 0; k < 3; ++k)
-      c[11 + k] = static_cast<float>(model.principal_moments_kgm2[j][k] * half_inv_t2);
-    c[15] = !compared_joints.empty() && compared_joints[j] == 0 ? 1.0f : 0.0f;
+      c[C::moments_half_inv_t2 + static_cast<std::size_t>(k)] =
+          static_cast<float>(model.principal_moments_kgm2[j][k] * half_inv_t2);
+    c[C::left_out] = !compared_joints.empty() && compared_joints[j] == 0 ? 1.0f : 0.0f;
   }
   return q;
 }
@@ -417,15 +420,17 @@ void place_h_scan_query(const HScanQuery& body, const GroundPose& g, HScanQuery&
     const float* in = body.constants.data() + b * HScanQuery::kConstants;
     float* o = out.constants.data() + b * HScanQuery::kConstants;
     std::copy(in, in + HScanQuery::kConstants, o);
-    const double x = in[0], z = in[2];
-    o[0] = static_cast<float>(c * x + s * z + g.position_m.x());
-    o[2] = static_cast<float>(-s * x + c * z + g.position_m.y());
+    using C = HScanConstant;
+    const double x = in[C::com_x], z = in[C::com_z];
+    o[C::com_x] = static_cast<float>(c * x + s * z + g.position_m.x());
+    o[C::com_z] = static_cast<float>(-s * x + c * z + g.position_m.y());
     // conj(R_y q P) = conj(q P) conj(R_y).
-    const Eigen::Quaterniond q = Eigen::Quaterniond(in[6], in[7], in[8], in[9]) * back;
-    o[6] = static_cast<float>(q.w());
-    o[7] = static_cast<float>(q.x());
-    o[8] = static_cast<float>(q.y());
-    o[9] = static_cast<float>(q.z());
+    const Eigen::Quaterniond q =
+        Eigen::Quaterniond(in[C::conj_w], in[C::conj_x], in[C::conj_y], in[C::conj_z]) * back;
+    o[C::conj_w] = static_cast<float>(q.w());
+    o[C::conj_x] = static_cast<float>(q.x());
+    o[C::conj_y] = static_cast<float>(q.y());
+    o[C::conj_z] = static_cast<float>(q.z());
   }
 }
 
@@ -442,21 +447,26 @@ void scan_kernel(const float* __restrict values, std::size_t stride, std::size_t
                  float* __restrict acc) {
   for (std::size_t i = 0; i < n; ++i) acc[i] = 0.0f;
   for (std::size_t s = 0; s < segments; ++s) {
+    using C = HScanConstant;
+    using F = HScanField;
     const float* k = constants + s * HScanQuery::kConstants;
-    if (k[15] != 0.0f) continue;  // a segment left out (mask)
-    const float ax = k[0], ay = k[1], az = k[2], ka = k[3], mg = k[4], mh = k[5];
-    const float aw = k[6], qx = k[7], qy = k[8], qz = k[9], kar = k[10];
-    const float d0 = k[11], d1 = k[12], d2 = k[13];
+    if (k[C::left_out] != 0.0f) continue;  // a segment left out (mask)
+    const float ax = k[C::com_x], ay = k[C::com_y], az = k[C::com_z], ka = k[C::kinetic];
+    const float mg = k[C::mass_gravity], mh = k[C::mass_half_inv_t2];
+    const float aw = k[C::conj_w], qx = k[C::conj_x], qy = k[C::conj_y], qz = k[C::conj_z];
+    const float kar = k[C::kinetic_rot];
+    const float d0 = k[C::moments_half_inv_t2], d1 = k[C::moments_half_inv_t2 + 1],
+                d2 = k[C::moments_half_inv_t2 + 2];
     const float* base = values + s * HScanTable::kFields * stride + first;
-    const float* __restrict cx = base;
-    const float* __restrict cy = base + stride;
-    const float* __restrict cz = base + 2 * stride;
-    const float* __restrict kb = base + 3 * stride;
-    const float* __restrict bw = base + 4 * stride;
-    const float* __restrict bx = base + 5 * stride;
-    const float* __restrict by = base + 6 * stride;
-    const float* __restrict bz = base + 7 * stride;
-    const float* __restrict kbr = base + 8 * stride;
+    const float* __restrict cx = base + F::com_x * stride;
+    const float* __restrict cy = base + F::com_y * stride;
+    const float* __restrict cz = base + F::com_z * stride;
+    const float* __restrict kb = base + F::kinetic * stride;
+    const float* __restrict bw = base + F::orient_w * stride;
+    const float* __restrict bx = base + F::orient_x * stride;
+    const float* __restrict by = base + F::orient_y * stride;
+    const float* __restrict bz = base + F::orient_z * stride;
+    const float* __restrict kbr = base + F::kinetic_rot * stride;
     for (std::size_t i = 0; i < n; ++i) {
       const float dx = cx[i] - ax, dy = cy[i] - ay, dz = cz[i] - az;
       const float ku = mh * (dx * dx + dy * dy + dz * dz);
@@ -498,8 +508,8 @@ void root_scan_kernel(const float* __restrict values, const float* __restrict ro
   for (std::size_t s = 0; s < segments; ++s) {
     const float m_inv_t2 = masses[s] * q.inv_t2;
     const float* base = values + s * HScanTable::kFields * stride + first;
-    const float* __restrict kb = base + 3 * stride;
-    const float* __restrict kbr = base + 8 * stride;
+    const float* __restrict kb = base + HScanField::kinetic * stride;
+    const float* __restrict kbr = base + HScanField::kinetic_rot * stride;
     for (std::size_t i = 0; i < n; ++i) {
       const float dx = gx * (px - rx[i]), dy = gy * (py - ry[i]), dz = gz * (pz - rz[i]);
       const float two_ku = m_inv_t2 * (dx * dx + dy * dy + dz * dz);

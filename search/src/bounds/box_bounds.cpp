@@ -18,14 +18,15 @@ BoundQuery make_bound_query(const ResolvedFrame& q, const SkeletonTables& tables
   if (b.kind == FrameKind::full) {
     for (auto* v : {&b.ax, &b.ay, &b.az, &b.ka, &b.mg, &b.mh, &b.kar}) v->reserve(b.s);
     for (std::size_t s = 0; s < tables.segments; ++s) {
+      using C = HScanConstant;
       const float* k = q.scan.constants.data() + s * HScanQuery::kConstants;
-      b.ax.push_back(k[0]);
-      b.ay.push_back(k[1]);
-      b.az.push_back(k[2]);
-      b.ka.push_back(k[3]);
-      b.mg.push_back(k[4]);
-      b.mh.push_back(k[5]);
-      b.kar.push_back(k[10]);
+      b.ax.push_back(k[C::com_x]);
+      b.ay.push_back(k[C::com_y]);
+      b.az.push_back(k[C::com_z]);
+      b.ka.push_back(k[C::kinetic]);
+      b.mg.push_back(k[C::mass_gravity]);
+      b.mh.push_back(k[C::mass_half_inv_t2]);
+      b.kar.push_back(k[C::kinetic_rot]);
     }
     const std::vector<float>* com[3] = {&b.ax, &b.ay, &b.az};
     auto com_of = [&](std::size_t s, std::size_t a) { return (*com[a])[s]; };

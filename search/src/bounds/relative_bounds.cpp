@@ -15,15 +15,16 @@ RelativeBoundQuery make_relative_bound_query(const ResolvedFrame& q, const Skele
   out.inv_t2 = 1.0 / (t * t);
   for (std::size_t b = 0; b < model.segments.size(); ++b) {
     const auto j = static_cast<std::size_t>(model.segments[b]);
+    using C = HScanConstant;
     const float* c = q.scan.constants.data() + b * HScanQuery::kConstants;
     const double m = model.masses_kg[j];
     out.mass.push_back(m);
-    out.y.push_back(c[1]);
-    out.ke.push_back(c[3]);
-    out.ke_rot.push_back(c[10]);
+    out.y.push_back(c[C::com_y]);
+    out.ke.push_back(c[C::kinetic]);
+    out.ke_rot.push_back(c[C::kinetic_rot]);
     out.total_mass += m;
-    out.ke_total += static_cast<double>(c[3]);
-    out.com_body += m * Eigen::Vector3d(c[0], c[1], c[2]).cast<double>();
+    out.ke_total += static_cast<double>(c[C::kinetic]);
+    out.com_body += m * Eigen::Vector3d(c[C::com_x], c[C::com_y], c[C::com_z]).cast<double>();
   }
   if (out.total_mass > 0.0) out.com_body /= out.total_mass;
   return out;
@@ -65,11 +66,12 @@ void relative_bound_frames(const RelativeBoundQuery& q, const SkeletonTables& ta
         const float* tile = tables.tile_data(row);
         const std::size_t stride = tables.tile_stride(row);
         for (std::size_t b = 0; b < q.mass.size(); ++b) {
-          const float* x = tile + b * HScanTable::kFields * stride;
-          const float* y = x + stride;
-          const float* z = x + 2 * stride;
-          const float* ke = x + 3 * stride;
-          const float* kr = x + 8 * stride;
+          const float* base = tile + b * HScanTable::kFields * stride;
+          const float* x = base + HScanField::com_x * stride;
+          const float* y = base + HScanField::com_y * stride;
+          const float* z = base + HScanField::com_z * stride;
+          const float* ke = base + HScanField::kinetic * stride;
+          const float* kr = base + HScanField::kinetic_rot * stride;
           const double m = q.mass[b], mg = m * q.g, mh = m * q.inv_t2;
           const double yq = q.y[b], kq = q.ke[b], rq = q.ke_rot[b];
           for (std::size_t l = 0; l < kBlock; ++l) {
@@ -117,11 +119,13 @@ void add_turn_moments(const SkeletonTables& tables, std::size_t b, std::vector<d
         const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
         for (std::size_t i = 0; i < count; ++i) {
           const std::size_t g = offset + i;
-          const double px = t[i] - tables.root_position(0, g);
-          const double pz = t[2 * stride + i] - tables.root_position(2, g);
+          const double px = t[HScanField::com_x * stride + i] - tables.root_position(0, g);
+          const double pz = t[HScanField::com_z * stride + i] - tables.root_position(2, g);
           // q = R P, world-from-principal: (I_world)_yy = sum_k D_k (q e_k)_y^2.
-          const double w = t[4 * stride + i], x = t[5 * stride + i], y = t[6 * stride + i],
-                       z = t[7 * stride + i];
+          const double w = t[HScanField::orient_w * stride + i],
+                       x = t[HScanField::orient_x * stride + i],
+                       y = t[HScanField::orient_y * stride + i],
+                       z = t[HScanField::orient_z * stride + i];
           const double n2 = w * w + x * x + y * y + z * z;
           const double e0 = 2.0 * (x * y + w * z) / n2, e1 = 1.0 - 2.0 * (x * x + z * z) / n2,
                        e2 = 2.0 * (y * z - w * x) / n2;
@@ -210,8 +214,8 @@ void ensure_frame_kinetic(const SkeletonData& skeleton) {
             const std::size_t stride = tables.tile_stride(row);
             const float* t = tables.tile_data(row) + b * HScanTable::kFields * stride + lane;
             for (std::size_t i = 0; i < count; ++i) {
-              caches.kinetic[offset + i] += t[3 * stride + i];
-              caches.kinetic_rot[offset + i] += t[8 * stride + i];
+              caches.kinetic[offset + i] += t[HScanField::kinetic * stride + i];
+              caches.kinetic_rot[offset + i] += t[HScanField::kinetic_rot * stride + i];
             }
           });
     RootBlocks whole;

@@ -80,10 +80,11 @@ const std::vector<double>& frame_headings(const SkeletonData& skeleton) {
     tables.for_each_tile_piece(
         0, n, [&](std::size_t row, std::size_t lane, std::size_t count, std::size_t offset) {
           const std::size_t stride = tables.tile_stride(row);
-          const float* w = tables.tile_data(row) + (seg * HScanTable::kFields + 4) * stride + lane;
-          const float* x = w + stride;
-          const float* y = w + 2 * stride;
-          const float* z = w + 3 * stride;
+          const float* base = tables.tile_data(row) + seg * HScanTable::kFields * stride + lane;
+          const float* w = base + HScanField::orient_w * stride;
+          const float* x = base + HScanField::orient_x * stride;
+          const float* y = base + HScanField::orient_y * stride;
+          const float* z = base + HScanField::orient_z * stride;
           for (std::size_t i = 0; i < count; ++i)
             caches.headings[offset + i] =
                 heading_rad(Eigen::Quaterniond(w[i], x[i], y[i], z[i]) * back);

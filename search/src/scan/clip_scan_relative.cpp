@@ -12,35 +12,6 @@
 namespace mocap::search_detail {
 namespace {
 
-// Root-only Q^h+1: per block of kBlock start frames, the box of where their
-// placements put Q^h+1's root against every block of end frames they reach;
-// a start block none of whose end blocks can beat tau gets la = inf (its
-// start frames are skipped). The path-cost term is left out (it is >= 0).
-template <class Placed>
-void root_block_pass(const RootBoundQuery& q, std::size_t s_end, const LengthFrames& len,
-                     double tau, const Placed& placed, Scratch& scratch) {
-  constexpr std::size_t B = RootBlocks::kBlock;
-  const RootBlocks& blocks = scratch.root_blocks;
-  const std::size_t last_e = blocks.x0.size() * B;  // past the clip's last block
-  for (std::size_t sa = 0; sa < s_end; sa += B) {
-    const std::size_t sb = std::min(s_end, sa + B);  // [sa, sb)
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
-    double amin = kInf;
-    for (std::size_t s = sa; s < sb; ++s) {
-      const Eigen::Vector3d p = placed(q, s);
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-      amin = std::min(amin, scratch.a[s]);
-    }
-    const std::size_t e_lo = sa + len.min, e_hi = std::min(last_e - 1, sb - 1 + len.max);
-    bool open = false;
-    for (std::size_t j = e_lo / B; j <= e_hi / B && !open; ++j)
-      open = safe(amin + blocks.bound_box(q, j, lo, hi)) <= tau;
-    if (!open)
-      for (std::size_t s = sa; s < sb; ++s) scratch.la[s] = kInf;
-  }
-}
-
 // The root-only bound of a term over a whole clip (box = its clip_root_boxes
 // row): Q^h ("in") lands at F^s plus its body offset d exactly; Q^h+1
 // ("out") at F^s + d turned, at least |d| minus the clip's root extent
@@ -82,6 +53,280 @@ void evaluate_free_frames(const PairContext& pair, const ClipInfo& ci, std::size
   }
 }
 
+// What the steps of eval_clip_relative share: the clip, its length limits,
+// which bounds prune its starts and ends, the root frames' caches, and the
+// best pair so far.
+struct RelativeScan {
+  const PairContext& pair;
+  const ClipInfo& ci;
+  Scratch& scratch;
+  ClipCounters& counters;
+  const SkeletonData& skeleton;
+  std::size_t k;
+  LengthFrames len;
+  std::size_t s_end;  // starts s < s_end
+  bool prune;
+  bool bounded_a = false;  // a(s) first bounded by in_bound / root_in
+  bool root_a = false;
+  bool bounded_b = false;  // b(s, e) first bounded by out_bound / root_out
+  bool root_b = false;
+  const double* headings = nullptr;  // and heading_cos_sin, 2 a frame
+  const double* cos_sin = nullptr;
+  const float* moments_in = nullptr;  // the turning frames' moments (turn_moments_of)
+  const float* moments_out = nullptr;
+  const float* kin = nullptr;  // the frames' kinetic energies (J)
+  const float* kin_rot = nullptr;
+  std::span<const double> prefix{};
+  // The best pair so far and its b(s, e).
+  ClipBest best{};
+  bool have = false;
+  double best_out = 0.0;
+
+  GroundPose place(std::size_t f) const {
+    return frame_placement(skeleton, pair.placement, ci.frame_start + f);
+  }
+  // Where a partial motion starting at f puts the query frame's root (world, m).
+  Eigen::Vector3d placed(const RootBoundQuery& q, std::size_t f) const {
+    return place_point(skeleton, pair.placement, ci.frame_start + f, q.root_body);
+  }
+  // cos and sin of where a partial motion starting at f turns a turning
+  // frame (world).
+  std::array<double, 2> placed_heading(const RootBoundQuery& q, std::size_t f) const {
+    const double psi =
+        q.heading_body + (pair.placement == FramePlacement::relative ? headings[f] : 0.0);
+    return std::array<double, 2>{std::cos(psi), std::sin(psi)};
+  }
+  // Clip frame f's root position (m).
+  Eigen::Vector3d root_at(std::size_t f) const {
+    const float* r = skeleton.tables.root_positions.data() + ci.frame_start + f;
+    const std::size_t st = skeleton.tables.frame_count;
+    return Eigen::Vector3d(r[0], r[st], r[2 * st]);
+  }
+  // A root frame's bound at frame f with its root placed at p (world) and,
+  // for a turning one (its moments), its heading's cos and sin psi.
+  double root_frame_bound(const RootBoundQuery& q, const float* moments, std::size_t f,
+                          const Eigen::Vector3d& p, const std::array<double, 2>& psi) const {
+    return frame_root_bound(q, moments == nullptr ? nullptr : moments + 4 * f, kin[f], kin_rot[f],
+                            root_at(f), cos_sin == nullptr ? nullptr : cos_sin + 2 * f, p, psi[0],
+                            psi[1]);
+  }
+};
+
+// The root frames' caches the root-only bounds read: headings, the turning
+// frames' moments, the root blocks of a non-turning Q^h+1.
+void prepare_root_frames(RelativeScan& c) {
+  const PairContext& pair = c.pair;
+  const bool turns = (c.root_a && pair.root_in->turns) || (c.root_b && pair.root_out->turns);
+  if (!c.root_a && !c.root_b) return;
+  ensure_frame_kinetic(c.skeleton);
+  if (pair.placement == FramePlacement::relative || turns) {
+    c.headings = frame_headings(c.skeleton).data() + c.ci.frame_start;
+    c.cos_sin = c.skeleton.caches.heading_cos_sin.data() + 2 * c.ci.frame_start;
+  }
+  if (c.root_a && pair.root_in->turns)
+    c.moments_in = turn_moments_of(*pair.root_in, c.skeleton) + 4 * c.ci.frame_start;
+  if (c.root_b && pair.root_out->turns)
+    c.moments_out = turn_moments_of(*pair.root_out, c.skeleton) + 4 * c.ci.frame_start;
+  if (c.root_b && !pair.root_out->turns)
+    c.scratch.root_blocks.build(c.skeleton, c.ci.frame_start, c.k);
+}
+
+// a(s) into scratch.a for every start, or where Q^h is a full frame (or
+// root-only) first its lower bound (relative_bounds.hpp, Q^h placed on F^s);
+// scratch.a_exact[s] says which are a(s) itself.
+void start_values(RelativeScan& c) {
+  const PairContext& pair = c.pair;
+  Scratch& scratch = c.scratch;
+  if (c.bounded_a) {
+    relative_bound_frames(*pair.in_bound, c.skeleton.tables, c.ci.frame_start, c.k,
+                          scratch.in_frames);
+    for (std::size_t s = 0; s < c.s_end; ++s)
+      scratch.a[s] = relative_bound(*pair.in_bound, scratch.in_frames, s,
+                                    c.place(s).apply(pair.in_bound->com_body));
+  } else if (c.root_a) {
+    for (std::size_t s = 0; s < c.s_end; ++s)
+      scratch.a[s] = c.root_frame_bound(*pair.root_in, c.moments_in, s, c.placed(*pair.root_in, s),
+                                        c.placed_heading(*pair.root_in, s));
+  } else {
+    for (std::size_t s = 0; s < c.s_end; ++s)
+      evaluate_h(*pair.qa, c.skeleton, *pair.index, pair.t, c.ci.frame_start + s,
+                 c.ci.frame_start + s + 1, scratch.a.data() + s, scratch, c.place(s));
+    c.counters.evaluated += c.s_end;
+  }
+  scratch.a_exact.assign(c.k, c.bounded_a || c.root_a ? 0 : 1);
+}
+
+// Root-only Q^h+1: per block of RootBlocks::kBlock start frames (the one
+// block walk), the box of where their placements put Q^h+1's root against
+// every block of end frames they reach; a start block none of whose end
+// blocks can beat tau gets la = inf (its start frames are skipped). The
+// path-cost term is left out (it is >= 0).
+void root_block_pass(const RelativeScan& c, const RootBoundQuery& q, double tau) {
+  constexpr std::size_t B = RootBlocks::kBlock;
+  Scratch& scratch = c.scratch;
+  const RootBlocks& blocks = scratch.root_blocks;
+  const std::size_t last_e = blocks.x0.size() * B;                // past the clip's last block
+  auto open = [&](std::size_t, std::size_t sa, std::size_t sb) {  // starts [sa, sb)
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
+    double amin = kInf;
+    for (std::size_t s = sa; s < sb; ++s) {
+      const Eigen::Vector3d p = c.placed(q, s);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+      amin = std::min(amin, scratch.a[s]);
+    }
+    const std::size_t e_lo = sa + c.len.min, e_hi = std::min(last_e - 1, sb - 1 + c.len.max);
+    bool any = false;
+    for (std::size_t j = e_lo / B; j <= e_hi / B && !any; ++j)
+      any = safe(amin + blocks.bound_box(q, j, lo, hi)) <= tau;
+    return any;
+  };
+  walk_blocks<B>(0, c.s_end, open, ignore_block, [&](std::size_t, std::size_t sa, std::size_t sb) {
+    for (std::size_t s = sa; s < sb; ++s) scratch.la[s] = kInf;
+  });
+}
+
+// scratch.la[s]: the least placement-free bound of b over s's window [s +
+// min, s + max] (0 without one), then root_block_pass for a non-turning
+// root-only Q^h+1.
+void end_window_bounds(RelativeScan& c, double tau) {
+  const PairContext& pair = c.pair;
+  Scratch& scratch = c.scratch;
+  auto window_minima = [&](const auto& lower) {
+    thread_local FixedWindowMinima windows;
+    windows.build(0, c.k, c.len.max - c.len.min + 1, lower);
+    scratch.la.resize(c.s_end);
+    for (std::size_t s = 0; s < c.s_end; ++s)
+      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + c.len.min));
+  };
+  if (c.bounded_b) {
+    const RelativeBoundFrames& fr = scratch.out_frames;
+    relative_bound_frames(*pair.out_bound, c.skeleton.tables, c.ci.frame_start, c.k,
+                          scratch.out_frames);
+    window_minima([&](std::size_t e) { return fr.lower(e); });
+  } else if (c.root_b) {
+    // The root bound with the x and z distances 0 (they depend on s).
+    const RootBoundQuery& q = *pair.root_out;
+    window_minima([&](std::size_t e) {
+      return root_bound(q, c.kin[e], c.kin[e], c.kin_rot[e], 0.0,
+                        q.root_body.y() - c.root_at(e).y(), 0.0);
+    });
+  } else {
+    scratch.la.assign(c.s_end, 0.0);
+  }
+  if (c.root_b && !pair.root_out->turns) root_block_pass(c, *pair.root_out, tau);
+}
+
+// The end frames of start s in [e0, e1] that its bounds of b(s, e) (plus
+// the path cost from s) leave at <= thr, as [first, last] (first > last:
+// none): per frame (out_bound), or per block of end frames (the one block
+// walk: the box of its roots against the placed query root, RootBlocks)
+// then frame by frame, every block frame by frame for a turning frame; path
+// costs only grow. All of them without a bound of b.
+void end_frames_to_evaluate(const RelativeScan& c, std::size_t s, const GroundPose& at,
+                            std::size_t e0, std::size_t e1, double thr, std::size_t& first,
+                            std::size_t& last) {
+  const PairContext& pair = c.pair;
+  const double base = c.scratch.a[s] - pair.lambda * c.prefix[s];
+  first = e1 + 1;
+  last = e0;
+  auto keep = [&](std::size_t e, double lb) {
+    if (safe(base + pair.lambda * c.prefix[e] + lb) <= thr) {
+      first = std::min(first, e);
+      last = e;
+    }
+  };
+  if (c.bounded_b) {
+    const Eigen::Vector3d com = at.apply(pair.out_bound->com_body);
+    for (std::size_t e = e0; e <= e1; ++e)
+      keep(e, relative_bound(*pair.out_bound, c.scratch.out_frames, e, com));
+  } else if (c.root_b) {
+    const RootBoundQuery& q = *pair.root_out;
+    const RootBlocks& blocks = c.scratch.root_blocks;
+    const Eigen::Vector3d p = c.placed(q, s);
+    const std::array<double, 2> psi =
+        q.turns ? c.placed_heading(q, s) : std::array<double, 2>{1.0, 0.0};
+    walk_blocks<RootBlocks::kBlock>(
+        e0, e1 + 1,
+        [&](std::size_t j, std::size_t f0, std::size_t) {
+          return q.turns ||
+                 !(safe(base + pair.lambda * c.prefix[f0] + blocks.bound(q, j, p)) > thr);
+        },
+        [&](std::size_t, std::size_t f0, std::size_t f1) {
+          for (std::size_t e = f0; e < f1; ++e)
+            keep(e, c.root_frame_bound(q, c.moments_out, e, p, psi));
+        },
+        ignore_block);
+  } else {
+    first = e0;
+    last = e1;
+  }
+}
+
+// b(s, e) for the end frames [first, last] of start s (Q^h+1 placed by
+// F^s's ground pose `at`; a placement-free Q^h+1 once per end frame of the
+// clip), each pair offered to the clip's best.
+void evaluate_ends(RelativeScan& c, std::size_t s, const GroundPose& at, std::size_t first,
+                   std::size_t last, bool b_free) {
+  const PairContext& pair = c.pair;
+  Scratch& scratch = c.scratch;
+  const double* bv = scratch.b.data();  // bv[e - b0] = b(s, e)
+  std::size_t b0 = first;
+  if (b_free) {
+    evaluate_free_frames(pair, c.ci, first, last, scratch);
+    bv = scratch.b_free.data();
+    b0 = 0;
+  } else {
+    evaluate_h(*pair.qb, c.skeleton, *pair.index, pair.t, c.ci.frame_start + first,
+               c.ci.frame_start + last + 1, scratch.b.data(), scratch, at);
+  }
+  for (std::size_t e = first; e <= last; ++e) {
+    const double b = bv[e - b0];
+    const double score =
+        (b + pair.lambda * c.prefix[e]) + (scratch.a[s] - pair.lambda * c.prefix[s]);
+    if (better(score, e, s, c.best, c.have)) {
+      c.best = {score, s, e};
+      c.best_out = b;
+      c.have = true;
+    }
+  }
+}
+
+// The pairs of start s: a(s) made exact where it was a bound, then the end
+// frames its bounds leave, evaluated (counted); skipped (counted as pruned)
+// where a(s) plus the least bound of b over its window exceeds the clip's
+// threshold.
+void scan_start(RelativeScan& c, std::size_t s, double tau, bool b_free) {
+  const PairContext& pair = c.pair;
+  Scratch& scratch = c.scratch;
+  const std::size_t e0 = s + c.len.min, e1 = std::min(c.k - 1, s + c.len.max);
+  const double thr = c.have ? std::min(tau, c.best.score) : tau;
+  if (c.prune && safe(scratch.a[s] + scratch.la[s]) > thr) {
+    c.counters.pruned += e1 - e0 + 1 + (scratch.a_exact[s] ? 0 : 1);
+    return;
+  }
+  if (!scratch.a_exact[s]) {
+    evaluate_h(*pair.qa, c.skeleton, *pair.index, pair.t, c.ci.frame_start + s,
+               c.ci.frame_start + s + 1, scratch.a.data() + s, scratch, c.place(s));
+    scratch.a_exact[s] = 1;
+    ++c.counters.evaluated;
+    if (safe(scratch.a[s] + scratch.la[s]) > thr) {
+      c.counters.pruned += e1 - e0 + 1;
+      return;
+    }
+  }
+  const GroundPose at = c.place(s);
+  std::size_t first = 0, last = 0;  // the frames to evaluate lie in [first, last]
+  end_frames_to_evaluate(c, s, at, e0, e1, thr, first, last);
+  if (first > last) {
+    c.counters.pruned += e1 - e0 + 1;
+    return;
+  }
+  evaluate_ends(c, s, at, first, last, b_free);
+  c.counters.evaluated += last - first + 1;
+  c.counters.pruned += (e1 - e0 + 1) - (last - first + 1);
+}
+
 }  // namespace
 
 double relative_clip_bound(const PairContext& pair, std::size_t row) {
@@ -109,126 +354,39 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
                         ClipCounters& counters, ClipMatch& out) {
   const SkeletonData& skeleton = *pair.skeleton;
   const std::size_t k = ci.frame_count;
-  const double dt = pair.index->clips()[ci.clip].frame_time_s;
-  const LengthFrames len = length_frames(pair, dt);
+  const LengthFrames len = length_frames(pair, pair.index->clips()[ci.clip].frame_time_s);
   if (k <= len.min) return false;
-  const std::size_t l = len.max;
-  const std::size_t s_end = k - len.min;  // s < s_end
-  const bool prune = pair.mode != SearchMode::brute;
-  auto place = [&](std::size_t f) {
-    return frame_placement(skeleton, pair.placement, ci.frame_start + f);
-  };
+  RelativeScan c{
+      pair, ci, scratch, counters, skeleton, k, len, k - len.min, pair.mode != SearchMode::brute};
   std::uint64_t total = 0;
-  for (std::size_t s = 0; s < s_end; ++s) total += 1 + (std::min(k - 1, s + l) - (s + len.min) + 1);
+  for (std::size_t s = 0; s < c.s_end; ++s)
+    total += 1 + (std::min(k - 1, s + len.max) - (s + len.min) + 1);
   // The clip's box bounds of both terms (their parts that hold wherever the
   // query frames are placed).
-  if (prune && has_relative_clip_bound(pair) && safe(relative_clip_bound(pair, ci.row)) > tau) {
+  if (c.prune && has_relative_clip_bound(pair) && safe(relative_clip_bound(pair, ci.row)) > tau) {
     counters.clip_pruned = true;
     counters.pruned += total;
     return false;
   }
-  // a(s), or where Q^h is a full frame first its lower bound
-  // (relative_bounds.hpp, Q^h placed on F^s).
   scratch.a.assign(k, kInf);
-  const bool bounded_a = prune && pair.in_bound != nullptr;
-  const bool root_a = prune && !bounded_a && pair.root_in != nullptr;
-  const bool root_b = prune && pair.out_bound == nullptr && pair.root_out != nullptr;
-  const bool turns = (root_a && pair.root_in->turns) || (root_b && pair.root_out->turns);
-  const double* headings = nullptr;  // and heading_cos_sin, 2 a frame
-  const double* cos_sin = nullptr;
-  const float* moments_in = nullptr;  // the turning frames' moments (turn_moments_of)
-  const float* moments_out = nullptr;
-  if (root_a || root_b) {
-    ensure_frame_kinetic(skeleton);
-    if (pair.placement == FramePlacement::relative || turns) {
-      headings = frame_headings(skeleton).data() + ci.frame_start;
-      cos_sin = skeleton.caches.heading_cos_sin.data() + 2 * ci.frame_start;
-    }
-    if (root_a && pair.root_in->turns)
-      moments_in = turn_moments_of(*pair.root_in, skeleton) + 4 * ci.frame_start;
-    if (root_b && pair.root_out->turns)
-      moments_out = turn_moments_of(*pair.root_out, skeleton) + 4 * ci.frame_start;
-    if (root_b && !pair.root_out->turns) scratch.root_blocks.build(skeleton, ci.frame_start, k);
-  }
-  auto placed = [&](const RootBoundQuery& q, std::size_t f) {
-    return place_point(skeleton, pair.placement, ci.frame_start + f, q.root_body);
-  };
-  // cos and sin of where a partial motion starting at f turns a turning
-  // frame (world).
-  auto placed_heading = [&](const RootBoundQuery& q, std::size_t f) {
-    const double psi =
-        q.heading_body + (pair.placement == FramePlacement::relative ? headings[f] : 0.0);
-    return std::array<double, 2>{std::cos(psi), std::sin(psi)};
-  };
-  const float* kin = skeleton.caches.kinetic.data() + ci.frame_start;
-  const float* kin_rot = skeleton.caches.kinetic_rot.data() + ci.frame_start;
-  auto root_at = [&](std::size_t f) {
-    const float* r = skeleton.tables.root_positions.data() + ci.frame_start + f;
-    const std::size_t st = skeleton.tables.frame_count;
-    return Eigen::Vector3d(r[0], r[st], r[2 * st]);
-  };
-  // A root frame's bound at frame f with its root placed at p (world) and,
-  // for a turning one (its moments), its heading's cos and sin psi.
-  auto root_frame_bound = [&](const RootBoundQuery& q, const float* moments, std::size_t f,
-                              const Eigen::Vector3d& p, const std::array<double, 2>& psi) {
-    return frame_root_bound(q, moments == nullptr ? nullptr : moments + 4 * f, kin[f], kin_rot[f],
-                            root_at(f), cos_sin == nullptr ? nullptr : cos_sin + 2 * f, p, psi[0],
-                            psi[1]);
-  };
-  if (bounded_a) {
-    relative_bound_frames(*pair.in_bound, skeleton.tables, ci.frame_start, k, scratch.in_frames);
-    for (std::size_t s = 0; s < s_end; ++s)
-      scratch.a[s] = relative_bound(*pair.in_bound, scratch.in_frames, s,
-                                    place(s).apply(pair.in_bound->com_body));
-  } else if (root_a) {
-    for (std::size_t s = 0; s < s_end; ++s)
-      scratch.a[s] = root_frame_bound(*pair.root_in, moments_in, s, placed(*pair.root_in, s),
-                                      placed_heading(*pair.root_in, s));
-  } else {
-    for (std::size_t s = 0; s < s_end; ++s)
-      evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
-                 ci.frame_start + s + 1, scratch.a.data() + s, scratch, place(s));
-    counters.evaluated += s_end;
-  }
-  // a_exact[s]: scratch.a[s] is a(s) itself, not its bound.
-  const bool a_bounds = bounded_a || root_a;
-  scratch.a_exact.assign(k, a_bounds ? 0 : 1);
-  const bool bounded = prune && pair.out_bound != nullptr;
-  // la[s]: the least placement-free bound `lower` of b over s's window
-  // [s + min, s + max].
-  auto window_minima = [&](const auto& lower) {
-    thread_local FixedWindowMinima windows;
-    windows.build(0, k, len.max - len.min + 1, lower);
-    scratch.la.resize(s_end);
-    for (std::size_t s = 0; s < s_end; ++s)
-      scratch.la[s] = windows.window(static_cast<std::ptrdiff_t>(s + len.min));
-  };
-  if (bounded) {
-    const RelativeBoundFrames& fr = scratch.out_frames;
-    relative_bound_frames(*pair.out_bound, skeleton.tables, ci.frame_start, k, scratch.out_frames);
-    window_minima([&](std::size_t e) { return fr.lower(e); });
-  } else if (root_b) {
-    // The root bound with the x and z distances 0 (they depend on s).
-    const RootBoundQuery& q = *pair.root_out;
-    window_minima([&](std::size_t e) {
-      return root_bound(q, kin[e], kin[e], kin_rot[e], 0.0, q.root_body.y() - root_at(e).y(), 0.0);
-    });
-  } else {
-    scratch.la.assign(s_end, 0.0);
-  }
-  if (root_b && !pair.root_out->turns)
-    root_block_pass(*pair.root_out, s_end, len, tau, placed, scratch);
+  c.bounded_a = c.prune && pair.in_bound != nullptr;
+  c.root_a = c.prune && !c.bounded_a && pair.root_in != nullptr;
+  c.root_b = c.prune && pair.out_bound == nullptr && pair.root_out != nullptr;
+  c.bounded_b = c.prune && pair.out_bound != nullptr;
+  prepare_root_frames(c);
+  c.kin = skeleton.caches.kinetic.data() + ci.frame_start;
+  c.kin_rot = skeleton.caches.kinetic_rot.data() + ci.frame_start;
+  start_values(c);
+  end_window_bounds(c, tau);
   double min_lb = kInf;
-  for (std::size_t s = 0; s < s_end; ++s) min_lb = std::min(min_lb, scratch.a[s] + scratch.la[s]);
-  if (prune && safe(min_lb) > tau) {
+  for (std::size_t s = 0; s < c.s_end; ++s) min_lb = std::min(min_lb, scratch.a[s] + scratch.la[s]);
+  if (c.prune && safe(min_lb) > tau) {
     counters.clip_pruned = true;
-    counters.pruned += total - (a_bounds ? 0 : s_end);
+    counters.pruned += total - (c.bounded_a || c.root_a ? 0 : c.s_end);
     return false;
   }
-  const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
-  ClipBest best;
-  bool have = false;
-  scratch.b.resize(l);
+  c.prefix = clip_prefix(*pair.index, skeleton, ci);
+  scratch.b.resize(len.max);
   // A Q^h+1 whose h does not depend on where it is placed (joint rotations,
   // body-frame constraints: placement_free) is evaluated once per end frame,
   // not once per (start, end) pair.
@@ -237,101 +395,15 @@ bool eval_clip_relative(const PairContext& pair, const ClipInfo& ci, double tau,
     scratch.b_free.resize(k);
     scratch.b_free_done.assign(k, 0);
   }
-  double best_out = 0.0;
-  for (std::size_t s = 0; s < s_end; ++s) {
-    const std::size_t e0 = s + len.min, e1 = std::min(k - 1, s + l);
-    const double thr = have ? std::min(tau, best.score) : tau;
-    if (prune && safe(scratch.a[s] + scratch.la[s]) > thr) {
-      counters.pruned += e1 - e0 + 1 + (scratch.a_exact[s] ? 0 : 1);
-      continue;
-    }
-    if (!scratch.a_exact[s]) {
-      evaluate_h(*pair.qa, skeleton, *pair.index, pair.t, ci.frame_start + s,
-                 ci.frame_start + s + 1, scratch.a.data() + s, scratch, place(s));
-      scratch.a_exact[s] = 1;
-      ++counters.evaluated;
-      if (safe(scratch.a[s] + scratch.la[s]) > thr) {
-        counters.pruned += e1 - e0 + 1;
-        continue;
-      }
-    }
-    const GroundPose at = place(s);
-    std::size_t first = e1 + 1, last = e0;  // the frames to evaluate lie in [first, last]
-    if (bounded) {
-      const Eigen::Vector3d com = at.apply(pair.out_bound->com_body);
-      const double base = scratch.a[s] - pair.lambda * prefix[s];
-      for (std::size_t e = e0; e <= e1; ++e) {
-        const double lb = base + pair.lambda * prefix[e] +
-                          relative_bound(*pair.out_bound, scratch.out_frames, e, com);
-        if (safe(lb) <= thr) {
-          first = std::min(first, e);
-          last = e;
-        }
-      }
-      if (first > last) {
-        counters.pruned += e1 - e0 + 1;
-        continue;
-      }
-    } else if (root_b) {
-      // Per block of end frames: the box of its roots against the placed
-      // query root (relative_bounds.hpp RootBlocks), frame by frame for a
-      // turning frame; path costs only grow.
-      const RootBoundQuery& q = *pair.root_out;
-      const RootBlocks& blocks = scratch.root_blocks;
-      const Eigen::Vector3d p = placed(q, s);
-      const std::array<double, 2> psi =
-          q.turns ? placed_heading(q, s) : std::array<double, 2>{1.0, 0.0};
-      const double base = scratch.a[s] - pair.lambda * prefix[s];
-      constexpr std::size_t B = RootBlocks::kBlock;
-      for (std::size_t j = e0 / B; j <= e1 / B; ++j) {
-        const std::size_t lo = std::max(e0, j * B), hi = std::min(e1, j * B + B - 1);
-        if (!q.turns && safe(base + pair.lambda * prefix[lo] + blocks.bound(q, j, p)) > thr)
-          continue;
-        for (std::size_t e = lo; e <= hi; ++e)  // then frame by frame
-          if (safe(base + pair.lambda * prefix[e] + root_frame_bound(q, moments_out, e, p, psi)) <=
-              thr) {
-            first = std::min(first, e);
-            last = e;
-          }
-      }
-      if (first > last) {
-        counters.pruned += e1 - e0 + 1;
-        continue;
-      }
-    } else {
-      first = e0;
-      last = e1;
-    }
-    const double* bv = scratch.b.data();  // bv[e - b0] = b(s, e)
-    std::size_t b0 = first;
-    if (b_free) {
-      evaluate_free_frames(pair, ci, first, last, scratch);
-      bv = scratch.b_free.data();
-      b0 = 0;
-    } else {
-      evaluate_h(*pair.qb, skeleton, *pair.index, pair.t, ci.frame_start + first,
-                 ci.frame_start + last + 1, scratch.b.data(), scratch, at);
-    }
-    counters.evaluated += last - first + 1;
-    counters.pruned += (e1 - e0 + 1) - (last - first + 1);
-    for (std::size_t e = first; e <= last; ++e) {
-      const double b = bv[e - b0];
-      const double score = (b + pair.lambda * prefix[e]) + (scratch.a[s] - pair.lambda * prefix[s]);
-      if (better(score, e, s, best, have)) {
-        best = {score, s, e};
-        best_out = b;
-        have = true;
-      }
-    }
-  }
-  if (!have) return false;
-  out = {best.score,
+  for (std::size_t s = 0; s < c.s_end; ++s) scan_start(c, s, tau, b_free);
+  if (!c.have) return false;
+  out = {c.best.score,
          ci.clip,
-         best.s,
-         best.e,
-         scratch.a[best.s],
-         best_out,
-         prefix[best.e] - prefix[best.s]};
+         c.best.s,
+         c.best.e,
+         scratch.a[c.best.s],
+         c.best_out,
+         c.prefix[c.best.e] - c.prefix[c.best.s]};
   return true;
 }
 

@@ -168,164 +168,218 @@ void scan_whole_chunk(const PairContext& pair, const ClipInfo& ci, const Resolve
   }
 }
 
+namespace {
+
+// The frames of the clip from the first to the last one a side needs (skip
+// != 1), as [first, end).
+std::pair<std::size_t, std::size_t> needed_span(const std::vector<std::uint8_t>& skip,
+                                                std::size_t k) {
+  std::size_t first = 0, end = k;
+  while (first < k && skip[first] == 1) ++first;
+  while (end > first && skip[end - 1] == 1) --end;
+  return {first, end};
+}
+
+// How many of the clip's blocks hold a frame a side needs (skip == 0).
+std::size_t blocks_needed(const std::vector<std::uint8_t>& skip, std::size_t k) {
+  std::size_t count = 0;
+  walk_blocks(
+      0, k,
+      [&](std::size_t, std::size_t f0, std::size_t f1) {
+        return std::find(skip.begin() + static_cast<std::ptrdiff_t>(f0),
+                         skip.begin() + static_cast<std::ptrdiff_t>(f1),
+                         std::uint8_t{0}) != skip.begin() + static_cast<std::ptrdiff_t>(f1);
+      },
+      [&](std::size_t, std::size_t, std::size_t) { ++count; }, ignore_block);
+  return count;
+}
+
+// World mode's per-frame lower bounds of a(s) and b(e) into scratch.la /
+// scratch.lb (J): the box bound of the frame's block for a full or root-only
+// query frame (0 for a partial one), raised to the partial frames' per-frame
+// bounds where the pair has them.
+void world_frame_bounds(const PairContext& pair, const ClipInfo& ci, Scratch& scratch) {
+  const SkeletonTables& tables = pair.skeleton->tables;
+  const std::size_t k = ci.frame_count;
+  scratch.la.resize(k);
+  scratch.lb.resize(k);
+  const bool box_a = pair.qa->kind != FrameKind::partial,
+             box_b = pair.qb->kind != FrameKind::partial;
+  walk_blocks(
+      0, k, every_block,
+      [&](std::size_t bl, std::size_t f0, std::size_t f1) {
+        const std::size_t row = ci.block_start + bl;
+        const double xa =
+            box_a ? static_cast<double>(block_box_bound(*pair.bound_a, tables, row)) : 0.0;
+        const double xb =
+            box_b ? static_cast<double>(block_box_bound(*pair.bound_b, tables, row)) : 0.0;
+        for (std::size_t f = f0; f < f1; ++f) {
+          scratch.la[f] = xa;
+          scratch.lb[f] = xb;
+        }
+      },
+      ignore_block);
+  if (pair.frame_lb_a != nullptr)
+    for (std::size_t f = 0; f < k; ++f)
+      scratch.la[f] = std::max(scratch.la[f], pair.frame_lb_a[ci.frame_start + f]);
+  if (pair.frame_lb_b != nullptr)
+    for (std::size_t f = 0; f < k; ++f)
+      scratch.lb[f] = std::max(scratch.lb[f], pair.frame_lb_b[ci.frame_start + f]);
+}
+
+// World mode's frame decisions from the bounds (world_frame_bounds): s is
+// needed only if la(s) + min lb(e) over its ends e in [s + min, s + max] can
+// reach tau; e only if lb(e) + min la(s) over its starts s in [e - max,
+// e - min] can; a frame with no partner in the clip is not needed (skip_a,
+// skip_b = 1). False (counted) when the bounds prune the whole clip.
+bool decide_world_frames(const PairContext& pair, const ClipInfo& ci, const LengthFrames& len,
+                         double tau, Scratch& scratch, ClipCounters& counters) {
+  const std::size_t k = ci.frame_count;
+  world_frame_bounds(pair, ci, scratch);
+  if (k <= len.min) {
+    counters.clip_pruned = true;
+    counters.pruned += 2 * k;
+    return false;
+  }
+  thread_local FixedWindowMinima windows;
+  const std::size_t width = len.max - len.min + 1;
+  double clip_lb = kInf;
+  windows.build(0, k, width, [&](std::size_t f) { return scratch.lb[f]; });
+  for (std::size_t f = 0; f + len.min < k; ++f) {
+    const double x = scratch.la[f] + windows.window(static_cast<std::ptrdiff_t>(f + len.min));
+    clip_lb = std::min(clip_lb, x);
+    scratch.skip_a[f] = safe(x) > tau;
+  }
+  std::fill(scratch.skip_a.begin() + static_cast<std::ptrdiff_t>(k - len.min), scratch.skip_a.end(),
+            std::uint8_t{1});
+  if (safe(clip_lb) > tau) {
+    counters.clip_pruned = true;
+    counters.pruned += 2 * k;
+    return false;
+  }
+  windows.build(0, k, width, [&](std::size_t f) { return scratch.la[f]; });
+  std::fill(scratch.skip_b.begin(), scratch.skip_b.begin() + static_cast<std::ptrdiff_t>(len.min),
+            std::uint8_t{1});
+  for (std::size_t f = len.min; f < k; ++f)
+    scratch.skip_b[f] =
+        safe(scratch.lb[f] + windows.window(static_cast<std::ptrdiff_t>(f) -
+                                            static_cast<std::ptrdiff_t>(len.max))) > tau;
+  return true;
+}
+
+// The needed frames of one partial query frame q in the block frames [f0,
+// f1) (`need` of them: skip == 0) into dst: copied where the query's other
+// pair computed them (cv / cd: the shared frame cache from the clip's first
+// frame, or null; such frames are marked skip = 2 for evaluate_h), the rest
+// evaluated and cached.
+void scan_partial_block(const PairContext& pair, const ClipInfo& ci, const ResolvedFrame& q,
+                        std::size_t f0, std::size_t f1, std::size_t need,
+                        std::vector<std::uint8_t>& skip, double* dst, double* cv, std::uint8_t* cd,
+                        Scratch& scratch, ClipCounters& counters) {
+  std::size_t fresh = need;
+  if (cd != nullptr) {
+    for (std::size_t f = f0; f < f1; ++f)
+      if (skip[f] == 0 && cd[f]) {
+        dst[f] = cv[f];
+        skip[f] = 2;
+        --fresh;
+      }
+  }
+  if (fresh > 0)
+    evaluate_h(q, *pair.skeleton, *pair.index, pair.t, ci.frame_start + f0, ci.frame_start + f1,
+               dst + f0, scratch, std::nullopt, skip.data() + f0);
+  if (cd != nullptr)
+    for (std::size_t f = f0; f < f1; ++f)
+      if (skip[f] == 0) {
+        cv[f] = dst[f];
+        cd[f] = 1;
+      }
+  counters.evaluated += fresh;
+  counters.pruned += (f1 - f0) - need;
+}
+
+// One side of world mode: the frames of query frame q the side needs (skip
+// == 0) into dst, block by block (a block with none is pruned). Full and
+// root-only query frames are scanned in whole 16-frame chunks (the same
+// chunks in every mode: bit-identical values); partial ones per frame.
+void scan_world_side(const PairContext& pair, const ClipInfo& ci, const ResolvedFrame& q,
+                     std::vector<std::uint8_t>& skip, double* dst, FrameCache* cache,
+                     Scratch& scratch, ClipCounters& counters) {
+  double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
+  std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
+  std::size_t need = 0;
+  walk_blocks(
+      0, ci.frame_count,
+      [&](std::size_t, std::size_t f0, std::size_t f1) {
+        need = 0;
+        for (std::size_t f = f0; f < f1; ++f) need += skip[f] == 0;
+        return need != 0;
+      },
+      [&](std::size_t bl, std::size_t f0, std::size_t f1) {
+        if (q.kind == FrameKind::partial)
+          scan_partial_block(pair, ci, q, f0, f1, need, skip, dst, cv, cd, scratch, counters);
+        else
+          scan_whole_chunk(pair, ci, q, bl, f0, f1, dst, cv, cd, scratch, counters);
+      },
+      [&](std::size_t, std::size_t f0, std::size_t f1) { counters.pruned += f1 - f0; });
+}
+
+}  // namespace
+
 // World mode: per-frame lower bounds (block boxes, partial-frame bounds),
 // a(s) and b(e) where they can matter, then the sliding-window minimum
 // (best_partial_motion) over the pairs within the length limits.
 bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                      ClipCounters& counters, ClipMatch& out) {
-  const SkeletonData& skeleton = *pair.skeleton;
-  const SkeletonTables& tables = skeleton.tables;
   const std::size_t k = ci.frame_count;
-  const std::size_t nb = (k + kBlock - 1) / kBlock;
   scratch.a.assign(k, kInf);
   scratch.b.assign(k, kInf);
   scratch.skip_a.assign(k, 0);
   scratch.skip_b.assign(k, 0);
   const bool prune = pair.mode != SearchMode::brute;
   const LengthFrames len = length_frames(pair, pair.index->clips()[ci.clip].frame_time_s);
-  // The partners of s: e in [s + min, s + max]; of e: s in [e - max, e - min].
-  const std::size_t width = len.max - len.min + 1;
-  thread_local FixedWindowMinima windows;
-  auto ends_of = [&](std::size_t s) { return static_cast<std::ptrdiff_t>(s + len.min); };
-  auto starts_of = [&](std::size_t e) {
-    return static_cast<std::ptrdiff_t>(e) - static_cast<std::ptrdiff_t>(len.max);
+  if (prune && !decide_world_frames(pair, ci, len, tau, scratch, counters)) return false;
+  auto side_a = [&] {
+    scan_world_side(pair, ci, *pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a, scratch,
+                    counters);
   };
-  // The frames from the first to the last one a side needs (skip != 1).
-  auto needed_span = [k](const std::vector<std::uint8_t>& skip) {
-    std::size_t first = 0, end = k;
-    while (first < k && skip[first] == 1) ++first;
-    while (end > first && skip[end - 1] == 1) --end;
-    return std::pair<std::size_t, std::size_t>(first, end);
-  };
-  if (prune) {
-    scratch.la.resize(k);
-    scratch.lb.resize(k);
-    const bool box_a = pair.qa->kind != FrameKind::partial,
-               box_b = pair.qb->kind != FrameKind::partial;
-    for (std::size_t bl = 0; bl < nb; ++bl) {
-      const std::size_t row = ci.block_start + bl;
-      const double xa =
-          box_a ? static_cast<double>(block_box_bound(*pair.bound_a, tables, row)) : 0.0;
-      const double xb =
-          box_b ? static_cast<double>(block_box_bound(*pair.bound_b, tables, row)) : 0.0;
-      const std::size_t f1 = std::min(k, bl * kBlock + kBlock);
-      for (std::size_t f = bl * kBlock; f < f1; ++f) {
-        scratch.la[f] = xa;
-        scratch.lb[f] = xb;
-      }
-    }
-    if (pair.frame_lb_a != nullptr)
-      for (std::size_t f = 0; f < k; ++f)
-        scratch.la[f] = std::max(scratch.la[f], pair.frame_lb_a[ci.frame_start + f]);
-    if (pair.frame_lb_b != nullptr)
-      for (std::size_t f = 0; f < k; ++f)
-        scratch.lb[f] = std::max(scratch.lb[f], pair.frame_lb_b[ci.frame_start + f]);
-    // s is needed only if la(s) + min lb(e) over its ends e in [s + min,
-    // s + max] can reach tau; e only if lb(e) + min la(s) over its starts s
-    // in [e - max, e - min] can. A frame with no partner in the clip is not needed.
-    if (k <= len.min) {
-      counters.clip_pruned = true;
-      counters.pruned += 2 * k;
-      return false;
-    }
-    double clip_lb = kInf;
-    windows.build(0, k, width, [&](std::size_t f) { return scratch.lb[f]; });
-    for (std::size_t f = 0; f + len.min < k; ++f) {
-      const double x = scratch.la[f] + windows.window(ends_of(f));
-      clip_lb = std::min(clip_lb, x);
-      scratch.skip_a[f] = safe(x) > tau;
-    }
-    std::fill(scratch.skip_a.begin() + static_cast<std::ptrdiff_t>(k - len.min),
-              scratch.skip_a.end(), std::uint8_t{1});
-    if (safe(clip_lb) > tau) {
-      counters.clip_pruned = true;
-      counters.pruned += 2 * k;
-      return false;
-    }
-    windows.build(0, k, width, [&](std::size_t f) { return scratch.la[f]; });
-    std::fill(scratch.skip_b.begin(), scratch.skip_b.begin() + static_cast<std::ptrdiff_t>(len.min),
-              std::uint8_t{1});
-    for (std::size_t f = len.min; f < k; ++f)
-      scratch.skip_b[f] = safe(scratch.lb[f] + windows.window(starts_of(f))) > tau;
-  }
-  // Full and root-only query frames are scanned in whole 16-frame chunks
-  // (the same chunks in every mode: bit-identical values); partial ones per frame.
-  auto side = [&](const ResolvedFrame& q, std::vector<std::uint8_t>& skip, double* dst,
-                  FrameCache* cache) {
-    double* cv = cache ? cache->values.get() + ci.frame_start : nullptr;
-    std::uint8_t* cd = cache ? cache->done.data() + ci.frame_start : nullptr;
-    for (std::size_t bl = 0; bl < nb; ++bl) {
-      const std::size_t f0 = bl * kBlock, f1 = std::min(k, f0 + kBlock);
-      std::size_t need = 0;
-      for (std::size_t f = f0; f < f1; ++f) need += skip[f] == 0;
-      if (need == 0) {
-        counters.pruned += f1 - f0;
-        continue;
-      }
-      if (q.kind == FrameKind::partial) {
-        std::size_t fresh = need;
-        if (cd != nullptr) {
-          // Frames the other pair computed: copy; mark them skipped for evaluate_h().
-          for (std::size_t f = f0; f < f1; ++f)
-            if (skip[f] == 0 && cd[f]) {
-              dst[f] = cv[f];
-              skip[f] = 2;
-              --fresh;
-            }
-        }
-        if (fresh > 0)
-          evaluate_h(q, skeleton, *pair.index, pair.t, ci.frame_start + f0, ci.frame_start + f1,
-                     dst + f0, scratch, std::nullopt, skip.data() + f0);
-        if (cd != nullptr)
-          for (std::size_t f = f0; f < f1; ++f)
-            if (skip[f] == 0) {
-              cv[f] = dst[f];
-              cd[f] = 1;
-            }
-        counters.evaluated += fresh;
-        counters.pruned += (f1 - f0) - need;
-      } else {
-        scan_whole_chunk(pair, ci, q, bl, f0, f1, dst, cv, cd, scratch, counters);
-      }
-    }
+  auto side_b = [&] {
+    scan_world_side(pair, ci, *pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b, scratch,
+                    counters);
   };
   if (!prune) {
-    side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
-    side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
+    side_a();
+    side_b();
   } else {
     // The side with fewer blocks to scan first; then the other side is
     // decided again with its true values in place of the bounds: a frame of
     // the first side that was not computed can be in no pair scoring <= tau,
     // so it counts as +inf (docs/search.md "Frame pruning").
-    auto blocks_needed = [&](const std::vector<std::uint8_t>& skip) {
-      std::size_t count = 0;
-      for (std::size_t bl = 0; bl < nb; ++bl)
-        for (std::size_t f = bl * kBlock; f < std::min(k, bl * kBlock + kBlock); ++f)
-          if (skip[f] == 0) {
-            ++count;
-            break;
-          }
-      return count;
-    };
-    if (blocks_needed(scratch.skip_a) <= blocks_needed(scratch.skip_b)) {
-      side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
-      const auto [a0, a1] = needed_span(scratch.skip_a);
+    // The partners of s: e in [s + min, s + max]; of e: s in [e - max, e - min].
+    thread_local FixedWindowMinima windows;
+    const std::size_t width = len.max - len.min + 1;
+    if (blocks_needed(scratch.skip_a, k) <= blocks_needed(scratch.skip_b, k)) {
+      side_a();
+      const auto [a0, a1] = needed_span(scratch.skip_a, k);
       windows.build(a0, a1, width, [&](std::size_t f) { return scratch.a[f]; });
       for (std::size_t f = len.min; f < k; ++f)
         if (scratch.skip_b[f] == 0)
-          scratch.skip_b[f] = safe(scratch.lb[f] + windows.window(starts_of(f))) > tau;
-      side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
+          scratch.skip_b[f] =
+              safe(scratch.lb[f] + windows.window(static_cast<std::ptrdiff_t>(f) -
+                                                  static_cast<std::ptrdiff_t>(len.max))) > tau;
+      side_b();
     } else {
-      side(*pair.qb, scratch.skip_b, scratch.b.data(), pair.cache_b);
-      const auto [b0, b1] = needed_span(scratch.skip_b);
+      side_b();
+      const auto [b0, b1] = needed_span(scratch.skip_b, k);
       windows.build(b0, b1, width, [&](std::size_t f) { return scratch.b[f]; });
       for (std::size_t f = 0; f + len.min < k; ++f)
         if (scratch.skip_a[f] == 0)
-          scratch.skip_a[f] = safe(scratch.la[f] + windows.window(ends_of(f))) > tau;
-      side(*pair.qa, scratch.skip_a, scratch.a.data(), pair.cache_a);
+          scratch.skip_a[f] =
+              safe(scratch.la[f] + windows.window(static_cast<std::ptrdiff_t>(f + len.min))) > tau;
+      side_a();
     }
   }
-  const std::span<const double> prefix = clip_prefix(*pair.index, skeleton, ci);
+  const std::span<const double> prefix = clip_prefix(*pair.index, *pair.skeleton, ci);
   ClipBest best;
   if (!best_partial_motion(scratch.a.data(), scratch.b.data(), prefix.data(), k, pair.lambda,
                            len.min, len.max, best))

@@ -101,6 +101,32 @@ struct ClipCounters {
   bool clip_pruned = false;
 };
 
+// The one block walk of the clip scans: the clip frames [first, end) in the
+// order of their blocks of B frames (block bl holds clip frames [bl B,
+// bl B + B); the scans' 16-frame tiles, the relative scan's root blocks).
+// Per block meeting the range, with [f0, f1) its frames in the range:
+// open(bl, f0, f1) is the scan's bound of the block (true: some frame of it
+// can matter), then visit(bl, f0, f1) goes through its frames, or
+// closed(bl, f0, f1) takes the block as pruned. The callables are template
+// arguments (inlined: no indirect call per block or frame). A coarser level
+// nests one walk in another's visit.
+template <std::size_t B = kBlock, class Open, class Visit, class Closed>
+inline void walk_blocks(std::size_t first, std::size_t end, Open&& open, Visit&& visit,
+                        Closed&& closed) {
+  for (std::size_t bl = first / B; first < end && bl * B < end; ++bl) {
+    const std::size_t f0 = std::max(first, bl * B), f1 = std::min(end, bl * B + B);
+    if (open(bl, f0, f1))
+      visit(bl, f0, f1);
+    else
+      closed(bl, f0, f1);
+  }
+}
+
+// walk_blocks' bound for a walk that visits every block.
+inline constexpr auto every_block = [](std::size_t, std::size_t, std::size_t) { return true; };
+// walk_blocks' closed for a walk that counts nothing there.
+inline constexpr auto ignore_block = [](std::size_t, std::size_t, std::size_t) {};
+
 bool eval_clip_world(const PairContext& pair, const ClipInfo& ci, double tau, Scratch& scratch,
                      ClipCounters& counters, ClipMatch& out);
 

@@ -39,8 +39,9 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/common/body/ground_pose.hpp"
 #include "mocap/common/dynamics/dynamics.hpp"
+#include "mocap/common/body/ground_pose.hpp"
+#include "mocap/common/dynamics/h_scan_layout.hpp"
 
 namespace mocap {
 
@@ -169,14 +170,14 @@ void kd_root_feature(const DynamicsModel& model, const std::array<bool, 3>& axes
 // Vectorised h over many frames (structure of arrays, float32)
 
 /// Per-frame, per-segment values h needs, float32, frame-contiguous:
-/// value(s, k, f) = values[(s * kFields + k) * stride + f] with fields
-///   0..2 COM x y z (m), 3 translational KE 1/2 m |v|^2 (J),
-///   4..7 segment orientation in its principal axes q = R P (w x y z),
-///   8 rotational KE 1/2 w^T I w (J);
-/// and root_positions[k * stride + f] (root joint origin, k = x y z).
-/// Frames are whatever the caller concatenated (e.g. all clips of an index).
+/// value(s, k, f) = values[(s * kFields + k) * stride + f] with the fields k
+/// of HScanField (h_scan_layout.hpp): COM x y z (m), translational KE
+/// 1/2 m |v|^2 (J), segment orientation in its principal axes q = R P
+/// (w x y z), rotational KE 1/2 w^T I w (J); and root_positions[k * stride +
+/// f] (root joint origin, k = x y z). Frames are whatever the caller
+/// concatenated (e.g. all clips of an index).
 struct HScanTable {
-  static constexpr std::size_t kFields = 9;
+  static constexpr std::size_t kFields = HScanField::count;
   std::size_t frame_count = 0;
   /// Row length >= frame_count, a multiple of 16.
   std::size_t stride = 0;
@@ -236,12 +237,12 @@ inline T log_norm_factor(T t) {
 
 /// One full query state prepared for scanning (float constants per segment).
 struct HScanQuery {
-  static constexpr std::size_t kConstants = 16;
+  static constexpr std::size_t kConstants = HScanConstant::count;
   std::size_t segment_count = 0;
-  /// [s * kConstants + i]: COM x y z, KE_A, m g, m / (2 T^2), conj(q_A P) w x y z,
-  /// KE_A^rot, D_k / (2 T^2) k = 0..2, and 15: 0 when the segment is summed,
-  /// 1 when it is left out (a segment mask: make_h_scan_query's
-  /// compared_joints).
+  /// [s * kConstants + i], i of HScanConstant (h_scan_layout.hpp): COM x y z,
+  /// KE_A, m g, m / (2 T^2), conj(q_A P) w x y z, KE_A^rot, D_k / (2 T^2)
+  /// k = 0..2, and left_out: 0 when the segment is summed, 1 when it is left
+  /// out (a segment mask: make_h_scan_query's compared_joints).
   std::vector<float> constants;
 };
 /// Prepares h(state -> frame) for a full query state (static or with
