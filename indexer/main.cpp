@@ -509,46 +509,86 @@ int run_info(const std::string& file, bool json) {
   return kExitOk;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "mocap-index: turn motion-capture collections into an index, and inspect BVH and AMC files"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string(MOCAP_VERSION));
-
+// What each subcommand's command line gives (add_indexer_commands).
+struct InspectArgs {
   std::string file, unit, up, character;
   std::size_t frame = 0;
   bool json = false;
+  AmcFlags amc;
+  mocap::InputLimitFlags limits;
+};
+
+struct SummaryArgs {
+  std::vector<std::string> inputs;
+  std::string unit, up;
+  bool json = false;
+  mocap::InputLimitFlags limits;
+};
+
+struct BuildArgs {
+  mocap::IndexBuildOptions opt;
+  std::string unit, up, character;
+  bool json = false, quiet = false;
+  AmcFlags amc;
+  std::size_t shards = 0;
+  mocap::InputLimitFlags limits;
+};
+
+struct ConvertArgs {
+  std::string in, out;
+  AmcFlags amc;
+  bool force = false;
+  mocap::InputLimitFlags limits;
+};
+
+// verify and info: one index file.
+struct IndexFileArgs {
+  std::string file;
+  bool json = false;
+};
+
+struct IndexerArgs {
+  InspectArgs inspect;
+  SummaryArgs summary;
+  BuildArgs build;
+  ConvertArgs convert;
+  IndexFileArgs verify, info;
+};
+
+// The subcommands (the one given is the one that tests true after parsing).
+struct IndexerCommands {
+  CLI::App *inspect, *summary, *build, *convert, *verify, *info;
+};
+
+CLI::App* add_inspect_command(CLI::App& app, InspectArgs& a) {
   auto* inspect = app.add_subcommand(
       "inspect",
       "World-space joints and body segments of one frame of a BVH or AMC file (metres, Y up)");
-  inspect->add_option("FILE", file, "BVH or AMC file")->required();
-  inspect->add_option("--frame", frame, "Frame number, 0-based")->required();
-  inspect->add_option("--unit", unit,
+  inspect->add_option("FILE", a.file, "BVH or AMC file")->required();
+  inspect->add_option("--frame", a.frame, "Frame number, 0-based")->required();
+  inspect->add_option("--unit", a.unit,
                       "Length unit of the file: m, dm, cm, mm, inch, cmu (0.056444 m) or auto "
                       "(default: detected from the skeleton height)");
-  inspect->add_option("--up", up, kUpHelp);
-  inspect->add_option("--character", character,
+  inspect->add_option("--up", a.up, kUpHelp);
+  inspect->add_option("--character", a.character,
                       "Character JSON (docs/character.md); default 70 kg male");
-  AmcFlags inspect_amc;
-  add_amc_options(*inspect, inspect_amc);
-  inspect->add_flag("--json", json, "Print one JSON object (docs/cli.md)");
+  add_amc_options(*inspect, a.amc);
+  inspect->add_flag("--json", a.json, "Print one JSON object (docs/cli.md)");
+  return inspect;
+}
 
-  std::vector<std::string> inputs;
-  std::string sum_unit, sum_up;
-  bool sum_json = false;
+CLI::App* add_summary_command(CLI::App& app, SummaryArgs& a) {
   auto* summary = app.add_subcommand(
       "summary", "Parse capture files and print one line per clip (frames, rate, unit, height)");
-  summary->add_option("INPUT", inputs, "Folders (searched recursively), .bvh files or list files")
+  summary->add_option("INPUT", a.inputs, "Folders (searched recursively), .bvh files or list files")
       ->required();
-  summary->add_option("--unit", sum_unit, "Length unit of the files (default: detected per file)");
-  summary->add_option("--up", sum_up, kUpHelp);
-  summary->add_flag("--json", sum_json, "Print one JSON object");
+  summary->add_option("--unit", a.unit, "Length unit of the files (default: detected per file)");
+  summary->add_option("--up", a.up, kUpHelp);
+  summary->add_flag("--json", a.json, "Print one JSON object");
+  return summary;
+}
 
-  mocap::IndexBuildOptions build_opt;
-  std::string build_unit, build_up, build_character;
-  bool build_json = false, build_quiet = false;
+CLI::App* add_build_command(CLI::App& app, BuildArgs& a) {
   auto* build = app.add_subcommand("build",
                                    "Index capture collections into one HDF5 file "
                                    "(docs/index-format.md). When --out exists, clips whose "
@@ -557,94 +597,112 @@ int main(int argc, char** argv) {
                                    "one atomically once complete and verified. Bad files are "
                                    "reported and skipped (see --strict).");
   build
-      ->add_option("INPUT", build_opt.inputs,
+      ->add_option("INPUT", a.opt.inputs,
                    "Folders (searched recursively), .bvh or .amc files, or list files")
       ->required();
-  build->add_option("--out,-o", build_opt.out, "Index file to write (HDF5)")->required();
-  build->add_option("--jobs,-j", build_opt.jobs,
+  build->add_option("--out,-o", a.opt.out, "Index file to write (HDF5)")->required();
+  build->add_option("--jobs,-j", a.opt.jobs,
                     "Worker threads (default: all cores); output is identical for any value");
-  build->add_flag("--strict", build_opt.strict,
+  build->add_flag("--strict", a.opt.strict,
                   "Fail (keeping the previous index) on the first bad file");
   build->add_option(
-      "--unit", build_unit,
+      "--unit", a.unit,
       "Length unit of the files: m, dm, cm, mm, inch, cmu or auto (default: detected per file)");
-  build->add_option("--up", build_up, kUpHelp);
+  build->add_option("--up", a.up, kUpHelp);
   build->add_option(
-      "--character", build_character,
+      "--character", a.character,
       "Character JSON the dynamics are computed for (docs/character.md); default 70 kg male");
-  build->add_option("--transition-time", build_opt.transition_time_s,
+  build->add_option("--transition-time", a.opt.transition_time_s,
                     "T of the kd features in seconds (default 0.5)");
   build
-      ->add_option("--compress", build_opt.deflate_level,
+      ->add_option("--compress", a.opt.deflate_level,
                    "Deflate level 0-9 for the per-frame arrays (default 0: fastest; bounds are "
                    "always compressed)")
       ->check(CLI::Range(0, 9));
-  build->add_flag("--full", build_opt.full, "Ignore an existing index: parse every file");
-  build->add_flag("--force", build_opt.force,
+  build->add_flag("--full", a.opt.full, "Ignore an existing index: parse every file");
+  build->add_flag("--force", a.opt.force,
                   "Replace --out even when it is a file that is not an index (never a folder, "
                   "device or FIFO; docs/cli.md \"Output paths\")");
-  AmcFlags build_amc;
-  add_amc_options(*build, build_amc);
-  build->add_flag("--json", build_json, "Print the summary as one JSON object");
-  build->add_flag("--quiet,-q", build_quiet, "No progress output");
-  std::size_t build_shards = 0;
+  add_amc_options(*build, a.amc);
+  build->add_flag("--json", a.json, "Print the summary as one JSON object");
+  build->add_flag("--quiet,-q", a.quiet, "No progress output");
   build
-      ->add_option("--shards", build_shards,
+      ->add_option("--shards", a.shards,
                    "Split the collection into N index files balanced by frames; --out is then "
                    "their manifest (COLLECTION.json; docs/index-format.md \"Collections\")")
       ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
+  return build;
+}
 
-  std::string convert_in, convert_out;
-  AmcFlags convert_amc;
-  bool convert_force = false;
+CLI::App* add_convert_command(CLI::App& app, ConvertArgs& a) {
   auto* convert = app.add_subcommand(
       "convert", "Write a BVH or AMC file (with its ASF) as BVH (docs/cli.md \"convert\")");
-  convert->add_option("IN", convert_in, "BVH or AMC file")->required();
-  convert->add_option("--out,-o", convert_out, "BVH file to write")->required();
-  add_amc_options(*convert, convert_amc);
-  convert->add_flag("--force", convert_force,
+  convert->add_option("IN", a.in, "BVH or AMC file")->required();
+  convert->add_option("--out,-o", a.out, "BVH file to write")->required();
+  add_amc_options(*convert, a.amc);
+  convert->add_flag("--force", a.force,
                     "Replace --out even when it is a file that is not BVH (docs/cli.md \"Output "
                     "paths\")");
+  return convert;
+}
 
-  std::string verify_file;
-  bool verify_json = false;
+CLI::App* add_verify_command(CLI::App& app, IndexFileArgs& a) {
   auto* verify = app.add_subcommand("verify",
                                     "Check an index: user block and whole-file checksum "
                                     "(truncation, bit flips), format tag and schema "
                                     "version, every dataset's checksum, internal consistency. Exit "
                                     "0 when sound, 1 when damaged.");
-  verify->add_option("INDEX", verify_file, "Index file")->required();
-  verify->add_flag("--json", verify_json, "Print one JSON object");
+  verify->add_option("INDEX", a.file, "Index file")->required();
+  verify->add_flag("--json", a.json, "Print one JSON object");
+  return verify;
+}
 
-  std::string info_file;
-  bool info_json = false;
+CLI::App* add_info_command(CLI::App& app, IndexFileArgs& a) {
   auto* info = app.add_subcommand(
       "info", "Clips, frames, skeletons, label histogram and build parameters of an index");
-  info->add_option("INDEX", info_file, "Index file")->required();
-  info->add_flag("--json", info_json, "Print one JSON object");
+  info->add_option("INDEX", a.file, "Index file")->required();
+  info->add_flag("--json", a.json, "Print one JSON object");
+  return info;
+}
 
+// The CLI11 declaration of every subcommand, in the order --help lists them.
+IndexerCommands add_indexer_commands(CLI::App& app, IndexerArgs& a) {
+  IndexerCommands c{};
+  c.inspect = add_inspect_command(app, a.inspect);
+  c.summary = add_summary_command(app, a.summary);
+  c.build = add_build_command(app, a.build);
+  c.convert = add_convert_command(app, a.convert);
+  c.verify = add_verify_command(app, a.verify);
+  c.info = add_info_command(app, a.info);
   // Input limits of the subcommands that read capture or character files.
-  mocap::InputLimitFlags inspect_limits, summary_limits, build_limits, convert_limits;
-  mocap::add_input_limit_options(*inspect, inspect_limits);
-  mocap::add_input_limit_options(*summary, summary_limits);
-  mocap::add_input_limit_options(*build, build_limits);
-  mocap::add_input_limit_options(*convert, convert_limits);
+  mocap::add_input_limit_options(*c.inspect, a.inspect.limits);
+  mocap::add_input_limit_options(*c.summary, a.summary.limits);
+  mocap::add_input_limit_options(*c.build, a.build.limits);
+  mocap::add_input_limit_options(*c.convert, a.convert.limits);
+  return c;
+}
 
-  CLI11_PARSE(app, argc, argv);
+// The job: the subcommand given, run; its exit status (kExit*).
+int run_indexer(const IndexerCommands& c, const IndexerArgs& a) {
   try {
-    if (*inspect) mocap::apply_input_limits(inspect_limits);
-    if (*summary) mocap::apply_input_limits(summary_limits);
-    if (*build) mocap::apply_input_limits(build_limits);
-    if (*convert) mocap::apply_input_limits(convert_limits);
+    if (*c.inspect) mocap::apply_input_limits(a.inspect.limits);
+    if (*c.summary) mocap::apply_input_limits(a.summary.limits);
+    if (*c.build) mocap::apply_input_limits(a.build.limits);
+    if (*c.convert) mocap::apply_input_limits(a.convert.limits);
     int rc = kExitFatal;
-    if (*inspect) rc = run_inspect(file, frame, unit, up, character, inspect_amc, json);
-    if (*summary) rc = run_summary(inputs, sum_unit, sum_up, sum_json);
-    if (*build)
-      rc = run_build(build_opt, build_unit, build_up, build_character, build_amc, build_shards,
-                     build_json, build_quiet);
-    if (*convert) rc = run_convert(convert_in, convert_out, convert_amc, convert_force);
-    if (*verify) rc = run_verify(verify_file, verify_json);
-    if (*info) rc = run_info(info_file, info_json);
+    if (*c.inspect) {
+      const InspectArgs& i = a.inspect;
+      rc = run_inspect(i.file, i.frame, i.unit, i.up, i.character, i.amc, i.json);
+    }
+    if (*c.summary)
+      rc = run_summary(a.summary.inputs, a.summary.unit, a.summary.up, a.summary.json);
+    if (*c.build) {
+      const BuildArgs& b = a.build;
+      rc = run_build(b.opt, b.unit, b.up, b.character, b.amc, b.shards, b.json, b.quiet);
+    }
+    if (*c.convert) rc = run_convert(a.convert.in, a.convert.out, a.convert.amc, a.convert.force);
+    if (*c.verify) rc = run_verify(a.verify.file, a.verify.json);
+    if (*c.info) rc = run_info(a.info.file, a.info.json);
     // What the command printed must have been written (a full disk, a
     // closed pipe, /dev/full): otherwise the run failed.
     std::cout.flush();
@@ -662,4 +720,17 @@ int main(int argc, char** argv) {
     return kExitFatal;
   }
   return kExitFatal;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "mocap-index: turn motion-capture collections into an index, and inspect BVH and AMC files"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(MOCAP_VERSION));
+  IndexerArgs args;
+  const IndexerCommands commands = add_indexer_commands(app, args);
+  CLI11_PARSE(app, argc, argv);
+  return run_indexer(commands, args);
 }

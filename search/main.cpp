@@ -222,15 +222,17 @@ int run_energy(const EnergyArgs& args) {
   return kExitOk;
 }
 
-int run_search(const SearchArgs& a, const MpiSession* mpi) {
-  const bool rank0 = !mpi || mpi->rank() == 0;
+// --index and one of --queries and --query given.
+void check_search_inputs(const SearchArgs& a) {
   if (a.index.empty())
     throw mocap::InputError("--index", 0, "required (an index built by mocap-index build)");
   if (a.queries.empty() == a.query.empty())
     throw mocap::InputError("--queries", 0,
                             "give exactly one of --queries Q.jsonl or --query Q.json");
-  std::optional<tbb::global_control> threads;
-  if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
+}
+
+// The search options of the command line.
+mocap::SearchOptions search_options(const SearchArgs& a) {
   mocap::SearchOptions opt;
   opt.mode = *mocap::parse_search_mode(a.mode);
   opt.min_length_s = a.min_length_s;
@@ -240,34 +242,103 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   opt.approx_checks = a.checks;
   opt.approx_trees = a.trees;
   opt.compute_recall = !a.no_recall;
+  return opt;
+}
+
+// The batch and the checked, opened outputs of a search (prepare_search).
+struct SearchInputs {
   std::optional<mocap::AtomicFile> out_file;
   std::filesystem::path html_file;
   std::optional<mocap::PlayerLibrary> player;
   std::vector<mocap::BatchEntry> batch;
   std::ofstream file;
+};
+
+// Rank 0 checks the outputs (and loads the player for --html); every rank
+// reads the batch; the results file is opened.
+void prepare_search(const SearchArgs& a, bool rank0, SearchInputs& in) {
+  if ((!a.out.empty() || !a.html.empty()) && rank0) {
+    mocap::check_distinct_outputs({{"--index", a.index},
+                                   {"--queries", a.queries.empty() ? a.query : a.queries},
+                                   {"--out", a.out},
+                                   {"--html", a.html}});
+    if (!a.out.empty())
+      in.out_file.emplace(
+          mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
+    if (!a.html.empty()) {
+      in.html_file = mocap::checked_output_path(a.html, mocap::OutputKind::html, a.force, "--html");
+      in.player = mocap::load_player_library(mocap::player_dir());
+    }
+  }
+  in.batch =
+      a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+  if (in.out_file) {
+    in.file.open(in.out_file->temporary_path(), std::ios::binary);
+    if (!in.file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+  }
+}
+
+// One progress report on stderr: a bar on a terminal, else a line per tenth.
+void print_progress(std::size_t done, std::size_t total, bool tty, std::size_t& last_line) {
+  if (tty) {
+    const int width = 40;
+    const int filled = static_cast<int>(width * done / total);
+    fmt::print(stderr, "\r[{}{}] {}/{} queries", std::string(static_cast<std::size_t>(filled), '#'),
+               std::string(static_cast<std::size_t>(width - filled), '.'), done, total);
+    if (done == total) fmt::print(stderr, "\n");
+  } else if (done * 10 / total != last_line || done == total) {
+    last_line = done * 10 / total;
+    fmt::print(stderr, "mocap-search: {}/{} queries\n", done, total);
+  }
+}
+
+// The result lines to --out (committed) or stdout; the errors on stderr
+// unless quiet. Returns the number of failed queries.
+std::size_t write_search_results(const SearchArgs& a,
+                                 const std::vector<mocap::QueryOutcome>& outcomes,
+                                 SearchInputs& in) {
+  std::ostream& os = a.out.empty() ? std::cout : in.file;
+  std::size_t failed = 0;
+  for (const auto& o : outcomes) {
+    os << mocap::query_outcome_json(o) << '\n';
+    if (o.error) {
+      ++failed;
+      if (!a.quiet) fmt::print(stderr, "mocap-search: {}\n", *o.error);
+    }
+  }
+  os.flush();
+  if (!os) throw mocap::InputError(a.out.empty() ? "<stdout>" : a.out, 0, "write failed");
+  if (in.out_file) {
+    in.file.close();
+    if (!in.file) throw mocap::InputError(a.out, 0, "write failed");
+    in.out_file->commit();
+  }
+  return failed;
+}
+
+// The 3D player of the answered queries (mocap/player/player.hpp), for --html.
+void write_search_player(const SearchArgs& a, const std::vector<mocap::QueryOutcome>& outcomes,
+                         const std::optional<mocap::Index>& index, const SearchInputs& in) {
+  std::vector<mocap::ResultsLine> lines;
+  for (const auto& o : outcomes)
+    lines.push_back(
+        {o.id, o.error.value_or(""), o.error ? std::vector<mocap::PairResults>{} : o.pairs});
+  const mocap::ClipSource clips =
+      index ? mocap::ClipSource(*index) : mocap::ClipSource::open(a.index);
+  mocap::write_file_atomically(in.html_file,
+                               mocap::results_player_page(clips, lines, {}, "--html", *in.player));
+}
+
+int run_search(const SearchArgs& a, const MpiSession* mpi) {
+  const bool rank0 = !mpi || mpi->rank() == 0;
+  check_search_inputs(a);
+  std::optional<tbb::global_control> threads;
+  if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
+  const mocap::SearchOptions opt = search_options(a);
+  SearchInputs in;
   // Under MPI every rank reads the batch, rank 0 alone checks and opens the
   // output; any rank's failure ends every rank (mpi_search.hpp).
-  const auto prepare = [&] {
-    if ((!a.out.empty() || !a.html.empty()) && rank0) {
-      mocap::check_distinct_outputs({{"--index", a.index},
-                                     {"--queries", a.queries.empty() ? a.query : a.queries},
-                                     {"--out", a.out},
-                                     {"--html", a.html}});
-      if (!a.out.empty())
-        out_file.emplace(
-            mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
-      if (!a.html.empty()) {
-        html_file = mocap::checked_output_path(a.html, mocap::OutputKind::html, a.force, "--html");
-        player = mocap::load_player_library(mocap::player_dir());
-      }
-    }
-    batch =
-        a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
-    if (out_file) {
-      file.open(out_file->temporary_path(), std::ios::binary);
-      if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
-    }
-  };
+  const auto prepare = [&] { prepare_search(a, rank0, in); };
 #ifdef MOCAP_HAVE_MPI
   if (mpi)
     mocap::mpi::on_every_rank(*mpi, prepare);
@@ -288,17 +359,7 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   std::size_t last_line = 0;
   auto progress = [&](std::size_t done, std::size_t total) {
     if (a.quiet || total < 2 || !rank0) return;
-    if (tty) {
-      const int width = 40;
-      const int filled = static_cast<int>(width * done / total);
-      fmt::print(stderr, "\r[{}{}] {}/{} queries",
-                 std::string(static_cast<std::size_t>(filled), '#'),
-                 std::string(static_cast<std::size_t>(width - filled), '.'), done, total);
-      if (done == total) fmt::print(stderr, "\n");
-    } else if (done * 10 / total != last_line || done == total) {
-      last_line = done * 10 / total;
-      fmt::print(stderr, "mocap-search: {}/{} queries\n", done, total);
-    }
+    print_progress(done, total, tty, last_line);
   };
   const auto t1 = std::chrono::steady_clock::now();
   // A collection manifest: every shard answers, the top-r lists merged
@@ -308,7 +369,7 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
 #ifdef MOCAP_HAVE_MPI
   if (mpi) {
     const auto r = mocap::mpi::run_distributed_batch(
-        *mpi, a.index, batch, opt,
+        *mpi, a.index, in.batch, opt,
         a.distribute == "auto" ? std::nullopt : mocap::parse_distribution(a.distribute), progress);
     outcomes = r.outcomes;
     where = fmt::format("{} ranks, distributed by {}, peak memory per rank {:.0f}-{:.0f} MB",
@@ -317,35 +378,11 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
     if (!rank0) return kExitOk;
   } else
 #endif
-    outcomes = collection ? mocap::run_collection_batch(a.index, batch, opt, progress)
-                          : mocap::run_query_batch(*engine, batch, opt, progress);
+    outcomes = collection ? mocap::run_collection_batch(a.index, in.batch, opt, progress)
+                          : mocap::run_query_batch(*engine, in.batch, opt, progress);
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-  std::ostream& os = a.out.empty() ? std::cout : file;
-  std::size_t failed = 0;
-  for (const auto& o : outcomes) {
-    os << mocap::query_outcome_json(o) << '\n';
-    if (o.error) {
-      ++failed;
-      if (!a.quiet) fmt::print(stderr, "mocap-search: {}\n", *o.error);
-    }
-  }
-  os.flush();
-  if (!os) throw mocap::InputError(a.out.empty() ? "<stdout>" : a.out, 0, "write failed");
-  if (out_file) {
-    file.close();
-    if (!file) throw mocap::InputError(a.out, 0, "write failed");
-    out_file->commit();
-  }
-  if (player) {  // the 3D player of the answered queries (mocap/player/player.hpp)
-    std::vector<mocap::ResultsLine> lines;
-    for (const auto& o : outcomes)
-      lines.push_back(
-          {o.id, o.error.value_or(""), o.error ? std::vector<mocap::PairResults>{} : o.pairs});
-    const mocap::ClipSource clips =
-        index ? mocap::ClipSource(*index) : mocap::ClipSource::open(a.index);
-    mocap::write_file_atomically(html_file,
-                                 mocap::results_player_page(clips, lines, {}, "--html", *player));
-  }
+  const std::size_t failed = write_search_results(a, outcomes, in);
+  if (in.player) write_search_player(a, outcomes, index, in);
   if (!a.quiet)
     fmt::print(stderr,
                "mocap-search: {} queries ({} failed), mode {}, {}, {}answered in {:.3f} s{}\n",
@@ -353,6 +390,62 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
                engine ? fmt::format("index loaded in {:.2f} s, ", load_s) : "", run_s,
                engine ? "" : " (shards loaded meanwhile)");
   return failed > 0 ? kExitSomeFailed : kExitOk;
+}
+
+// Everything mocap-search's command line gives (add_command_line).
+struct CommandLine {
+  EnergyArgs energy;
+  SearchArgs search;
+  mocap::ExportArgs exporting;
+  ViewArgs view;
+  CLI::App* export_command = nullptr;
+  mocap::InputLimitFlags search_limits, energy_limits, view_limits, export_limits;
+};
+
+// The CLI11 declaration of the search options and the subcommands.
+void add_command_line(CLI::App& app, CommandLine& c) {
+  app.set_version_flag("--version", MOCAP_VERSION);
+  app.require_subcommand(0, 1);
+  add_search_options(app, c.search);
+  add_energy_command(app, c.energy);
+  add_view_command(app, c.view);
+  c.export_command = mocap::add_export_command(app, c.exporting);
+  mocap::add_input_limit_options(app, c.search_limits);
+  mocap::add_input_limit_options(*app.get_subcommand("energy"), c.energy_limits);
+  mocap::add_input_limit_options(*app.get_subcommand("view"), c.view_limits);
+  mocap::add_input_limit_options(*c.export_command, c.export_limits);
+}
+
+// The job: the subcommand given (else the search), its exit status; only
+// rank 0 reports errors.
+int run_command(const CLI::App& app, const CommandLine& c, const MpiSession* session, bool rank0) {
+  try {
+    if (app.got_subcommand("view")) {
+      mocap::apply_input_limits(c.view_limits);
+      return run_view(c.view);
+    }
+    if (app.got_subcommand("energy")) {
+      mocap::apply_input_limits(c.energy_limits);
+      return run_energy(c.energy);
+    }
+    if (c.export_command->parsed()) {
+      mocap::apply_input_limits(c.export_limits);
+      return mocap::run_export(c.exporting);
+    }
+    mocap::apply_input_limits(c.search_limits);
+    return run_search(c.search, session);
+  } catch (const mocap::InputError& e) {
+    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
+    return kExitFatal;
+#ifdef MOCAP_HAVE_MPI
+  } catch (const mocap::mpi::RankFailure& e) {
+    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
+    return kExitFatal;
+#endif
+  } catch (const std::exception& e) {
+    if (rank0) fmt::print(stderr, "mocap-search: error: {}\n", e.what());
+    return kExitFatal;
+  }
 }
 
 }  // namespace
@@ -369,51 +462,12 @@ int main(int argc, char** argv) {
   const bool rank0 = !session || session->rank() == 0;
   std::ostringstream silent;
   CLI::App app{"mocap-search: retrieval of partial motions by energy change, and energy tools"};
-  app.set_version_flag("--version", MOCAP_VERSION);
-  app.require_subcommand(0, 1);
-  EnergyArgs energy;
-  SearchArgs search;
-  mocap::ExportArgs exporting;
-  ViewArgs view;
-  add_search_options(app, search);
-  add_energy_command(app, energy);
-  add_view_command(app, view);
-  CLI::App* export_command = mocap::add_export_command(app, exporting);
-  mocap::InputLimitFlags search_limits, energy_limits, view_limits, export_limits;
-  mocap::add_input_limit_options(app, search_limits);
-  mocap::add_input_limit_options(*app.get_subcommand("energy"), energy_limits);
-  mocap::add_input_limit_options(*app.get_subcommand("view"), view_limits);
-  mocap::add_input_limit_options(*export_command, export_limits);
+  CommandLine command_line;
+  add_command_line(app, command_line);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return rank0 ? app.exit(e) : app.exit(e, silent, silent);
   }
-  try {
-    if (app.got_subcommand("view")) {
-      mocap::apply_input_limits(view_limits);
-      return run_view(view);
-    }
-    if (app.got_subcommand("energy")) {
-      mocap::apply_input_limits(energy_limits);
-      return run_energy(energy);
-    }
-    if (export_command->parsed()) {
-      mocap::apply_input_limits(export_limits);
-      return mocap::run_export(exporting);
-    }
-    mocap::apply_input_limits(search_limits);
-    return run_search(search, session);
-  } catch (const mocap::InputError& e) {
-    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
-    return kExitFatal;
-#ifdef MOCAP_HAVE_MPI
-  } catch (const mocap::mpi::RankFailure& e) {
-    if (rank0) fmt::print(stderr, "mocap-search: {}\n", e.what());
-    return kExitFatal;
-#endif
-  } catch (const std::exception& e) {
-    if (rank0) fmt::print(stderr, "mocap-search: error: {}\n", e.what());
-    return kExitFatal;
-  }
+  return run_command(app, command_line, session, rank0);
 }

@@ -174,12 +174,11 @@ py::array_t<double> new_array(std::vector<py::ssize_t> shape) {
   return py::array_t<double>(shape);
 }
 
-}  // namespace
+using SynthesisClass = py::class_<Synthesis, std::shared_ptr<Synthesis>>;
 
-void bind_synth(py::module_& m) {
-  py::class_<Synthesis, std::shared_ptr<Synthesis>>(
-      m, "Synthesis", "A synthesised motion (mocap-synth's job); low-level, see mocap.Synthesis.")
-      .def_property_readonly("frame_count", &Synthesis::frame_count)
+// Synthesis: the motion's size, rate, query and skeleton.
+void bind_synthesis_skeleton(SynthesisClass& c) {
+  c.def_property_readonly("frame_count", &Synthesis::frame_count)
       .def_property_readonly("frame_time_s",
                              [](const Synthesis& s) { return s.result.frame_time_s; })
       .def_property_readonly("query_id", [](const Synthesis& s) { return s.query.id; })
@@ -194,17 +193,21 @@ void bind_synth(py::module_& m) {
                                    {p.size()}, std::vector<std::int32_t>(p.begin(), p.end()));
                              })
       .def_property_readonly("root_joint",
-                             [](const Synthesis& s) { return s.skeleton->root_joint; })
-      .def_property_readonly(
-          "root_positions",
-          [](const Synthesis& s) {
-            auto a = new_array({static_cast<py::ssize_t>(s.frame_count()), 3});
-            double* p = a.mutable_data();
-            for (const SynthFrame& f : s.result.frames)
-              for (int k = 0; k < 3; ++k) *p++ = f.root_position_m[k];
-            return a;
-          },
-          "(F, 3) world position of the root joint (the pelvis), metres.")
+                             [](const Synthesis& s) { return s.skeleton->root_joint; });
+}
+
+// Synthesis: the motion as numpy arrays, its energies, segments and chosen results.
+void bind_synthesis_motion(SynthesisClass& c) {
+  c.def_property_readonly(
+       "root_positions",
+       [](const Synthesis& s) {
+         auto a = new_array({static_cast<py::ssize_t>(s.frame_count()), 3});
+         double* p = a.mutable_data();
+         for (const SynthFrame& f : s.result.frames)
+           for (int k = 0; k < 3; ++k) *p++ = f.root_position_m[k];
+         return a;
+       },
+       "(F, 3) world position of the root joint (the pelvis), metres.")
       .def_property_readonly(
           "local_rotations",
           [](const Synthesis& s) {
@@ -252,20 +255,22 @@ void bind_synth(py::module_& m) {
                                }
                                return out;
                              })
-      .def_property_readonly("chosen",
-                             [](const Synthesis& s) {
-                               py::list out;
-                               for (const SearchResult& r : s.result.chosen)
-                                 out.append(result_dict(r));
-                               return out;
-                             })
-      .def(
-          "write_bvh",
-          [](const Synthesis& s, const std::filesystem::path& path) {
-            py::gil_scoped_release release;
-            write_motion_bvh(s.result, path);
-          },
-          py::arg("path"), "Writes the motion as BVH (mocap-synth's writer).")
+      .def_property_readonly("chosen", [](const Synthesis& s) {
+        py::list out;
+        for (const SearchResult& r : s.result.chosen) out.append(result_dict(r));
+        return out;
+      });
+}
+
+// Synthesis: its BVH file and report texts.
+void bind_synthesis_outputs(SynthesisClass& c) {
+  c.def(
+       "write_bvh",
+       [](const Synthesis& s, const std::filesystem::path& path) {
+         py::gil_scoped_release release;
+         write_motion_bvh(s.result, path);
+       },
+       py::arg("path"), "Writes the motion as BVH (mocap-synth's writer).")
       .def(
           "report_json",
           [](const Synthesis& s, const std::string& query_file, const std::string& bvh_path) {
@@ -281,7 +286,10 @@ void bind_synth(py::module_& m) {
             return synth_report_html(s.clips, s.query, s.ranked, s.result, s.options);
           },
           "REPORT.html text (mocap-synth --html).");
+}
 
+// Index.synthesize: one query's synthesis (synthesize_query).
+void bind_index_synthesize(py::module_& m) {
   auto index =
       py::reinterpret_borrow<py::class_<OpenIndex, std::shared_ptr<OpenIndex>>>(m.attr("Index"));
   index.def(
@@ -318,6 +326,17 @@ void bind_synth(py::module_& m) {
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");
+}
+
+}  // namespace
+
+void bind_synth(py::module_& m) {
+  SynthesisClass synthesis(
+      m, "Synthesis", "A synthesised motion (mocap-synth's job); low-level, see mocap.Synthesis.");
+  bind_synthesis_skeleton(synthesis);
+  bind_synthesis_motion(synthesis);
+  bind_synthesis_outputs(synthesis);
+  bind_index_synthesize(m);
 }
 
 }  // namespace mocap::python

@@ -364,8 +364,8 @@ class BvhParser {
     clip.channel_count = column;
   }
 
-  void parse_motion(RawClip& clip) {
-    // "Frames: N" (also "Frames:N").
+  // "Frames: N" (also "Frames:N"): N, and its line in `frames_line`.
+  std::size_t parse_frame_count(std::size_t& frames_line) {
     std::string_view tok = token();
     std::string_view count_text;
     if (tok == "Frames:") {
@@ -376,17 +376,20 @@ class BvhParser {
       fail(token_line_, "expected 'Frames:' after MOTION, found " +
                             (tok.empty() ? std::string("end of file") : show(tok)));
     }
-    const std::size_t frames_line = token_line_;
+    frames_line = token_line_;
     std::size_t declared = 0;
-    {
-      const auto [ptr, ec] =
-          std::from_chars(count_text.data(), count_text.data() + count_text.size(), declared);
-      if (count_text.empty() || ec != std::errc() || ptr != count_text.data() + count_text.size())
-        fail(frames_line, "expected a non-negative whole frame count after 'Frames:', found " +
-                              (count_text.empty() ? std::string("end of file") : show(count_text)));
-    }
-    // "Frame Time: t" (any blanks; also "Frame Time :" and "Frame Time:t").
-    tok = token();
+    const auto [ptr, ec] =
+        std::from_chars(count_text.data(), count_text.data() + count_text.size(), declared);
+    if (count_text.empty() || ec != std::errc() || ptr != count_text.data() + count_text.size())
+      fail(frames_line, "expected a non-negative whole frame count after 'Frames:', found " +
+                            (count_text.empty() ? std::string("end of file") : show(count_text)));
+    return declared;
+  }
+
+  // "Frame Time: t" (any blanks; also "Frame Time :" and "Frame Time:t"): t
+  // in seconds, checked.
+  double parse_frame_time() {
+    std::string_view tok = token();
     if (tok != "Frame")
       fail(token_line_, "expected 'Frame Time:', found " +
                             (tok.empty() ? std::string("end of file") : show(tok)));
@@ -414,7 +417,13 @@ class BvhParser {
     if (frame_time < kMinFrameTime || frame_time > kMaxFrameTime)
       fail(time_line, "frame time out of range: " + show(time_text) +
                           " s; expected 1e-5 to 60 s (100 kHz to one frame a minute)");
-    clip.frame_time_s = frame_time;
+    return frame_time;
+  }
+
+  void parse_motion(RawClip& clip) {
+    std::size_t frames_line = 0;
+    const std::size_t declared = parse_frame_count(frames_line);
+    clip.frame_time_s = parse_frame_time();
     clip.frame_count = declared;
     declared_ = declared;
 
@@ -434,6 +443,13 @@ class BvhParser {
                               " needs channels, but the hierarchy has none");
       return;
     }
+    parse_frame_lines(clip, declared, frames_line);
+  }
+
+  // The frame lines (the window's, when set) into clip.values: `declared`
+  // of them (from "Frames:" on line frames_line), nothing after them.
+  void parse_frame_lines(RawClip& clip, std::size_t declared, std::size_t frames_line) {
+    const std::size_t cc = clip.channel_count;
     // Allocation bounded by the text: a frame line of cc values needs at least 2*cc - 1
     // bytes plus its newline, so the remaining text cannot hold more rows than this.
     const auto remaining = static_cast<std::size_t>(end_ - p_);
@@ -476,33 +492,7 @@ class BvhParser {
         capacity = std::min(last - first, capacity * 2 + 1);
         clip.values.resize(capacity * cc);
       }
-      double* out = clip.values.data() + (f - first) * cc;
-      for (std::size_t c = 0; c < cc; ++c) {
-        p = after_blanks(p, end);
-        if (p == end || *p == '\n')
-          fail(line, "too few values on frame line: expected " + std::to_string(cc) +
-                         " values, found " + std::to_string(c));
-        double v;
-        const char* stop = parse_double(p, end, v);
-        if (stop == nullptr || (stop < end && !is_space(*stop))) {
-          const char* tok_end = p;
-          while (tok_end < end && !is_space(*tok_end)) ++tok_end;
-          fail(line, "expected a number (value " + std::to_string(c + 1) + " of frame " +
-                         std::to_string(f) + "), found " +
-                         show(std::string_view(p, static_cast<std::size_t>(tok_end - p))));
-        }
-        if (!std::isfinite(v) || std::abs(v) > kMaxBvhValue)
-          fail(line, std::string(std::isfinite(v) ? "value out of range: |value| must be at "
-                                                    "most 1e7 (file units or degrees)"
-                                                  : "expected a finite number") +
-                         " (value " + std::to_string(c + 1) + " of frame " + std::to_string(f) +
-                         ")");
-        out[c] = v;
-        p = stop;
-      }
-      p = after_blanks(p, end);
-      if (p < end && *p != '\n')
-        fail(line, "too many values on frame line: expected " + std::to_string(cc) + " values");
+      p = parse_frame_line(p, line, f, cc, clip.values.data() + (f - first) * cc);
       ++f;
     }
     p_ = p;
@@ -513,6 +503,39 @@ class BvhParser {
                      std::to_string(frames_line) + "): expected more frames");
     clip.frame_count = f - first;
     clip.values.resize(clip.frame_count * cc);
+  }
+
+  // Frame f's line (number `line`) from p: its cc values into `out`.
+  // Returns where the line's newline (or the text's end) is.
+  const char* parse_frame_line(const char* p, std::size_t line, std::size_t f, std::size_t cc,
+                               double* out) const {
+    const char* const end = end_;
+    for (std::size_t c = 0; c < cc; ++c) {
+      p = after_blanks(p, end);
+      if (p == end || *p == '\n')
+        fail(line, "too few values on frame line: expected " + std::to_string(cc) +
+                       " values, found " + std::to_string(c));
+      double v;
+      const char* stop = parse_double(p, end, v);
+      if (stop == nullptr || (stop < end && !is_space(*stop))) {
+        const char* tok_end = p;
+        while (tok_end < end && !is_space(*tok_end)) ++tok_end;
+        fail(line, "expected a number (value " + std::to_string(c + 1) + " of frame " +
+                       std::to_string(f) + "), found " +
+                       show(std::string_view(p, static_cast<std::size_t>(tok_end - p))));
+      }
+      if (!std::isfinite(v) || std::abs(v) > kMaxBvhValue)
+        fail(line, std::string(std::isfinite(v) ? "value out of range: |value| must be at "
+                                                  "most 1e7 (file units or degrees)"
+                                                : "expected a finite number") +
+                       " (value " + std::to_string(c + 1) + " of frame " + std::to_string(f) + ")");
+      out[c] = v;
+      p = stop;
+    }
+    p = after_blanks(p, end);
+    if (p < end && *p != '\n')
+      fail(line, "too many values on frame line: expected " + std::to_string(cc) + " values");
+    return p;
   }
 
   const char* begin_;

@@ -132,20 +132,11 @@ int body_part(const Query& q, const std::string& path, const Skeleton& skel,
   return j;
 }
 
-// Query frame i's joint entries, angles and effectors as body-frame
-// constraints (ResolvedQueryPose::constraints), its weights, and for a
-// constrained frame the driven joints in `given`.
-void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
-                     const DynamicsModel& model, ResolvedQueryPose& out) {
-  const QueryFrameSpec& spec = q.frames[i];
-  const std::string path = field(i);
-  out.weight = spec.weight;
-  PartialPoseSpec& given = out.given;
-  const std::size_t nj = skel.joint_count();
-  const int root = model.root();
+// The given local rotations as constraints: named by the query's entry
+// (hand-written frames), unnamed for a BVH frame's "only".
+std::vector<PoseConstraint> rotation_constraints(const QueryFrameSpec& spec, const Skeleton& skel,
+                                                 const PartialPoseSpec& given) {
   std::vector<PoseConstraint> cs;
-  // Given local rotations: named by the query's entry (hand-written
-  // frames), unnamed for a BVH frame's "only".
   for (const auto& [j, rot] : given.joint_rotations) {
     PoseConstraint c;
     c.kind = PoseConstraintKind::local_rotation;
@@ -158,92 +149,102 @@ void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
       }
     cs.push_back(c);
   }
-  for (const JointRotationSpec& jr : spec.joints) {
-    if (!jr.direction) continue;
-    const std::string at = path + ".joints." + jr.name;
-    PoseConstraint c;
-    c.kind = PoseConstraintKind::direction;
-    c.name = jr.name;
-    c.joint = resolve_joint(q, at, skel, jr.name);
-    if (c.joint == root)
-      fail(q, at,
-           "the root's direction would turn the body frame itself: give root_heading_deg, or "
-           "the direction of a joint below it");
-    c.end = segment_end(skel, c.joint);
-    if (c.end < 0)
-      fail(q, at,
-           fmt::format("{} has {} child joints: a direction needs one segment (give a joint "
-                       "with one child, e.g. Spine, RightUpperArm, RightForeArm, RightUpLeg)",
-                       skel.names[static_cast<std::size_t>(c.joint)],
-                       skel.children(c.joint).size()));
-    c.target = *jr.direction;
-    c.tolerance = jr.tolerance_deg * std::numbers::pi / 180.0;
-    c.weight = jr.weight.value_or(1.0);
-    cs.push_back(c);
+  return cs;
+}
+
+// A joint entry's direction (at: its field path) as a body-frame constraint.
+PoseConstraint direction_constraint(const Query& q, const std::string& at,
+                                    const JointRotationSpec& jr, const Skeleton& skel, int root) {
+  PoseConstraint c;
+  c.kind = PoseConstraintKind::direction;
+  c.name = jr.name;
+  c.joint = resolve_joint(q, at, skel, jr.name);
+  if (c.joint == root)
+    fail(q, at,
+         "the root's direction would turn the body frame itself: give root_heading_deg, or "
+         "the direction of a joint below it");
+  c.end = segment_end(skel, c.joint);
+  if (c.end < 0)
+    fail(q, at,
+         fmt::format("{} has {} child joints: a direction needs one segment (give a joint "
+                     "with one child, e.g. Spine, RightUpperArm, RightForeArm, RightUpLeg)",
+                     skel.names[static_cast<std::size_t>(c.joint)], skel.children(c.joint).size()));
+  c.target = *jr.direction;
+  c.tolerance = jr.tolerance_deg * std::numbers::pi / 180.0;
+  c.weight = jr.weight.value_or(1.0);
+  return c;
+}
+
+// An angle entry (at: its field path) as a body-frame constraint: trunk or
+// hip flexion, knee or elbow flexion, else shoulder elevation.
+PoseConstraint angle_constraint(const Query& q, const std::string& at, const AngleSpec& a,
+                                const Skeleton& skel, const DynamicsModel& model) {
+  const int root = model.root();
+  PoseConstraint c;
+  c.name = a.name;
+  c.angle_rad = a.deg * std::numbers::pi / 180.0;
+  c.tolerance = a.tolerance_deg * std::numbers::pi / 180.0;
+  c.weight = a.weight.value_or(1.0);
+  const bool left = a.name.rfind("left_", 0) == 0;
+  const std::string side = left ? "Left" : "Right";
+  if (a.name == "trunk_flexion") {
+    c.kind = PoseConstraintKind::sagittal_flexion;
+    c.end = find_joint_by_alias(skel, "Neck");
+    if (c.end < 0) c.end = body_part(q, at, skel, "Head", a.name);
+    int base = c.end;
+    while (base >= 0 && model.parents[static_cast<std::size_t>(base)] != root)
+      base = model.parents[static_cast<std::size_t>(base)];
+    if (base < 0 || base == c.end)
+      fail(q, at, "no spine between the root and the neck on this skeleton");
+    c.joint = base;
+  } else if (a.name.ends_with("hip_flexion")) {
+    c.kind = PoseConstraintKind::sagittal_flexion;
+    c.from_down = true;
+    c.joint = body_part(q, at, skel, side + "UpLeg", a.name);
+    c.end = body_part(q, at, skel, side + "Leg", a.name);
+  } else if (a.name.ends_with("knee_flexion") || a.name.ends_with("elbow_flexion")) {
+    const bool knee = a.name.ends_with("knee_flexion");
+    c.kind = PoseConstraintKind::hinge_flexion;
+    c.middle = body_part(q, at, skel, side + (knee ? "UpLeg" : "UpperArm"), a.name);
+    c.joint = body_part(q, at, skel, side + (knee ? "Leg" : "ForeArm"), a.name);
+    c.end = body_part(q, at, skel, side + (knee ? "Foot" : "Hand"), a.name);
+    c.bend_hint = Eigen::Vector3d(0.0, 0.0, knee ? -1.0 : 1.0);
+  } else {  // shoulder elevation
+    c.kind = PoseConstraintKind::elevation;
+    c.joint = body_part(q, at, skel, side + "UpperArm", a.name);
+    c.end = body_part(q, at, skel, side + "ForeArm", a.name);
+    c.bend_hint = Eigen::Vector3d(left ? 1.0 : -1.0, 0.0, 0.0);
   }
-  for (const AngleSpec& a : spec.angles) {
-    const std::string at = path + ".angles." + a.name;
-    PoseConstraint c;
-    c.name = a.name;
-    c.angle_rad = a.deg * std::numbers::pi / 180.0;
-    c.tolerance = a.tolerance_deg * std::numbers::pi / 180.0;
-    c.weight = a.weight.value_or(1.0);
-    const bool left = a.name.rfind("left_", 0) == 0;
-    const std::string side = left ? "Left" : "Right";
-    if (a.name == "trunk_flexion") {
-      c.kind = PoseConstraintKind::sagittal_flexion;
-      c.end = find_joint_by_alias(skel, "Neck");
-      if (c.end < 0) c.end = body_part(q, at, skel, "Head", a.name);
-      int base = c.end;
-      while (base >= 0 && model.parents[static_cast<std::size_t>(base)] != root)
-        base = model.parents[static_cast<std::size_t>(base)];
-      if (base < 0 || base == c.end)
-        fail(q, at, "no spine between the root and the neck on this skeleton");
-      c.joint = base;
-    } else if (a.name.ends_with("hip_flexion")) {
-      c.kind = PoseConstraintKind::sagittal_flexion;
-      c.from_down = true;
-      c.joint = body_part(q, at, skel, side + "UpLeg", a.name);
-      c.end = body_part(q, at, skel, side + "Leg", a.name);
-    } else if (a.name.ends_with("knee_flexion") || a.name.ends_with("elbow_flexion")) {
-      const bool knee = a.name.ends_with("knee_flexion");
-      c.kind = PoseConstraintKind::hinge_flexion;
-      c.middle = body_part(q, at, skel, side + (knee ? "UpLeg" : "UpperArm"), a.name);
-      c.joint = body_part(q, at, skel, side + (knee ? "Leg" : "ForeArm"), a.name);
-      c.end = body_part(q, at, skel, side + (knee ? "Foot" : "Hand"), a.name);
-      c.bend_hint = Eigen::Vector3d(0.0, 0.0, knee ? -1.0 : 1.0);
-    } else {  // shoulder elevation
-      c.kind = PoseConstraintKind::elevation;
-      c.joint = body_part(q, at, skel, side + "UpperArm", a.name);
-      c.end = body_part(q, at, skel, side + "ForeArm", a.name);
-      c.bend_hint = Eigen::Vector3d(left ? 1.0 : -1.0, 0.0, 0.0);
-    }
-    cs.push_back(c);
-  }
-  for (const EffectorSpec& e : spec.effectors) {
-    const std::string at = path + ".effectors." + e.name;
-    PoseConstraint c;
-    c.kind = PoseConstraintKind::effector;
-    c.name = e.name;
-    c.end = resolve_joint(q, at, skel, e.name);
-    c.middle = model.parents[static_cast<std::size_t>(c.end)];
-    c.joint = c.middle >= 0 ? model.parents[static_cast<std::size_t>(c.middle)] : -1;
-    if (c.middle < 0 || c.joint < 0 || c.middle == root || c.joint == root)
-      fail(q, at,
-           fmt::format("{} is not at the end of a two-bone chain below the root (e.g. a hand: "
-                       "upper arm, forearm; a foot: thigh, shank)",
-                       skel.names[static_cast<std::size_t>(c.end)]));
-    c.target = e.position_m;
-    c.tolerance = e.tolerance_m;
-    c.weight = e.weight.value_or(1.0);
-    const int lf = find_joint_by_alias(skel, "LeftFoot"),
-              rf = find_joint_by_alias(skel, "RightFoot");
-    c.bend_hint = Eigen::Vector3d(0.0, 0.0, (c.end == lf || c.end == rf) ? -1.0 : 1.0);
-    cs.push_back(c);
-  }
-  if (cs.empty()) return;
-  // Each joint driven by one entry only.
-  std::vector<const PoseConstraint*> driver(nj, nullptr);
+  return c;
+}
+
+// An effector entry (at: its field path) as a two-bone chain constraint.
+PoseConstraint effector_constraint(const Query& q, const std::string& at, const EffectorSpec& e,
+                                   const Skeleton& skel, const DynamicsModel& model) {
+  const int root = model.root();
+  PoseConstraint c;
+  c.kind = PoseConstraintKind::effector;
+  c.name = e.name;
+  c.end = resolve_joint(q, at, skel, e.name);
+  c.middle = model.parents[static_cast<std::size_t>(c.end)];
+  c.joint = c.middle >= 0 ? model.parents[static_cast<std::size_t>(c.middle)] : -1;
+  if (c.middle < 0 || c.joint < 0 || c.middle == root || c.joint == root)
+    fail(q, at,
+         fmt::format("{} is not at the end of a two-bone chain below the root (e.g. a hand: "
+                     "upper arm, forearm; a foot: thigh, shank)",
+                     skel.names[static_cast<std::size_t>(c.end)]));
+  c.target = e.position_m;
+  c.tolerance = e.tolerance_m;
+  c.weight = e.weight.value_or(1.0);
+  const int lf = find_joint_by_alias(skel, "LeftFoot"), rf = find_joint_by_alias(skel, "RightFoot");
+  c.bend_hint = Eigen::Vector3d(0.0, 0.0, (c.end == lf || c.end == rf) ? -1.0 : 1.0);
+  return c;
+}
+
+// Each joint driven by one entry only (path: the frame's field path).
+void check_single_drivers(const Query& q, const std::string& path, const Skeleton& skel,
+                          const std::vector<PoseConstraint>& cs) {
+  std::vector<const PoseConstraint*> driver(skel.joint_count(), nullptr);
   auto describe = [&](const PoseConstraint& c) {
     return c.name.empty() ? std::string("\"only\"") : "\"" + c.name + "\"";
   };
@@ -257,10 +258,12 @@ void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
                          skel.names[static_cast<std::size_t>(j)]));
       d = &c;
     }
-  sort_constraints(cs);
-  out.constraints = std::move(cs);
-  out.solve = spec.constrained();
-  if (!out.solve) return;
+}
+
+// A constrained frame: the driven joints as its given rotations (solved
+// later), which joints keep F's rates, and the joints' weights.
+void drive_constrained_joints(const DynamicsModel& model, std::size_t nj, ResolvedQueryPose& out) {
+  PartialPoseSpec& given = out.given;
   const std::vector<int> driven = driven_joints(out.constraints, nj);
   std::vector<std::pair<int, Eigen::Quaterniond>> rotations;
   for (int j : driven) rotations.emplace_back(j, Eigen::Quaterniond::Identity());
@@ -292,6 +295,31 @@ void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
   out.joint_weights.assign(nj, 1.0);
   for (std::size_t j = 0; j < nj; ++j)
     if (nearest[j] != nullptr) out.joint_weights[j] = nearest[j]->weight;
+}
+
+// Query frame i's joint entries, angles and effectors as body-frame
+// constraints (ResolvedQueryPose::constraints), its weights, and for a
+// constrained frame the driven joints in `given`.
+void add_constraints(const Query& q, std::size_t i, const Skeleton& skel,
+                     const DynamicsModel& model, ResolvedQueryPose& out) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string path = field(i);
+  out.weight = spec.weight;
+  std::vector<PoseConstraint> cs = rotation_constraints(spec, skel, out.given);
+  for (const JointRotationSpec& jr : spec.joints)
+    if (jr.direction)
+      cs.push_back(direction_constraint(q, path + ".joints." + jr.name, jr, skel, model.root()));
+  for (const AngleSpec& a : spec.angles)
+    cs.push_back(angle_constraint(q, path + ".angles." + a.name, a, skel, model));
+  for (const EffectorSpec& e : spec.effectors)
+    cs.push_back(effector_constraint(q, path + ".effectors." + e.name, e, skel, model));
+  if (cs.empty()) return;
+  check_single_drivers(q, path, skel, cs);
+  sort_constraints(cs);
+  out.constraints = std::move(cs);
+  out.solve = spec.constrained();
+  if (!out.solve) return;
+  drive_constrained_joints(model, skel.joint_count(), out);
 }
 
 }  // namespace
@@ -412,177 +440,246 @@ std::shared_ptr<const QueryBvhFile> QueryBvhCache::get_frames(const std::filesys
   return store(key, std::move(loaded));
 }
 
+namespace {
+
+// Query frame i's file (a BVH file's window around the frame, or a whole
+// AMC file): `file`'s when it holds one, else read and kept there.
+std::shared_ptr<const QueryBvhFile> query_frame_file(const Query& q, std::size_t i,
+                                                     QueryBvhCache& cache,
+                                                     const std::string& unit_option,
+                                                     std::shared_ptr<const QueryBvhFile>* file) {
+  const QueryFrameSpec& spec = q.frames[i];
+  std::shared_ptr<const QueryBvhFile> bvh = file != nullptr ? *file : nullptr;
+  if (bvh) return bvh;
+  try {
+    // The +-2 frame window below is all that is read of the file.
+    bvh = spec.asf ? cache.get_amc(*spec.bvh, *spec.asf, 1.0 / spec.amc_fps)
+                   : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
+  } catch (const InputError& e) {
+    fail(q, field(i) + (spec.asf ? ".amc" : ".bvh"), e.what());
+  }
+  if (file != nullptr) *file = bvh;
+  return bvh;
+}
+
+// The buffers of a file frame's window, kept by the thread across calls (a
+// query resolves each frame on every skeleton of the index).
+struct WindowBuffers {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<Eigen::Quaterniond> rotations;
+  LocalPose local;
+  WorldPose world;
+  ClipDynamics dyn;
+};
+
+WindowBuffers& window_buffers() {
+  thread_local WindowBuffers buffers;
+  return buffers;
+}
+
+// Row `row` of `m` on the index skeleton, same rig: the file's local
+// rotations (identity for unmapped joints), the index skeleton's offsets,
+// the file's translations where both joints have position channels.
+void copy_file_frame(const Skeleton& skel, const ClipMotion& m, const std::vector<int>& map,
+                     std::size_t row, LocalPose& local) {
+  const std::size_t fj = m.joint_count();
+  for (std::size_t j = 0; j < skel.joint_count(); ++j) {
+    const int fjnt = map[j];
+    const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
+    local.rotations[j] = fjnt >= 0 ? m.local_rotations[row * fj + static_cast<std::size_t>(fjnt)]
+                                   : Eigen::Quaterniond::Identity();
+    const bool file_pos =
+        fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
+    local.translations_m[j] =
+        (file_pos && skel.channels[j].has_position())
+            ? Eigen::Vector3d(m.local_translations_m[row * fj + static_cast<std::size_t>(fjnt)] *
+                              scale)
+            : Eigen::Vector3d(skel.offsets_m[j] * scale);
+  }
+}
+
+// World poses of the file's frames f0..f1 on the index skeleton into
+// `b.positions` and `b.rotations` (frame by frame); across rigs the
+// retargeted pose. Returns the local rotations at frame `at`.
+std::vector<Eigen::Quaterniond> pose_file_window(const Skeleton& skel, const QueryBvhFile& bvh,
+                                                 const RetargetMap* rig,
+                                                 const std::vector<int>& map, std::size_t f0,
+                                                 std::size_t f1, std::size_t at, WindowBuffers& b) {
+  const ClipMotion& m = bvh.motion;
+  const std::size_t nj = skel.joint_count();
+  // Frame f of the file is row f - base of `m` (a window or the whole file).
+  const std::size_t base = bvh.first_frame;
+  const std::size_t n = f1 - f0 + 1;
+  b.positions.resize(n * nj);
+  b.rotations.resize(n * nj);
+  std::vector<Eigen::Quaterniond> locals_at_frame(nj);
+  b.local.translations_m.resize(nj);
+  b.local.rotations.resize(nj);
+  for (std::size_t f = f0; f <= f1; ++f) {
+    if (rig) {
+      retarget_clip_frame(*rig, m, f - base, skel, b.local, b.world);
+    } else {
+      copy_file_frame(skel, m, map, f - base, b.local);
+      forward_kinematics(skel, b.local, b.world);
+    }
+    if (f == at) locals_at_frame = b.local.rotations;
+    std::copy(b.world.positions_m.begin(), b.world.positions_m.end(),
+              b.positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+    std::copy(b.world.rotations.begin(), b.world.rotations.end(),
+              b.rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+  }
+  return locals_at_frame;
+}
+
+// A whole file frame: its world state, root position and mapped joints' rotations.
+void set_full_pose(const StateView& v, std::size_t nj, std::size_t r, const std::vector<int>& map,
+                   const std::vector<Eigen::Quaterniond>& locals_at_frame, ResolvedQueryPose& out) {
+  PartialPoseSpec& partial = out.given;
+  out.full = true;
+  out.state.resize(nj);
+  for (std::size_t j = 0; j < nj; ++j) {
+    out.state.joint_positions_m[j] = v.joint_positions_m[j];
+    out.state.rotations[j] = v.rotations[j];
+    out.state.coms_m[j] = v.coms_m[j];
+    out.state.com_velocities_mps[j] = v.com_velocities_mps[j];
+    out.state.com_accelerations_mps2[j] = v.com_accelerations_mps2[j];
+    out.state.angular_velocities_radps[j] = v.angular_velocities_radps[j];
+    out.state.angular_accelerations_radps2[j] = v.angular_accelerations_radps2[j];
+  }
+  for (int a = 0; a < 3; ++a)
+    partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+  for (std::size_t j = 0; j < nj; ++j)
+    if (map[j] >= 0) partial.joint_rotations.emplace_back(static_cast<int>(j), locals_at_frame[j]);
+}
+
+// The DOFs a file frame's "only" names, given from the frame.
+void set_only_dofs(const Query& q, std::size_t i, const StateView& v, std::size_t r,
+                   const Skeleton& file_skel, const Skeleton& skel, const std::vector<int>& map,
+                   const std::vector<Eigen::Quaterniond>& locals_at_frame,
+                   PartialPoseSpec& partial) {
+  const QueryFrameSpec& spec = q.frames[i];
+  for (std::size_t k = 0; k < spec.only.size(); ++k) {
+    const std::string& dof = spec.only[k];
+    if (dof == "root_position") {
+      for (int a = 0; a < 3; ++a)
+        partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
+    } else if (dof == "root_position_xz") {
+      partial.root_position_m[0] = v.joint_positions_m[r][0];
+      partial.root_position_m[2] = v.joint_positions_m[r][2];
+    } else if (dof == "root_heading") {
+      partial.root_heading_rad = heading_rad(v.rotations[r]);
+    } else {
+      // The name is read on the file's skeleton; the rotation is the
+      // frame's on the index skeleton (retargeted across rigs).
+      const int j = resolve_only_joint(q, i, k, file_skel, skel, map);
+      partial.joint_rotations.emplace_back(j, locals_at_frame[static_cast<std::size_t>(j)]);
+    }
+  }
+}
+
+// Query frame i given by a BVH or AMC file frame. Returns true for a whole
+// frame (`out` complete: no constraints), false when "only" picks DOFs.
+bool resolve_file_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
+                        const DynamicsModel& model, QueryBvhCache& cache,
+                        const std::string& unit_option, std::shared_ptr<const QueryBvhFile>* file,
+                        const TypicalPoseFn& typical_pose, ResolvedQueryPose& out) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string path = field(i);
+  const Skeleton& skel = sk.skeleton;
+  out.from_bvh = true;
+  const std::shared_ptr<const QueryBvhFile> bvh = query_frame_file(q, i, cache, unit_option, file);
+  const ClipMotion& m = bvh->motion;
+  if (spec.bvh_frame >= bvh->file_frame_count)
+    fail(q, path + ".frame",
+         fmt::format("frame {} out of range: {} has {} frames (0-based)", spec.bvh_frame,
+                     spec.bvh->string(), bvh->file_frame_count));
+  // A file of another rig is retargeted (retarget.hpp); else its local
+  // rotations are copied.
+  const std::unique_ptr<const RetargetMap> rig =
+      cross_rig_map(q, path, m.skeleton, skel, typical_pose);
+  const std::vector<int> map = rig ? rig->source_joint : map_joints(skel, m.skeleton);
+  // Pose of the file's frames around bvh_frame on the index skeleton. The
+  // +-2 frame window gives exactly the clip's finite-difference rates at the
+  // frame (dynamics.hpp).
+  const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
+  const std::size_t f1 = std::min(bvh->file_frame_count - 1, spec.bvh_frame + 2);
+  WindowBuffers& buffers = window_buffers();
+  const std::vector<Eigen::Quaterniond> locals_at_frame =
+      pose_file_window(skel, *bvh, rig.get(), map, f0, f1, spec.bvh_frame, buffers);
+  ClipDynamics& dyn = buffers.dyn;
+  compute_clip_dynamics(model, f1 - f0 + 1, m.frame_time_s, buffers.positions.data(),
+                        buffers.rotations.data(), dyn);
+  const StateView v = dyn.state(spec.bvh_frame - f0);
+  const std::size_t r = static_cast<std::size_t>(model.root());
+  out.local_rotations = locals_at_frame;
+  out.file_joints = map;
+  out.file_pose = ground_pose_of(v.joint_positions_m[r], v.rotations[r]);
+  if (rig) {
+    out.cross_rig = true;
+    out.compared_joints = rig->compared;
+    out.compared_classes = rig->compared_classes;
+  }
+  if (spec.only.empty()) {
+    set_full_pose(v, skel.joint_count(), r, map, locals_at_frame, out);
+    return true;
+  }
+  set_only_dofs(q, i, v, r, m.skeleton, skel, map, locals_at_frame, out.given);
+  return false;
+}
+
+// Query frame i written by hand: its root values and joint rotations (a
+// direction is a body-frame constraint, add_constraints).
+void resolve_written_frame(const Query& q, std::size_t i, const Skeleton& skel,
+                           PartialPoseSpec& partial) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::string path = field(i);
+  partial.root_position_m = spec.root_position_m;
+  if (spec.root_heading_deg)
+    partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
+  for (const auto& jr : spec.joints) {
+    const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
+    if (jr.direction) continue;  // a body-frame constraint (add_constraints)
+    partial.joint_rotations.emplace_back(j, jr.rotation);
+  }
+  // Every joint name is known (effectors' too): now the joint value
+  // parse_query deferred.
+  if (spec.joint_value_error) {
+    for (const EffectorSpec& e : spec.effectors)
+      (void)resolve_joint(q, path + ".effectors." + e.name, skel, e.name);
+    throw *spec.joint_value_error;
+  }
+}
+
+// Joints named twice through different aliases: the last wins.
+void deduplicate_joint_rotations(PartialPoseSpec& partial) {
+  std::vector<std::pair<int, Eigen::Quaterniond>> unique;
+  for (const auto& jr : partial.joint_rotations) {
+    bool replaced = false;
+    for (auto& u : unique)
+      if (u.first == jr.first) {
+        u.second = jr.second;
+        replaced = true;
+      }
+    if (!replaced) unique.push_back(jr);
+  }
+  partial.joint_rotations = std::move(unique);
+}
+
+}  // namespace
+
 ResolvedQueryPose resolve_query_pose(const Query& q, std::size_t i, const IndexSkeleton& sk,
                                      const DynamicsModel& model, QueryBvhCache& cache,
                                      const std::string& unit_option,
                                      std::shared_ptr<const QueryBvhFile>* file,
                                      const TypicalPoseFn& typical_pose) {
-  const QueryFrameSpec& spec = q.frames[i];
-  const std::string path = field(i);
-  const Skeleton& skel = sk.skeleton;
-  const std::size_t nj = skel.joint_count();
-  const int root = model.root();
   ResolvedQueryPose out;
-  PartialPoseSpec& partial = out.given;
-  if (spec.bvh) {
-    out.from_bvh = true;
-    std::shared_ptr<const QueryBvhFile> bvh = file != nullptr ? *file : nullptr;
-    if (!bvh) {
-      try {
-        // The +-2 frame window below is all that is read of the file.
-        bvh = spec.asf ? cache.get_amc(*spec.bvh, *spec.asf, 1.0 / spec.amc_fps)
-                       : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
-      } catch (const InputError& e) {
-        fail(q, path + (spec.asf ? ".amc" : ".bvh"), e.what());
-      }
-      if (file != nullptr) *file = bvh;
-    }
-    const ClipMotion& m = bvh->motion;
-    if (spec.bvh_frame >= bvh->file_frame_count)
-      fail(q, path + ".frame",
-           fmt::format("frame {} out of range: {} has {} frames (0-based)", spec.bvh_frame,
-                       spec.bvh->string(), bvh->file_frame_count));
-    // A file of another rig is retargeted (retarget.hpp); else its local
-    // rotations are copied.
-    const std::unique_ptr<const RetargetMap> rig =
-        cross_rig_map(q, path, m.skeleton, skel, typical_pose);
-    const std::vector<int> map = rig ? rig->source_joint : map_joints(skel, m.skeleton);
-    // Pose of the file's frames around bvh_frame on the index skeleton: the
-    // file's local rotations (identity for unmapped joints), the index
-    // skeleton's offsets, the file's translations where both joints have
-    // position channels; across rigs, the retargeted pose. The +-2 frame
-    // window gives exactly the clip's finite-difference rates at the frame
-    // (dynamics.hpp).
-    const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
-    const std::size_t f1 = std::min(bvh->file_frame_count - 1, spec.bvh_frame + 2);
-    // Frame f of the file is row f - base of `m` (a window or the whole file).
-    const std::size_t base = bvh->first_frame;
-    const std::size_t n = f1 - f0 + 1;
-    const std::size_t fj = m.joint_count();
-    // The window's buffers, kept by the thread across calls (a query
-    // resolves each frame on every skeleton of the index).
-    thread_local struct {
-      std::vector<Eigen::Vector3d> positions;
-      std::vector<Eigen::Quaterniond> rotations;
-      LocalPose local;
-      WorldPose world;
-      ClipDynamics dyn;
-    } buffers;
-    std::vector<Eigen::Vector3d>& positions = buffers.positions;
-    std::vector<Eigen::Quaterniond>& rotations = buffers.rotations;
-    LocalPose& local = buffers.local;
-    WorldPose& world = buffers.world;
-    positions.resize(n * nj);
-    rotations.resize(n * nj);
-    std::vector<Eigen::Quaterniond> locals_at_frame(nj);
-    local.translations_m.resize(nj);
-    local.rotations.resize(nj);
-    for (std::size_t f = f0; f <= f1; ++f) {
-      if (rig) {
-        retarget_clip_frame(*rig, m, f - base, skel, local, world);
-      } else {
-        for (std::size_t j = 0; j < nj; ++j) {
-          const int fjnt = map[j];
-          const double scale = skel.translation_scales.empty() ? 1.0 : skel.translation_scales[j];
-          local.rotations[j] =
-              fjnt >= 0 ? m.local_rotations[(f - base) * fj + static_cast<std::size_t>(fjnt)]
-                        : Eigen::Quaterniond::Identity();
-          const bool file_pos =
-              fjnt >= 0 && m.skeleton.channels[static_cast<std::size_t>(fjnt)].has_position();
-          local.translations_m[j] =
-              (file_pos && skel.channels[j].has_position())
-                  ? Eigen::Vector3d(
-                        m.local_translations_m[(f - base) * fj + static_cast<std::size_t>(fjnt)] *
-                        scale)
-                  : Eigen::Vector3d(skel.offsets_m[j] * scale);
-        }
-        forward_kinematics(skel, local, world);
-      }
-      if (f == spec.bvh_frame) locals_at_frame = local.rotations;
-      std::copy(world.positions_m.begin(), world.positions_m.end(),
-                positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
-      std::copy(world.rotations.begin(), world.rotations.end(),
-                rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
-    }
-    ClipDynamics& dyn = buffers.dyn;
-    compute_clip_dynamics(model, n, m.frame_time_s, positions.data(), rotations.data(), dyn);
-    const StateView v = dyn.state(spec.bvh_frame - f0);
-    const std::size_t r = static_cast<std::size_t>(root);
-    out.local_rotations = locals_at_frame;
-    out.file_joints = map;
-    out.file_pose = ground_pose_of(v.joint_positions_m[r], v.rotations[r]);
-    if (rig) {
-      out.cross_rig = true;
-      out.compared_joints = rig->compared;
-      out.compared_classes = rig->compared_classes;
-    }
-    if (spec.only.empty()) {
-      out.full = true;
-      out.state.resize(nj);
-      for (std::size_t j = 0; j < nj; ++j) {
-        out.state.joint_positions_m[j] = v.joint_positions_m[j];
-        out.state.rotations[j] = v.rotations[j];
-        out.state.coms_m[j] = v.coms_m[j];
-        out.state.com_velocities_mps[j] = v.com_velocities_mps[j];
-        out.state.com_accelerations_mps2[j] = v.com_accelerations_mps2[j];
-        out.state.angular_velocities_radps[j] = v.angular_velocities_radps[j];
-        out.state.angular_accelerations_radps2[j] = v.angular_accelerations_radps2[j];
-      }
-      for (int a = 0; a < 3; ++a)
-        partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
-      for (std::size_t j = 0; j < nj; ++j)
-        if (map[j] >= 0)
-          partial.joint_rotations.emplace_back(static_cast<int>(j), locals_at_frame[j]);
+  if (q.frames[i].bvh) {
+    if (resolve_file_frame(q, i, sk, model, cache, unit_option, file, typical_pose, out))
       return out;
-    }
-    for (std::size_t k = 0; k < spec.only.size(); ++k) {
-      const std::string& dof = spec.only[k];
-      if (dof == "root_position") {
-        for (int a = 0; a < 3; ++a)
-          partial.root_position_m[static_cast<std::size_t>(a)] = v.joint_positions_m[r][a];
-      } else if (dof == "root_position_xz") {
-        partial.root_position_m[0] = v.joint_positions_m[r][0];
-        partial.root_position_m[2] = v.joint_positions_m[r][2];
-      } else if (dof == "root_heading") {
-        partial.root_heading_rad = heading_rad(v.rotations[r]);
-      } else {
-        // The name is read on the file's skeleton; the rotation is the
-        // frame's on the index skeleton (retargeted across rigs).
-        const int j = resolve_only_joint(q, i, k, m.skeleton, skel, map);
-        partial.joint_rotations.emplace_back(j, locals_at_frame[static_cast<std::size_t>(j)]);
-      }
-    }
   } else {
-    partial.root_position_m = spec.root_position_m;
-    if (spec.root_heading_deg)
-      partial.root_heading_rad = *spec.root_heading_deg * std::numbers::pi / 180.0;
-    for (const auto& jr : spec.joints) {
-      const int j = resolve_joint(q, path + ".joints." + jr.name, skel, jr.name);
-      if (jr.direction) continue;  // a body-frame constraint (add_constraints)
-      partial.joint_rotations.emplace_back(j, jr.rotation);
-    }
-    // Every joint name is known (effectors' too): now the joint value
-    // parse_query deferred.
-    if (spec.joint_value_error) {
-      for (const EffectorSpec& e : spec.effectors)
-        (void)resolve_joint(q, path + ".effectors." + e.name, skel, e.name);
-      throw *spec.joint_value_error;
-    }
+    resolve_written_frame(q, i, sk.skeleton, out.given);
   }
-  // Deduplicate joints named twice through different aliases: the last wins.
-  {
-    std::vector<std::pair<int, Eigen::Quaterniond>> unique;
-    for (const auto& jr : partial.joint_rotations) {
-      bool replaced = false;
-      for (auto& u : unique)
-        if (u.first == jr.first) {
-          u.second = jr.second;
-          replaced = true;
-        }
-      if (!replaced) unique.push_back(jr);
-    }
-    partial.joint_rotations = std::move(unique);
-  }
+  deduplicate_joint_rotations(out.given);
   add_constraints(q, i, sk.skeleton, model, out);
   return out;
 }
