@@ -32,8 +32,7 @@ bool is_collection_manifest(const std::filesystem::path& path) {
 }
 
 CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
-  const FileStat st = check_input_file(path, input_limits().json_file_bytes);
-  const FileBytes bytes = read_file_bytes(path, st.size);
+  const FileBytes bytes = read_input_file(path, input_limits().json_file_bytes);
   const json j = json::parse(bytes.view(), nullptr, false);
   if (j.is_discarded() || !j.is_object()) fail(path, "manifest", "not a JSON object");
   if (!j.contains("format") || j["format"] != kCollectionFormat)

@@ -25,6 +25,7 @@
 #include "mocap/common/error.hpp"
 #include "mocap/common/file.hpp"
 #include "mocap/common/hdf5.hpp"
+#include "mocap/common/input_limits.hpp"
 #include "mocap/common/output_path.hpp"
 #include "mocap/common/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
@@ -90,9 +91,9 @@ IndexSkeleton to_table(const IndexedSkeleton& s) {
 RawClip read_amc_take(const PlannedFile& f, const AmcReadOptions& amc, WorkerTimes& times,
                       Clock::time_point& t, std::uint64_t& content_hash,
                       std::optional<double>& scale_m) {
-  const FileBytes amc_text = read_file_bytes(f.path, f.stat->size);
-  const FileStat asf_stat = stat_file(f.asf);
-  const FileBytes asf_text = read_file_bytes(f.asf, asf_stat.size);
+  // Both under --max-bvh-mib, as every reader of a motion file (input_limits.hpp).
+  const FileBytes amc_text = read_input_file(f.path, input_limits().bvh_bytes);
+  const FileBytes asf_text = read_input_file(f.asf, input_limits().bvh_bytes);
   times.read_ns += ns_since(t);
   t = Clock::now();
   content_hash = amc_content_hash(xxh64(amc_text.view().data(), amc_text.size()),
@@ -126,7 +127,7 @@ void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Charac
     if (f.amc) {
       raw = read_amc_take(f, opt.amc, times, t, c.content_hash, asf_scale_m);
     } else {
-      const FileBytes text = read_file_bytes(f.path, f.stat->size);
+      const FileBytes text = read_input_file(f.path, input_limits().bvh_bytes);
       times.read_ns += ns_since(t);
       t = Clock::now();
       c.content_hash = xxh64(text.view().data(), text.size());
