@@ -191,7 +191,8 @@ void add_view_command(CLI::App& app, ViewArgs& args) {
 }
 
 int run_view(const ViewArgs& a) {
-  mocap::check_distinct_outputs({{"--out", a.out}, {"--index", a.index}, {"--results", a.results}});
+  mocap::check_outputs_and_inputs({{"--out", a.out}},
+                                  {{"--index", a.index}, {"--results", a.results}});
   const std::filesystem::path out =
       mocap::checked_output_path(a.out, mocap::OutputKind::html, a.force, "--out");
   const mocap::PlayerLibrary player = mocap::load_player_library(mocap::player_dir());
@@ -247,10 +248,9 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   // output; any rank's failure ends every rank (mpi_search.hpp).
   const auto prepare = [&] {
     if ((!a.out.empty() || !a.html.empty()) && rank0) {
-      mocap::check_distinct_outputs({{"--index", a.index},
-                                     {"--queries", a.queries.empty() ? a.query : a.queries},
-                                     {"--out", a.out},
-                                     {"--html", a.html}});
+      mocap::check_outputs_and_inputs(
+          {{"--out", a.out}, {"--html", a.html}},
+          {{"--index", a.index}, {"--queries", a.queries.empty() ? a.query : a.queries}});
       if (!a.out.empty())
         out_file.emplace(
             mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));

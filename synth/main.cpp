@@ -100,12 +100,9 @@ int main(int argc, char** argv) {
     for (const auto& p : picks) options.picks.push_back(mocap::parse_pick(p));
     // Output paths first (docs/cli.md "Output paths"): nothing is computed
     // for outputs that would be refused.
-    mocap::check_distinct_outputs({{"--out", out_path},
-                                   {"--report", report_path},
-                                   {"--html", html_path},
-                                   {"--index", index_path},
-                                   {"--query", query_path},
-                                   {"--results", results_path}});
+    mocap::check_outputs_and_inputs(
+        {{"--out", out_path}, {"--report", report_path}, {"--html", html_path}},
+        {{"--index", index_path}, {"--query", query_path}, {"--results", results_path}});
     const std::filesystem::path bvh_file =
         mocap::checked_output_path(out_path, mocap::OutputKind::bvh, force, "--out");
     const std::filesystem::path report_file =

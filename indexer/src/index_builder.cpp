@@ -335,6 +335,13 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   std::vector<PlannedFile> files = list_planned_files(col);
   if (opt.strict && !col.problems.empty())
     throw InputError(col.problems.front().input, 0, col.problems.front().reason);
+  {
+    // The index never replaces a file the build reads, even with --force.
+    std::vector<std::pair<std::string, fs::path>> inputs;
+    for (const CollectionEntry& e : col.files) inputs.emplace_back("an input", e.path);
+    if (opt.character) inputs.emplace_back("--character", *opt.character);
+    check_outputs_and_inputs({{"--out", out}}, inputs);
+  }
 
   IndexBuildSummary sum;
   sum.out = out;
