@@ -15,6 +15,11 @@ namespace {
 constexpr double kNoCeiling = std::numeric_limits<double>::infinity();
 
 void check_shard_clips(const ShardSource& s, const Index& index) {
+  if (s.listed)
+    if (const std::string p =
+            shard_count_problem(*s.listed, index.clips().size(), index.frame_count());
+        !p.empty())
+      throw InputError(s.file.string(), 0, p);
   if (s.clips && index.clips().size() != *s.clips)
     throw InputError(s.file.string(), 0,
                      "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +
@@ -92,7 +97,7 @@ std::vector<ShardSource> manifest_shards(const std::filesystem::path& manifest,
   for (std::size_t k = 0; k < m.shards.size(); ++k) {
     const CollectionShard& s = m.shards[k];
     if (!which || std::find(which->begin(), which->end(), k) != which->end())
-      out.push_back({shard_file(manifest, s), s.path, s.clips, offset});
+      out.push_back({shard_file(manifest, s), s.path, s.clips, offset, nullptr, s});
     offset += s.clips;
   }
   return out;
