@@ -24,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -234,6 +235,11 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   opt.mode = *mocap::parse_search_mode(a.mode);
   opt.min_length_s = a.min_length_s;
   opt.max_length_s = a.max_length_s;
+  // NaN passes CLI11's PositiveNumber: named here by its flag.
+  if (!std::isfinite(opt.min_length_s))
+    throw mocap::InputError("--min-length", 0, "expected a finite number of seconds > 0");
+  if (!std::isfinite(opt.max_length_s))
+    throw mocap::InputError("--max-length", 0, "expected a finite number of seconds > 0");
   if (opt.min_length_s > opt.max_length_s)
     throw mocap::InputError("--min-length", 0, "must not exceed --max-length");
   opt.approx_checks = a.checks;

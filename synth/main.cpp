@@ -10,6 +10,8 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -68,7 +70,16 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps,
                  "output frame rate of a timed query (time_s on its frames; default: the first "
                  "BVH query frame's rate, else 30)")
-      ->check(CLI::Range(0.001, 1000.0));
+      ->check(CLI::Range(0.001, 1000.0))
+      // NaN passes Range (every comparison with it is false): refused as
+      // every other value out of range.
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return std::isnan(std::strtod(text.c_str(), nullptr))
+                       ? "Value " + text + " not in range [0.001 - 1000]"
+                       : "";
+          },
+          "", "not NaN"));
   bool no_step = false;
   app.add_flag("--no-step-feet", no_step,
                "no stepping pass after the A* search (feet may glide; lowest g)");

@@ -114,7 +114,6 @@ std::vector<QueryOutcome> search_shards(
   // find results at or above it (SearchEngine::run's ceilings).
   std::vector<std::vector<double>> own(batch.size());
   std::size_t done_before = 0;
-  const std::size_t total = batch.size() * shards.size();
   // The labels query filters may name: every shard's (a single one's are its own).
   std::optional<LabelValues> labels;
   if (hooks.labels)
@@ -146,8 +145,11 @@ std::vector<QueryOutcome> search_shards(
         hooks.reached(i, r);
       };
     std::function<void(std::size_t, std::size_t)> shard_progress;
+    // In queries, not queries x shards: each shard answers every query.
     if (progress)
-      shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
+      shard_progress = [&](std::size_t done, std::size_t) {
+        progress((done_before + done) / shards.size(), batch.size());
+      };
     std::vector<QueryOutcome> shard =
         run_query_batch(engine, batch, options, control, shard_progress);
     merged = merged.empty() ? merge_shard_outcomes({std::move(shard)}, {s.clip_offset}, batch)
