@@ -355,6 +355,9 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   clock.phase("planned");
   const double planned_at = clock.elapsed();
   if (prev && is_up_to_date(files, col, prev->index())) {
+    // The index is kept; a killed build's ".NAME.tmp-PID" is still removed
+    // (AtomicFile does it when the index is rewritten).
+    remove_stale_temporaries(out);
     summarize_up_to_date(prev->index(), out, sum);
     sum.seconds = clock.elapsed();
     return sum;
