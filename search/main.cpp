@@ -268,8 +268,13 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
     batch =
         a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
     if (out_file) {
+      // Checked here, created when the results are written: a run that ends
+      // before (a rank killed under MPI) leaves no empty temporary file.
       file.open(out_file->temporary_path(), std::ios::binary);
       if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+      file.close();
+      std::error_code ec;
+      std::filesystem::remove(out_file->temporary_path(), ec);
     }
   };
 #ifdef MOCAP_HAVE_MPI
@@ -324,6 +329,10 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
     outcomes = collection ? mocap::run_collection_batch(a.index, batch, opt, progress)
                           : mocap::run_query_batch(*engine, batch, opt, progress);
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  if (out_file) {
+    file.open(out_file->temporary_path(), std::ios::binary);
+    if (!file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+  }
   std::ostream& os = a.out.empty() ? std::cout : file;
   std::size_t failed = 0;
   for (const auto& o : outcomes) {
