@@ -355,6 +355,12 @@ int run_verify_collection(const std::string& file, bool json) {
       const mocap::IndexVerifyReport r = mocap::verify_index(mocap::shard_file(file, sh));
       datasets += r.datasets_checked;
       for (const auto& p : r.problems) problems.push_back("shard " + sh.path + ": " + p);
+      if (!r.ok) continue;
+      // The manifest's counts number the collection's clips: as every reader.
+      const mocap::Index index = mocap::Index::open(mocap::shard_file(file, sh));
+      if (std::string p = mocap::shard_count_problem(sh, index.clips().size(), index.frame_count());
+          !p.empty())
+        problems.push_back(std::move(p));
     }
   const bool ok = problems.empty();
   if (json) {
@@ -407,6 +413,10 @@ int run_info_collection(const std::string& file, bool json) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& sh : m.shards) {
     const mocap::Index index = mocap::Index::open(mocap::shard_file(file, sh));
+    if (const std::string p =
+            mocap::shard_count_problem(sh, index.clips().size(), index.frame_count());
+        !p.empty())
+      throw mocap::InputError(file, 0, p);
     clips += index.clips().size();
     frames += index.frame_count();
     list.push_back({{"path", sh.path},
@@ -630,7 +640,7 @@ CLI::App* add_build_command(CLI::App& app, BuildArgs& a) {
       ->add_option("--shards", a.shards,
                    "Split the collection into N index files balanced by frames; --out is then "
                    "their manifest (COLLECTION.json; docs/index-format.md \"Collections\")")
-      ->check(CLI::Range(std::size_t{1}, std::size_t{4096}));
+      ->check(CLI::Range(std::size_t{1}, mocap::kMaxCollectionShards));
   return build;
 }
 

@@ -86,7 +86,7 @@ int run_export(const ExportArgs& a) {
   }
   require(a.out, "--out", "(the BVH file to write)");
   // The output is checked before anything is read (docs/cli.md "Output paths").
-  check_distinct_outputs({{"--out", a.out}, {"--index", a.index}, {"--results", a.results}});
+  check_outputs_and_inputs({{"--out", a.out}}, {{"--index", a.index}, {"--results", a.results}});
   const std::filesystem::path out = checked_output_path(a.out, OutputKind::bvh, a.force, "--out");
 
   const ClipSource clips = ClipSource::open(a.index);

@@ -24,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -193,7 +194,8 @@ void add_view_command(CLI::App& app, ViewArgs& args) {
 }
 
 int run_view(const ViewArgs& a) {
-  mocap::check_distinct_outputs({{"--out", a.out}, {"--index", a.index}, {"--results", a.results}});
+  mocap::check_outputs_and_inputs({{"--out", a.out}},
+                                  {{"--index", a.index}, {"--results", a.results}});
   const std::filesystem::path out =
       mocap::checked_output_path(a.out, mocap::OutputKind::html, a.force, "--out");
   const mocap::PlayerLibrary player = mocap::load_player_library(mocap::player_dir());
@@ -237,6 +239,11 @@ mocap::SearchOptions search_options(const SearchArgs& a) {
   opt.mode = *mocap::parse_search_mode(a.mode);
   opt.min_length_s = a.min_length_s;
   opt.max_length_s = a.max_length_s;
+  // NaN passes CLI11's PositiveNumber: named here by its flag.
+  if (!std::isfinite(opt.min_length_s))
+    throw mocap::InputError("--min-length", 0, "expected a finite number of seconds > 0");
+  if (!std::isfinite(opt.max_length_s))
+    throw mocap::InputError("--max-length", 0, "expected a finite number of seconds > 0");
   if (opt.min_length_s > opt.max_length_s)
     throw mocap::InputError("--min-length", 0, "must not exceed --max-length");
   opt.approx_checks = a.checks;
@@ -258,10 +265,9 @@ struct SearchInputs {
 // reads the batch; the results file is opened.
 void prepare_search(const SearchArgs& a, bool rank0, SearchInputs& in) {
   if ((!a.out.empty() || !a.html.empty()) && rank0) {
-    mocap::check_distinct_outputs({{"--index", a.index},
-                                   {"--queries", a.queries.empty() ? a.query : a.queries},
-                                   {"--out", a.out},
-                                   {"--html", a.html}});
+    mocap::check_outputs_and_inputs(
+        {{"--out", a.out}, {"--html", a.html}},
+        {{"--index", a.index}, {"--queries", a.queries.empty() ? a.query : a.queries}});
     if (!a.out.empty())
       in.out_file.emplace(
           mocap::checked_output_path(a.out, mocap::OutputKind::jsonl, a.force, "--out"));
@@ -273,8 +279,13 @@ void prepare_search(const SearchArgs& a, bool rank0, SearchInputs& in) {
   in.batch =
       a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
   if (in.out_file) {
+    // Checked here, created when the results are written: a run that ends
+    // before (a rank killed under MPI) leaves no empty temporary file.
     in.file.open(in.out_file->temporary_path(), std::ios::binary);
     if (!in.file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+    in.file.close();
+    std::error_code ec;
+    std::filesystem::remove(in.out_file->temporary_path(), ec);
   }
 }
 
@@ -297,6 +308,10 @@ void print_progress(std::size_t done, std::size_t total, bool tty, std::size_t& 
 std::size_t write_search_results(const SearchArgs& a,
                                  const std::vector<mocap::QueryOutcome>& outcomes,
                                  SearchInputs& in) {
+  if (in.out_file) {
+    in.file.open(in.out_file->temporary_path(), std::ios::binary);
+    if (!in.file) throw mocap::InputError(a.out, 0, "cannot write the results file");
+  }
   std::ostream& os = a.out.empty() ? std::cout : in.file;
   std::size_t failed = 0;
   for (const auto& o : outcomes) {

@@ -10,6 +10,8 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -76,7 +78,16 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
   app.add_option("--fps", a.fps,
                  "output frame rate of a timed query (time_s on its frames; default: the first "
                  "BVH query frame's rate, else 30)")
-      ->check(CLI::Range(0.001, 1000.0));
+      ->check(CLI::Range(0.001, 1000.0))
+      // NaN passes Range (every comparison with it is false): refused as
+      // every other value out of range.
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return std::isnan(std::strtod(text.c_str(), nullptr))
+                       ? "Value " + text + " not in range [0.001 - 1000]"
+                       : "";
+          },
+          "", "not NaN"));
   app.add_flag("--no-step-feet", a.no_step,
                "no stepping pass after the A* search (feet may glide; lowest g)");
   app.add_option("--threads", a.threads,
@@ -110,12 +121,9 @@ struct SynthOutputs {
 // Output paths first (docs/cli.md "Output paths"): nothing is computed
 // for outputs that would be refused.
 SynthOutputs check_synth_outputs(const SynthArgs& a) {
-  mocap::check_distinct_outputs({{"--out", a.out_path},
-                                 {"--report", a.report_path},
-                                 {"--html", a.html_path},
-                                 {"--index", a.index_path},
-                                 {"--query", a.query_path},
-                                 {"--results", a.results_path}});
+  mocap::check_outputs_and_inputs(
+      {{"--out", a.out_path}, {"--report", a.report_path}, {"--html", a.html_path}},
+      {{"--index", a.index_path}, {"--query", a.query_path}, {"--results", a.results_path}});
   SynthOutputs out;
   out.bvh = mocap::checked_output_path(a.out_path, mocap::OutputKind::bvh, a.force, "--out");
   out.report =

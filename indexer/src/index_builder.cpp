@@ -20,11 +20,12 @@
 #include "build_plan.hpp"
 #include "index_writer.hpp"
 #include "mocap/common/io/asf_amc.hpp"
-#include "mocap/common/io/bvh.hpp"
-#include "mocap/common/io/hdf5.hpp"
 #include "mocap/common/util/atomic_file.hpp"
+#include "mocap/common/io/bvh.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/file.hpp"
+#include "mocap/common/io/hdf5.hpp"
+#include "mocap/common/util/input_limits.hpp"
 #include "mocap/common/util/output_path.hpp"
 #include "mocap/common/util/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
@@ -90,9 +91,9 @@ IndexSkeleton to_table(const IndexedSkeleton& s) {
 RawClip read_amc_take(const PlannedFile& f, const AmcReadOptions& amc, WorkerTimes& times,
                       Clock::time_point& t, std::uint64_t& content_hash,
                       std::optional<double>& scale_m) {
-  const FileBytes amc_text = read_file_bytes(f.path, f.stat->size);
-  const FileStat asf_stat = stat_file(f.asf);
-  const FileBytes asf_text = read_file_bytes(f.asf, asf_stat.size);
+  // Both under --max-bvh-mib, as every reader of a motion file (input_limits.hpp).
+  const FileBytes amc_text = read_input_file(f.path, input_limits().bvh_bytes);
+  const FileBytes asf_text = read_input_file(f.asf, input_limits().bvh_bytes);
   times.read_ns += ns_since(t);
   t = Clock::now();
   content_hash = amc_content_hash(xxh64(amc_text.view().data(), amc_text.size()),
@@ -126,7 +127,7 @@ void parse_file(const PlannedFile& f, const IndexBuildOptions& opt, const Charac
     if (f.amc) {
       raw = read_amc_take(f, opt.amc, times, t, c.content_hash, asf_scale_m);
     } else {
-      const FileBytes text = read_file_bytes(f.path, f.stat->size);
+      const FileBytes text = read_input_file(f.path, input_limits().bvh_bytes);
       times.read_ns += ns_since(t);
       t = Clock::now();
       c.content_hash = xxh64(text.view().data(), text.size());
@@ -332,6 +333,13 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   std::vector<PlannedFile> files = list_planned_files(col);
   if (opt.strict && !col.problems.empty())
     throw InputError(col.problems.front().input, 0, col.problems.front().reason);
+  {
+    // The index never replaces a file the build reads, even with --force.
+    std::vector<std::pair<std::string, fs::path>> inputs;
+    for (const CollectionEntry& e : col.files) inputs.emplace_back("an input", e.path);
+    if (opt.character) inputs.emplace_back("--character", *opt.character);
+    check_outputs_and_inputs({{"--out", out}}, inputs);
+  }
 
   IndexBuildSummary sum;
   sum.out = out;
@@ -345,6 +353,9 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
   clock.phase("planned");
   const double planned_at = clock.elapsed();
   if (prev && is_up_to_date(files, col, prev->index())) {
+    // The index is kept; a killed build's ".NAME.tmp-PID" is still removed
+    // (AtomicFile does it when the index is rewritten).
+    remove_stale_temporaries(out);
     summarize_up_to_date(prev->index(), out, sum);
     sum.seconds = clock.elapsed();
     return sum;

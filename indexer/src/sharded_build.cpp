@@ -5,9 +5,11 @@
 #include <numeric>
 #include <string>
 
+#include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/io/collection_manifest.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/file.hpp"
+#include "mocap/common/util/output_path.hpp"
 #include "mocap/common/util/xxh64.hpp"
 #include "mocap/indexer/collection.hpp"
 
@@ -67,11 +69,30 @@ std::vector<std::filesystem::path> shard_paths(const std::filesystem::path& mani
 ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t count) {
   const std::string out = options.out.string();
   if (count == 0) throw InputError("--shards", 0, "must be at least 1");
-  if (std::filesystem::exists(options.out) && !options.force &&
+  if (count > kMaxCollectionShards)
+    throw InputError("--shards", 0,
+                     "at most " + std::to_string(kMaxCollectionShards) + " shards in a collection");
+  if (options.out.empty()) throw InputError("--out", 0, "empty output path");
+  // The manifest: written through a symbolic link to the file it leads to
+  // (the link stays a link, as for an index), its shards beside that file.
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(options.out, ec) && !options.force &&
       !is_collection_manifest(options.out))
     throw InputError(out, 0,
                      "exists and is not a collection manifest (--force replaces it; docs/cli.md "
                      "\"Output paths\")");
+  const std::filesystem::path manifest_file =
+      checked_output_path(options.out, OutputKind::json, true, "--out");
+  // One build per manifest at a time, whatever its shard count: a second
+  // build fails here, before any work (shards are locked by build_index).
+  if (!manifest_file.parent_path().empty())
+    std::filesystem::create_directories(manifest_file.parent_path(), ec);
+  const OutputLock lock(manifest_file);
+  const std::vector<std::filesystem::path> paths = shard_paths(manifest_file, count);
+  // Every shard's path checked before any shard is built (docs/cli.md
+  // "Output paths"): a FIFO at the last one is refused before the first.
+  for (const std::filesystem::path& p : paths)
+    (void)checked_output_path(p, OutputKind::index, options.force, "--out");
   const Collection collection = list_collection(options.inputs);
   if (options.strict && !collection.problems.empty())
     throw InputError(collection.problems.front().input, 0, collection.problems.front().reason);
@@ -80,10 +101,18 @@ ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t 
                      std::to_string(count) +
                          " shards need at least as many files; the inputs hold " +
                          std::to_string(collection.files.size()));
+  {
+    // No output (the manifest, a shard) is a file the build reads.
+    std::vector<std::pair<std::string, std::filesystem::path>> outputs{{"--out", manifest_file}};
+    for (const std::filesystem::path& p : paths) outputs.emplace_back("--out (a shard)", p);
+    std::vector<std::pair<std::string, std::filesystem::path>> inputs;
+    for (const CollectionEntry& e : collection.files) inputs.emplace_back("an input", e.path);
+    if (options.character) inputs.emplace_back("--character", *options.character);
+    check_outputs_and_inputs(outputs, inputs);
+  }
   std::vector<std::uint64_t> frames;
   for (const CollectionEntry& e : collection.files) frames.push_back(header_frames(e.path));
   const std::vector<std::size_t> ends = split_points(frames, count);
-  const std::vector<std::filesystem::path> paths = shard_paths(options.out, count);
   ShardedBuildSummary sum;
   sum.manifest = options.out;
   CollectionManifest manifest;
@@ -103,7 +132,7 @@ ShardedBuildSummary build_sharded(const IndexBuildOptions& options, std::size_t 
   // Inputs that named nothing readable are reported with the first shard.
   for (const CollectionProblem& p : collection.problems)
     sum.shards.front().skipped.push_back({p.input, p.reason});
-  write_collection_manifest(options.out, manifest);
+  write_collection_manifest(manifest_file, manifest);
   return sum;
 }
 

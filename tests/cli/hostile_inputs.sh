@@ -4,7 +4,9 @@
 # skipped by build (exit 1) and the index it writes verifies; queries with a
 # root position of 1e30 m or a transition time of 1e-300 s fail alone with
 # "out of range"; build and summary of a folder holding links back up the
-# tree end (within the timeout) and index each file once.
+# tree end (within the timeout) and index each file once; NaN given to
+# mocap-synth --fps or mocap-search --min-length/--max-length is refused
+# naming the flag.
 #   bash tests/cli/hostile_inputs.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -41,4 +43,23 @@ status=0
 [ "$status" -eq 1 ] || fail "search exited $status (expected 1)"
 [ "$(grep -c "out of range\|must be 0.001 to 60" "$tmp/r.jsonl")" -eq 2 ] || fail "unclear errors: $(cat "$tmp/r.jsonl")"
 grep '"id":"ok"' "$tmp/r.jsonl" | grep -q '"results":\[{' || fail "the good query was not answered"
+# NaN flags are refused as any value out of range, naming the flag.
+printf '{"id": "s", "frames": [{"bvh": "%s", "frame": 10}, {"bvh": "%s", "frame": 40}], "top": 1}\n' \
+  "$walk" "$walk" >"$tmp/s.json"
+for v in nan -nan NaN; do
+  status=0
+  "$synth" --index "$tmp/i.h5" --query "$tmp/s.json" --out "$tmp/nan.bvh" --fps "$v" \
+    >/dev/null 2>"$tmp/err.txt" || status=$?
+  [ "$status" -ne 0 ] || fail "mocap-synth --fps $v was accepted"
+  grep -q "fps" "$tmp/err.txt" || fail "--fps $v: unclear: $(cat "$tmp/err.txt")"
+  [ ! -e "$tmp/nan.bvh" ] || fail "--fps $v: a motion was written"
+  for flag in --min-length --max-length; do
+    status=0
+    "$search" -q --index "$tmp/i.h5" --queries "$tmp/q.jsonl" "$flag" "$v" >/dev/null \
+      2>"$tmp/err.txt" || status=$?
+    [ "$status" -eq 2 ] || fail "$flag $v: exit $status (expected 2)"
+    grep -q -- "$flag" "$tmp/err.txt" || fail "$flag $v: unclear: $(cat "$tmp/err.txt")"
+    if grep -q "SearchOptions" "$tmp/err.txt"; then fail "$flag $v names a C++ field"; fi
+  done
+done
 echo "PASS"

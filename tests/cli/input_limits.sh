@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The input-limit flags (docs/cli.md "Input limits"): each limit can be
 # lowered (and raised) per command, the refusal names the file and the flag,
-# and values out of range are refused before any work.
+# and values out of range are refused before any work. Every reader of an
+# input enforces its limit (mocap-index build too), quoting the right one,
+# and none reserves the limit up front.
 #   bash tests/cli/input_limits.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -75,4 +77,42 @@ status=0
   --max-batch-mib 1 >/dev/null 2>"$tmp/err.txt" || status=$?
 [ "$status" -ne 0 ] || fail "--max-batch-mib 1: a 2 MiB results file was read"
 grep -q "res-big.jsonl" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
+
+# A query batch for mocap-synth --query over --max-batch-mib 1, its first
+# line longer than the limit: refused quoting that limit (not the single
+# query's).
+{
+  printf '{"id": "s",'
+  cat "$tmp/pad.txt"
+  printf '"frames": [{"bvh": "%s", "frame": 10}, {"bvh": "%s", "frame": 40}], "top": 1}\n' "$walk" "$walk"
+  cat "$tmp/s.json"
+} >"$tmp/batch-big.jsonl"
+status=0
+"$synth" --index "$tmp/i.h5" --query "$tmp/batch-big.jsonl" --id s --out "$tmp/m.bvh" \
+  --max-batch-mib 1 >/dev/null 2>"$tmp/err.txt" || status=$?
+[ "$status" -ne 0 ] || fail "--max-batch-mib 1: a 2 MiB batch was read"
+grep -q "batch-big.jsonl.*limit of 1048576 bytes" "$tmp/err.txt" ||
+  fail "the refusal does not quote --max-batch-mib's limit: $(cat "$tmp/err.txt")"
+# The largest --max-batch-mib reserves nothing: a small query file is read.
+"$synth" --index "$tmp/i.h5" --query "$tmp/s.json" --out "$tmp/m.bvh" --max-batch-mib 16777216 \
+  >/dev/null 2>"$tmp/err.txt" || fail "--max-batch-mib 16777216: $(cat "$tmp/err.txt")"
+
+# --max-bvh-mib on mocap-index build (one index and --shards): a file over
+# the limit is skipped naming it and the limit, the others indexed (named to
+# sort between the two others, so that each shard holds a file it can index).
+cp "$tmp/big.bvh" "$tmp/in/dataset-1_walk_normal_001b.bvh"
+for shards in "" "--shards 2"; do
+  rm -f "$tmp/b.h5" "$tmp/b.json"
+  out="$tmp/b.h5"
+  [ -n "$shards" ] && out="$tmp/b.json"
+  status=0
+  # shellcheck disable=SC2086
+  "$indexer" build -q $shards --json --out "$out" --max-bvh-mib 2 "$tmp/in" >"$tmp/bb.json" \
+    2>"$tmp/err.txt" || status=$?
+  [ "$status" -eq 1 ] || fail "build $shards --max-bvh-mib 2: exit $status (expected 1: one file skipped)"
+  grep -q "001b.bvh" "$tmp/bb.json" || fail "build $shards: the big file is not named: $(cat "$tmp/bb.json")"
+  grep -q "limit of 2097152 bytes" "$tmp/bb.json" || fail "build $shards: the limit is not quoted"
+  "$indexer" verify "$out" >/dev/null || fail "build $shards: the index does not verify"
+done
+rm "$tmp/in/dataset-1_walk_normal_001b.bvh"
 echo "PASS"

@@ -3,9 +3,10 @@
 # over 2- and 3-shard collections of set 1, distributed by shards and by
 # queries, give rank 0 an output equal to brute force over the single index
 # (but for the stats) on held-out queries of every kind; a failing rank (a missing shard,
-# a changed shard, an output path refused on rank 0, an unreadable batch)
-# ends the whole job with exit 2 and a message naming the rank and the file,
-# never a hang.
+# a changed shard, an output path refused on rank 0 (a shard of the
+# collection read, even with --force), an unreadable batch) ends the whole
+# job with exit 2 and a message naming the rank and the file, never a hang;
+# a rank killed mid-run leaves no temporary results file.
 #   bash tests/cli/mpi.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -127,6 +128,37 @@ expect_failure() {  # expect_failure WHAT PATTERN mpirun-args...
 # rank 0 refuses to replace a file that is not a results file: every rank stops.
 expect_failure "an output path refused on rank 0" "rank 0: .*notes.txt" \
   -q --index "$tmp/c2.json" --queries "$tmp/q.jsonl" --out "$tmp/notes.txt"
+# An output that is a shard of the collection searched: refused even with
+# --force, the shard left as it was.
+shard_sum="$(md5sum <"$tmp/c3.shard-3-of-3.h5")"
+expect_failure "an output that is a shard" "rank 0: .*c3.shard-3-of-3.h5 is the file --index" \
+  -q --index "$tmp/c3.json" --queries "$tmp/q.jsonl" --out "$tmp/c3.shard-3-of-3.h5" --force
+[ "$(md5sum <"$tmp/c3.shard-3-of-3.h5")" = "$shard_sum" ] || fail "a shard was replaced"
+# A rank killed mid-run: the job fails and leaves no temporary results file.
+mpirun -np 2 "$search" -q --threads 1 --mode brute --index "$tmp/c3.json" --queries "$tmp/q.jsonl" \
+  --out "$tmp/rk.jsonl" >/dev/null 2>&1 &
+job=$!
+rank1=""
+for _ in $(seq 300); do
+  for env in /proc/[0-9]*/environ; do
+    pid="${env#/proc/}"
+    pid="${pid%/environ}"
+    if { tr '\0' '\n' <"$env"; } 2>/dev/null | grep -qx "OMPI_COMM_WORLD_RANK=1" &&
+      { tr '\0' ' ' <"/proc/$pid/cmdline"; } 2>/dev/null | grep -q "$tmp/rk.jsonl"; then
+      rank1="$pid"
+    fi
+  done
+  [ -n "$rank1" ] && break
+  sleep 0.1
+done
+[ -n "$rank1" ] || fail "rank 1 of the job to kill was not found"
+kill -9 "$rank1" 2>/dev/null || true
+status=0
+timeout 300 tail --pid="$job" -f /dev/null || true
+wait "$job" || status=$?
+[ "$status" -ne 0 ] || echo "note: the job ended before rank 1 was killed"
+[ -z "$(find "$tmp" -maxdepth 1 -name '.rk.jsonl.tmp-*')" ] ||
+  fail "a killed rank left a temporary results file: $(ls -a "$tmp" | grep tmp-)"
 expect_failure "a missing batch" "rank 1: .*nothing.jsonl" \
   -q --index "$tmp/c2.json" --queries "$tmp/nothing.jsonl" --out "$tmp/keep.jsonl" --force
 # A shard changed after the manifest was written: the rank holding it names it.

@@ -2,7 +2,8 @@
 # Inputs that would block or never end are refused at once, naming the file:
 # a query frame's BVH that is a FIFO (the rest of the batch is answered), a
 # query character file at /dev/zero, mocap-synth --results /dev/zero, a query
-# batch that is a FIFO. Every command must end within the timeout.
+# batch that is a FIFO. Every command must end within the timeout, and a
+# small query file needs little memory whatever the limits.
 #   bash tests/cli/unbounded_inputs.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -40,4 +41,10 @@ status=0
 timeout 60 "$search" -q --index "$tmp/i.h5" --queries "$tmp/batch.jsonl" >/dev/null 2>"$tmp/err.txt" ||
   status=$?
 [ "$status" -eq 2 ] || fail "a FIFO query batch: exit $status (expected 2)"
+# No reader reserves its limit up front: mocap-synth with a 150-byte query
+# under a 4 GB address-space limit (the batch limit is 4 GiB) makes its motion.
+status=0
+(ulimit -v 4000000 && timeout 120 "$synth" --index "$tmp/i.h5" --query "$tmp/s.json" \
+  --out "$tmp/m4g.bvh" >/dev/null 2>"$tmp/err.txt") || status=$?
+[ "$status" -eq 0 ] || fail "mocap-synth under 4 GB of address space: exit $status: $(cat "$tmp/err.txt")"
 echo "PASS"

@@ -556,8 +556,7 @@ std::string dof_list(const std::vector<AsfDof>& dofs) {
 }
 
 FileBytes read_text(const std::filesystem::path& path) {
-  const FileStat st = check_input_file(path, input_limits().bvh_bytes);
-  return read_file_bytes(path, st.size);
+  return read_input_file(path, input_limits().bvh_bytes);
 }
 
 }  // namespace

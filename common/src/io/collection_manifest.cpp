@@ -1,8 +1,12 @@
 // Collection manifests (collection_manifest.hpp).
 #include "mocap/common/io/collection_manifest.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <regex>
 
 #include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/util/error.hpp"
@@ -15,6 +19,17 @@ namespace mocap {
 namespace {
 
 using json = nlohmann::json;
+
+bool is_hex64(const std::string& s) {
+  return s.size() == 16 &&
+         std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isxdigit(c) != 0; });
+}
+
+std::string to_lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
 
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& field,
                        const std::string& what) {
@@ -32,8 +47,7 @@ bool is_collection_manifest(const std::filesystem::path& path) {
 }
 
 CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
-  const FileStat st = check_input_file(path, input_limits().json_file_bytes);
-  const FileBytes bytes = read_file_bytes(path, st.size);
+  const FileBytes bytes = read_input_file(path, input_limits().json_file_bytes);
   const json j = json::parse(bytes.view(), nullptr, false);
   if (j.is_discarded() || !j.is_object()) fail(path, "manifest", "not a JSON object");
   if (!j.contains("format") || j["format"] != kCollectionFormat)
@@ -42,25 +56,59 @@ CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
     fail(path, "version", "expected " + std::to_string(kCollectionVersion));
   if (!j.contains("shards") || !j["shards"].is_array() || j["shards"].empty())
     fail(path, "shards", "expected a non-empty list");
+  const std::size_t count = j["shards"].size();
+  if (count > kMaxCollectionShards)
+    fail(path, "shards",
+         std::to_string(count) + " shards: more than the limit of " +
+             std::to_string(kMaxCollectionShards) + " (mocap-index build --shards)");
   CollectionManifest m;
-  for (std::size_t i = 0; i < j["shards"].size(); ++i) {
+  std::uint64_t clips_before = 0;
+  // Each shard's file once (links followed): a shard listed twice would
+  // number its clips twice.
+  std::map<std::filesystem::path, std::size_t> files;
+  for (std::size_t i = 0; i < count; ++i) {
     const json& s = j["shards"][i];
     const std::string at = "shards[" + std::to_string(i) + "]";
     if (!s.is_object()) fail(path, at, "expected an object");
     CollectionShard sh;
     if (!s.contains("path") || !s["path"].is_string() || s["path"].get<std::string>().empty())
       fail(path, at + ".path", "expected the shard's file path");
+    if (s["path"].get<std::string>().find('\0') != std::string::npos)
+      fail(path, at + ".path", "holds a NUL byte (\\u0000): not a file path");
     if (!s.contains("clips") || !s["clips"].is_number_unsigned())
       fail(path, at + ".clips", "expected a count");
     if (!s.contains("frames") || !s["frames"].is_number_unsigned())
       fail(path, at + ".frames", "expected a count");
-    if (!s.contains("xxh64") || !s["xxh64"].is_string() ||
-        s["xxh64"].get<std::string>().size() != 16)
+    if (!s.contains("xxh64") || !s["xxh64"].is_string() || !is_hex64(s["xxh64"].get<std::string>()))
       fail(path, at + ".xxh64", "expected 16 hex digits");
     sh.path = s["path"].get<std::string>();
     sh.clips = s["clips"].get<std::size_t>();
     sh.frames = s["frames"].get<std::uint64_t>();
-    sh.xxh64 = s["xxh64"].get<std::string>();
+    sh.xxh64 = to_lower(s["xxh64"].get<std::string>());
+    if (sh.clips > ~std::uint64_t{0} - clips_before)
+      fail(path, at + ".clips", "the shards' clip counts add up past 2^64");
+    clips_before += sh.clips;
+    // A shard built by mocap-index build --shards names its place:
+    // STEM.shard-K-of-N.h5 must be entry K of N.
+    std::smatch place;
+    const std::string name = std::filesystem::path(sh.path).filename().string();
+    static const std::regex kShardName(R"(.*\.shard-([0-9]{1,9})-of-([0-9]{1,9})\.h5)");
+    if (std::regex_match(name, place, kShardName) &&
+        (std::stoul(place[1].str()) != i + 1 || std::stoul(place[2].str()) != count))
+      fail(path, at + ".path",
+           name + " is shard " + place[1].str() + " of " + place[2].str() + ", listed as shard " +
+               std::to_string(i + 1) + " of " + std::to_string(count) +
+               ": the manifest's shards are reordered, repeated or missing (rebuild it with "
+               "mocap-index build --shards)");
+    std::error_code ec;
+    std::filesystem::path file = shard_file(path, sh);
+    const std::filesystem::path real = std::filesystem::weakly_canonical(file, ec);
+    if (!ec) file = real;
+    const auto [it, added] = files.emplace(file, i);
+    if (!added)
+      fail(path, at + ".path",
+           sh.path + " is the file of shards[" + std::to_string(it->second) +
+               "] again: each shard is listed once");
     m.shards.push_back(std::move(sh));
   }
   return m;
@@ -69,7 +117,26 @@ CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
 std::filesystem::path shard_file(const std::filesystem::path& manifest,
                                  const CollectionShard& shard) {
   const std::filesystem::path p(shard.path);
-  return p.is_absolute() ? p : manifest.parent_path() / p;
+  if (p.is_absolute()) return p;
+  // A manifest reached through a symbolic link: its shards lie beside the
+  // file the link leads to (where mocap-index build --shards writes them).
+  std::error_code ec;
+  if (std::filesystem::is_symlink(manifest, ec)) {
+    const std::filesystem::path real = std::filesystem::canonical(manifest, ec);
+    if (!ec) return real.parent_path() / p;
+  }
+  return manifest.parent_path() / p;
+}
+
+std::string shard_count_problem(const CollectionShard& shard, std::size_t clips,
+                                std::uint64_t frames) {
+  if (clips != shard.clips)
+    return "shard " + shard.path + ": holds " + std::to_string(clips) +
+           " clips, the manifest says " + std::to_string(shard.clips);
+  if (frames != shard.frames)
+    return "shard " + shard.path + ": holds " + std::to_string(frames) +
+           " frames, the manifest says " + std::to_string(shard.frames);
+  return {};
 }
 
 std::vector<std::string> collection_shard_problems(const std::filesystem::path& manifest,

@@ -38,10 +38,10 @@ ClipSource ClipSource::open(const std::filesystem::path& path) {
   s.collection_ = true;
   for (const CollectionShard& shard : m.shards) {
     auto index = std::make_unique<const Index>(Index::open(shard_file(path, shard)));
-    if (index->clips().size() != shard.clips)
-      throw InputError(path.string(), 0,
-                       "shard " + shard.path + ": holds " + std::to_string(index->clips().size()) +
-                           " clips, the manifest says " + std::to_string(shard.clips));
+    if (const std::string p =
+            shard_count_problem(shard, index->clips().size(), index->frame_count());
+        !p.empty())
+      throw InputError(path.string(), 0, p);
     s.shards_.push_back({index.get(), 0, {}});
     s.owned_.push_back(std::move(index));
   }

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <string>
@@ -43,6 +44,14 @@ class ReadOnlyFile {
       got += static_cast<std::size_t>(n);
     }
     return got;
+  }
+
+  /// fstat(2) of the open file: its size now.
+  std::uint64_t size() {
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0)
+      throw InputError(path_.string(), 0, std::string("cannot stat file: ") + std::strerror(errno));
+    return static_cast<std::uint64_t>(st.st_size);
   }
 
   void seek(std::uint64_t offset) {
@@ -84,10 +93,18 @@ FileStat stat_file(const std::filesystem::path& path) {
 
 FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes) {
   ReadOnlyFile file(path);
+  // The buffer is the file's size (at most max_bytes), never the limit itself:
+  // a 150-byte file under a 4 GiB limit takes 150 bytes.
+  const std::uint64_t bytes = std::min(max_bytes, file.size());
   FileBytes out;
-  out.data_ = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(max_bytes));
-  out.size_ = file.read(out.data_.get(), static_cast<std::size_t>(max_bytes));
+  out.data_ = std::make_unique_for_overwrite<char[]>(static_cast<std::size_t>(bytes));
+  out.size_ = file.read(out.data_.get(), static_cast<std::size_t>(bytes));
   return out;
+}
+
+FileBytes read_input_file(const std::filesystem::path& path, std::uint64_t max_bytes) {
+  const FileStat st = check_input_file(path, max_bytes);
+  return read_file_bytes(path, st.size);
 }
 
 std::uint64_t hash_file(const std::filesystem::path& path, std::uint64_t offset) {

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <system_error>
 
+#include "mocap/common/io/collection_manifest.hpp"
 #include "mocap/common/util/error.hpp"
 
 namespace mocap {
@@ -134,6 +135,46 @@ void check_distinct_outputs(const std::vector<std::pair<std::string, fs::path>>&
         throw InputError(outputs[j].first, 0,
                          outputs[j].second.string() + " is the file " + outputs[i].first +
                              " writes: give each output its own path");
+}
+
+void check_outputs_and_inputs(const std::vector<std::pair<std::string, fs::path>>& outputs,
+                              const std::vector<std::pair<std::string, fs::path>>& inputs) {
+  check_distinct_outputs(outputs);
+  // Every file the command reads: a collection manifest's shards too.
+  std::vector<std::pair<std::string, fs::path>> read;
+  for (const auto& [option, path] : inputs) {
+    if (path.empty()) continue;
+    read.emplace_back(option, path);
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec) || !is_collection_manifest(path)) continue;
+    try {
+      const CollectionManifest m = read_collection_manifest(path);
+      for (std::size_t k = 0; k < m.shards.size(); ++k)
+        read.emplace_back(option + " (shard " + std::to_string(k + 1) + " of " +
+                              std::to_string(m.shards.size()) + " of " + path.string() + ")",
+                          shard_file(path, m.shards[k]));
+    } catch (const InputError&) {
+      // A manifest that cannot be read is the command's error, reported when
+      // it reads its inputs (no output is written before).
+    }
+  }
+  const auto resolve = [](const fs::path& path, const std::string& option) {
+    std::error_code ec;
+    const fs::path real = fs::weakly_canonical(follow_links(path, option), ec);
+    return ec ? fs::absolute(path).lexically_normal() : real;
+  };
+  std::vector<fs::path> read_files;
+  for (const auto& [option, path] : read) read_files.push_back(resolve(path, option));
+  for (const auto& [option, path] : outputs) {
+    if (path.empty()) continue;
+    const fs::path target = resolve(path, option);
+    for (std::size_t i = 0; i < read.size(); ++i)
+      if (read_files[i] == target)
+        throw InputError(option, 0,
+                         path.string() + " is the file " + read[i].first +
+                             " reads: an output never replaces an input, even with --force "
+                             "(give the output another path)");
+  }
 }
 
 }  // namespace mocap

@@ -15,6 +15,11 @@ namespace {
 constexpr double kNoCeiling = std::numeric_limits<double>::infinity();
 
 void check_shard_clips(const ShardSource& s, const Index& index) {
+  if (s.listed)
+    if (const std::string p =
+            shard_count_problem(*s.listed, index.clips().size(), index.frame_count());
+        !p.empty())
+      throw InputError(s.file.string(), 0, p);
   if (s.clips && index.clips().size() != *s.clips)
     throw InputError(s.file.string(), 0,
                      "shard " + s.name + ": holds " + std::to_string(index.clips().size()) +
@@ -92,7 +97,7 @@ std::vector<ShardSource> manifest_shards(const std::filesystem::path& manifest,
   for (std::size_t k = 0; k < m.shards.size(); ++k) {
     const CollectionShard& s = m.shards[k];
     if (!which || std::find(which->begin(), which->end(), k) != which->end())
-      out.push_back({shard_file(manifest, s), s.path, s.clips, offset});
+      out.push_back({shard_file(manifest, s), s.path, s.clips, offset, nullptr, s});
     offset += s.clips;
   }
   return out;
@@ -109,7 +114,6 @@ std::vector<QueryOutcome> search_shards(
   // find results at or above it (SearchEngine::run's ceilings).
   std::vector<std::vector<double>> own(batch.size());
   std::size_t done_before = 0;
-  const std::size_t total = batch.size() * shards.size();
   // The labels query filters may name: every shard's (a single one's are its own).
   std::optional<LabelValues> labels;
   if (hooks.labels)
@@ -141,8 +145,11 @@ std::vector<QueryOutcome> search_shards(
         hooks.reached(i, r);
       };
     std::function<void(std::size_t, std::size_t)> shard_progress;
+    // In queries, not queries x shards: each shard answers every query.
     if (progress)
-      shard_progress = [&](std::size_t done, std::size_t) { progress(done_before + done, total); };
+      shard_progress = [&](std::size_t done, std::size_t) {
+        progress((done_before + done) / shards.size(), batch.size());
+      };
     std::vector<QueryOutcome> shard =
         run_query_batch(engine, batch, options, control, shard_progress);
     merged = merged.empty() ? merge_shard_outcomes({std::move(shard)}, {s.clip_offset}, batch)

@@ -36,7 +36,9 @@ bool looks_like_batch(std::string_view text) {
 }  // namespace
 
 std::vector<BatchEntry> read_query_file(const std::filesystem::path& path) {
-  const FileBytes bytes = read_file_bytes(path, input_limits().batch_bytes);
+  // The whole file under the batch limit (a larger one is refused naming that
+  // limit, not read in part), in a buffer of its own size.
+  const FileBytes bytes = read_input_file(path, input_limits().batch_bytes);
   if (bytes.view().find_first_not_of(" \t\r\n") == std::string_view::npos) return {};
   return looks_like_batch(bytes.view()) ? read_query_batch(path) : read_single_query(path);
 }

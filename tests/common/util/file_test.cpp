@@ -91,6 +91,23 @@ TEST(File, ReadsTheWholeFileOrItsStart) {
   EXPECT_EQ(read_file_bytes(dir / "empty.bin", 64).size(), 0u);
 }
 
+TEST(File, ReservesTheFileNotTheLimit) {
+  const fs::path dir = test::temp_dir("file-limit");
+  write(dir / "small.json", "{\"id\": \"q\"}");
+  // A limit of 1 PiB: allocating it would throw std::bad_alloc.
+  const std::uint64_t huge = std::uint64_t{1} << 50;
+  EXPECT_EQ(read_file_bytes(dir / "small.json", huge).view(), "{\"id\": \"q\"}");
+  EXPECT_EQ(read_input_file(dir / "small.json", huge).view(), "{\"id\": \"q\"}");
+  // read_input_file refuses a file over its limit, quoting the limit.
+  try {
+    (void)read_input_file(dir / "small.json", 5);
+    FAIL() << "a 13-byte file read under a 5-byte limit";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("limit of 5 bytes"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)read_input_file(dir, huge), InputError);
+}
+
 TEST(File, HashIsTheXxh64OfTheBytesFromTheOffset) {
   const fs::path dir = test::temp_dir("file-hash");
   // Over 1 MiB: more than one read block.

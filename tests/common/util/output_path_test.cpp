@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/output_path.hpp"
@@ -48,6 +50,51 @@ TEST(OutputPath, RefusesWhatIsNotARegularFileOfItsKind) {
       mocap::check_distinct_outputs({{"--out", dir / "m.bvh"}, {"--report", dir / "alias.bvh"}}),
       mocap::InputError);
   EXPECT_NO_THROW(mocap::check_distinct_outputs({{"--out", dir / "m.bvh"}, {"--report", ""}}));
+}
+
+TEST(OutputPath, NoOutputIsAFileReadNorAShardOfACollectionRead) {
+  const fs::path dir = mocap::test::temp_dir("output-path-inputs");
+  write(dir / "q.jsonl", "{}\n");
+  write(dir / "col.shard-1-of-2.h5", "");
+  write(dir / "col.shard-2-of-2.h5", "");
+  const std::string shard = R"({"path": "col.shard-K-of-2.h5", "clips": 1, "frames": 2,
+      "xxh64": "0123456789abcdef"})";
+  auto with_k = [&](char k) {
+    std::string s = shard;
+    s[s.find('K')] = k;
+    return s;
+  };
+  write(dir / "col.json", R"({"format": "mocap-collection", "version": 1, "shards": [)" +
+                              with_k('1') + ", " + with_k('2') + "]}");
+  const std::vector<std::pair<std::string, fs::path>> inputs{{"--index", dir / "col.json"},
+                                                             {"--queries", dir / "q.jsonl"}};
+  for (const fs::path& out : {dir / "col.json", dir / "q.jsonl", dir / "col.shard-2-of-2.h5"}) {
+    try {
+      mocap::check_outputs_and_inputs({{"--out", out}}, inputs);
+      FAIL() << out << " accepted as an output";
+    } catch (const mocap::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("reads"), std::string::npos) << e.what();
+    }
+  }
+  try {
+    mocap::check_outputs_and_inputs({{"--out", dir / "col.shard-1-of-2.h5"}}, inputs);
+    FAIL() << "a shard accepted as an output";
+  } catch (const mocap::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("shard 1 of 2"), std::string::npos) << e.what();
+  }
+  // Through a link to a shard, from a path spelt another way.
+  fs::create_symlink("col.shard-2-of-2.h5", dir / "alias.h5");
+  EXPECT_THROW(mocap::check_outputs_and_inputs({{"--html", dir / "alias.h5"}}, inputs),
+               mocap::InputError);
+  EXPECT_THROW(
+      mocap::check_outputs_and_inputs({{"--out", dir / "." / "col.shard-1-of-2.h5"}}, inputs),
+      mocap::InputError);
+  EXPECT_NO_THROW(
+      mocap::check_outputs_and_inputs({{"--out", dir / "r.jsonl"}, {"--html", ""}}, inputs));
+  // Outputs are still distinct from each other.
+  EXPECT_THROW(mocap::check_outputs_and_inputs(
+                   {{"--out", dir / "r.jsonl"}, {"--html", dir / "r.jsonl"}}, inputs),
+               mocap::InputError);
 }
 
 TEST(OutputPath, AcceptsAbsentEmptyAndOwnKindAndWritesThroughLinks) {

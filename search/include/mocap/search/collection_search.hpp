@@ -37,6 +37,9 @@ struct ShardSource {
   std::optional<std::size_t> clips;
   std::size_t clip_offset = 0;
   const Index* open = nullptr;
+  /// The manifest's entry (its counts checked against the shard's index:
+  /// shard_count_problem); none for a single index.
+  std::optional<CollectionShard> listed = std::nullopt;
 };
 
 /// The union of the shards' label values (add_label_values): from the

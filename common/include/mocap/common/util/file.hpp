@@ -41,10 +41,15 @@ class FileBytes {
   std::size_t size_ = 0;
 };
 
-/// The first `max_bytes` bytes of the file, or all of it when it is shorter
-/// (pass the size stat_file gave to read the whole file with one allocation).
+/// The first `max_bytes` bytes of the file, or all of it when it is shorter.
+/// Allocates what the file holds (at most max_bytes), never max_bytes itself.
 /// Throws InputError(path, 0, reason) when it cannot be opened or read.
 FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_bytes);
+
+/// The whole of an input bounded by a limit (input_limits.hpp): check_input_file
+/// (a regular file of at most `max_bytes`, else InputError naming the limit),
+/// then read_file_bytes of its size. The one reader of a bounded input file.
+FileBytes read_input_file(const std::filesystem::path& path, std::uint64_t max_bytes);
 
 /// XXH64 (seed 0, mocap/common/util/xxh64.hpp) of the file's bytes from `offset` to its
 /// end (none when offset is at or past the end), read in 1 MiB blocks.

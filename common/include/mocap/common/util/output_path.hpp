@@ -8,7 +8,9 @@
 //  - a symbolic link: written through to the file it points to (the link
 //    stays a link), under the same rules for that file;
 //  - a directory, a device, a FIFO or a socket: refused;
-//  - a regular file of another kind: refused unless `force`.
+//  - a regular file of another kind: refused unless `force`;
+//  - a file the command reads (an index, a collection's manifest or any of
+//    its shards, a query or results file): refused, even with `force`.
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -41,5 +43,15 @@ std::filesystem::path checked_output_path(const std::filesystem::path& path, Out
 /// outputs are one file (after resolving links): "--report is --out".
 void check_distinct_outputs(
     const std::vector<std::pair<std::string, std::filesystem::path>>& outputs);
+
+/// check_distinct_outputs of `outputs`, then: no output is a file the command
+/// reads, whatever --force says. `inputs` are (option, path) pairs (empty
+/// paths skipped); an input that is a collection manifest stands for itself
+/// and each of its shards. Throws InputError(output's option, 0, "PATH is the
+/// file --index (shard 2 of 3 of col.json) reads: ..."). Call it before any
+/// work (docs/cli.md "Output paths").
+void check_outputs_and_inputs(
+    const std::vector<std::pair<std::string, std::filesystem::path>>& outputs,
+    const std::vector<std::pair<std::string, std::filesystem::path>>& inputs);
 
 }  // namespace mocap
