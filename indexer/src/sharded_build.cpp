@@ -5,8 +5,8 @@
 #include <numeric>
 #include <string>
 
-#include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/io/collection_manifest.hpp"
+#include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/file.hpp"
 #include "mocap/common/util/output_path.hpp"

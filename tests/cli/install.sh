@@ -20,7 +20,7 @@ for p in mocap-index mocap-search mocap-synth mocap-synth-quality; do
 done
 libdir="$(find "$prefix" -name libmocap_common.a -printf '%h\n')"
 [ -n "$libdir" ] || fail "libmocap_common.a not installed"
-for l in common indexer search synth; do
+for l in common player indexer search synth; do
   [ -f "$libdir/libmocap_$l.a" ] || fail "libmocap_$l.a not installed"
 done
 for f in mocapConfig.cmake mocapConfigVersion.cmake mocapTargets.cmake; do
@@ -28,7 +28,7 @@ for f in mocapConfig.cmake mocapConfigVersion.cmake mocapTargets.cmake; do
 done
 # Headers: every public header, and nothing else (no private src/ header).
 (cd "$prefix/include" && find mocap -type f | sort) >"$tmp/installed-headers"
-(cd "$src" && for l in common indexer search synth; do (cd "$l/include" && find mocap -name '*.hpp'); done | sort) \
+(cd "$src" && for l in common common/player indexer search synth; do (cd "$l/include" && find mocap -name '*.hpp'); done | sort) \
   >"$tmp/public-headers"
 diff "$tmp/public-headers" "$tmp/installed-headers" >&2 || fail "installed headers differ from the public ones"
 

@@ -75,8 +75,10 @@ def test_invalid_options(index):
     q = {"frames": [{"root_position": [0, None, 0]}, {"root_position": [1, None, 0]}]}
     with pytest.raises(mocap.InputError, match="expected exact, approx or brute"):
         index.search(q, mode="fast")
-    with pytest.raises(ValueError, match="min_length_s"):
+    with pytest.raises(mocap.InputError, match="min_length_s: 3 s must not exceed max_length_s"):
         index.search(q, min_length_s=3.0, max_length_s=1.0)
+    with pytest.raises(mocap.InputError, match="min_length_s: must be a number of seconds > 0, got nan"):
+        index.search(q, min_length_s=float("nan"))
     with pytest.raises(mocap.InputError, match="checks"):
         index.search(q, mode="approx", checks=0)
     with pytest.raises(TypeError, match="a query is a dict"):

@@ -362,17 +362,6 @@ void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::s
           static_cast<float>(state.joint_positions_m[root][static_cast<int>(k)]);
 }
 
-HScanTable build_h_scan_table(const DynamicsModel& model, std::span<const ClipDynamics> clips) {
-  std::size_t frames = 0;
-  for (const ClipDynamics& c : clips) frames += c.frame_count;
-  HScanTable t;
-  init_h_scan_table(model, frames, t);
-  std::size_t f = 0;
-  for (const ClipDynamics& c : clips)
-    for (std::size_t i = 0; i < c.frame_count; ++i) set_h_scan_frame(model, c.state(i), f++, t);
-  return t;
-}
-
 HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,
                              double transition_time_s,
                              std::span<const std::uint8_t> compared_joints) {

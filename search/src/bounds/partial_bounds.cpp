@@ -302,6 +302,43 @@ void partial_bounds_columns(const PartialBoundPlan& p, std::size_t g0, std::size
 
 }  // namespace
 
+namespace {
+
+// The translational part of partial_frame_bounds_reference's bound at frame
+// g for a plan with a whole-body COM term: the larger of the segments' sum
+// `kt` and the whole body's COM moved from F to Q_F (F turned about the
+// vertical through the root to the given heading, then shifted on the given
+// axes), plus the gravity term of that move.
+double whole_body_com_bound(const PartialBoundPlan& p, const SkeletonTables& tables,
+                            const FrameArrays& fa, std::size_t g, double kt) {
+  const std::size_t nj = tables.model.joint_count();
+  const auto root = static_cast<std::size_t>(tables.model.root());
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (std::size_t s = 0; s < tables.segments; ++s)
+    for (std::size_t a = 0; a < 3; ++a)
+      c[static_cast<Eigen::Index>(a)] +=
+          tables.masses[s] * static_cast<double>(tables.scan_value(s, a, g));
+  c /= p.mass;
+  const Eigen::Vector3d root_f(tables.root_position(0, g), tables.root_position(1, g),
+                               tables.root_position(2, g));
+  Eigen::Vector3d v = c - root_f;
+  if (p.heading) {
+    const float* r = fa.rot + (g * nj + root) * 4;
+    const Eigen::Quaterniond rr = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized();
+    v = Eigen::AngleAxisd(p.psi_q - heading_rad(rr), Eigen::Vector3d::UnitY()) * v;
+  }
+  Eigen::Vector3d cq = root_f + v;
+  for (std::size_t a = 0; a < 3; ++a)
+    if (p.given[a])
+      cq[static_cast<Eigen::Index>(a)] +=
+          p.root_q[static_cast<Eigen::Index>(a)] - root_f[static_cast<Eigen::Index>(a)];
+  const Eigen::Vector3d d = cq - c;
+  return std::max(kt, p.mass * d.squaredNorm() * p.half_inv_t2) +
+         p.mass * p.gravity * std::abs(d.y());
+}
+
+}  // namespace
+
 void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkeletonTables& tables,
                                     const FrameArrays& fa, std::size_t g0, std::size_t g1,
                                     double* out, Scratch& scratch) {
@@ -393,33 +430,7 @@ void partial_frame_bounds_reference(const PartialBoundPlan& p, const SkeletonTab
           p.rot_coef[i] * std::max(0.0, theta2 - 2.0 * std::numbers::pi * kAngleSlack);
       rot += std::max(kr, 2.0 * ku - kr);
     }
-    double trans = kt;
-    if (p.com_term) {
-      // Whole-body COM c (segments): Q_F is F turned about the vertical
-      // through the root, then shifted on the given axes.
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      for (std::size_t s = 0; s < tables.segments; ++s)
-        for (std::size_t a = 0; a < 3; ++a)
-          c[static_cast<Eigen::Index>(a)] +=
-              tables.masses[s] * static_cast<double>(tables.scan_value(s, a, g));
-      c /= p.mass;
-      const Eigen::Vector3d root_f(tables.root_position(0, g), tables.root_position(1, g),
-                                   tables.root_position(2, g));
-      Eigen::Vector3d v = c - root_f;
-      if (p.heading) {
-        const float* r = fa.rot + (g * nj + root) * 4;
-        const Eigen::Quaterniond rr = Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized();
-        v = Eigen::AngleAxisd(p.psi_q - heading_rad(rr), Eigen::Vector3d::UnitY()) * v;
-      }
-      Eigen::Vector3d cq = root_f + v;
-      for (std::size_t a = 0; a < 3; ++a)
-        if (p.given[a])
-          cq[static_cast<Eigen::Index>(a)] +=
-              p.root_q[static_cast<Eigen::Index>(a)] - root_f[static_cast<Eigen::Index>(a)];
-      const Eigen::Vector3d d = cq - c;
-      trans = std::max(kt, p.mass * d.squaredNorm() * p.half_inv_t2) +
-              p.mass * p.gravity * std::abs(d.y());
-    }
+    const double trans = p.com_term ? whole_body_com_bound(p, tables, fa, g, kt) : kt;
     out[g - g0] = trans + rot;
   }
 }

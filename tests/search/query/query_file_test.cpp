@@ -69,10 +69,17 @@ TEST(QueryFile, InvalidFilesAndPicks) {
   const auto twice = write("twice.jsonl", line("a") + line("a") + line("b"));
   EXPECT_TRUE(has(pick_error(twice, "a"), "holds 2 queries with id \"a\""))
       << pick_error(twice, "a");
-  // The picked line's own parse error, with the file and line.
+  // The picked line's own parse error, with the file and line: the query's
+  // InputError itself (its source and line kept).
   const auto bad = write("bad.jsonl", line("good") + R"({"id": "bad", "frames": 3})" + "\n");
   EXPECT_EQ(pick_error(bad, "bad"),
-            "runtime_error: " + bad.string() + ":2: frames: expected a list of query frames");
+            "InputError: " + bad.string() + ":2: frames: expected a list of query frames");
+  try {
+    (void)select_query(read_query_file(bad), "bad", bad.string());
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.source(), bad.string());
+    EXPECT_EQ(e.line(), 2u);
+  }
   // A single query: its id must match --id.
   const auto single = write("single.json", "{\n  " + kFrames + "\n}\n");
   EXPECT_TRUE(has(pick_error(single, "walk"), "the ids it holds: \"single\""));

@@ -39,8 +39,8 @@
 #include <utility>
 #include <vector>
 
-#include "mocap/common/dynamics/dynamics.hpp"
 #include "mocap/common/body/ground_pose.hpp"
+#include "mocap/common/dynamics/dynamics.hpp"
 #include "mocap/common/dynamics/h_scan_layout.hpp"
 
 namespace mocap {
@@ -215,8 +215,6 @@ void init_h_scan_table(const DynamicsModel& model, std::size_t frame_count, HSca
 /// Writes frame f of the table from a state (with velocities).
 void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::size_t f,
                       HScanTable& table);
-/// All frames of the clips, concatenated in order.
-HScanTable build_h_scan_table(const DynamicsModel& model, std::span<const ClipDynamics> clips);
 
 /// theta^2 / sin^2(theta / 2) as a function of t = 1 - |w| = 1 - cos(theta / 2)
 /// in [0, 1], for a unit quaternion (w, v) of angle theta: 4 acos(1 - t)^2 /
