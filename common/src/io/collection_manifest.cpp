@@ -6,7 +6,10 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
 
 #include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/util/error.hpp"
@@ -17,6 +20,26 @@
 
 namespace mocap {
 namespace {
+
+// K and N, as written, of a file named STEM.shard-K-of-N.h5 (1 to 9 digits
+// each: mocap-index build --shards names its shards so); nullopt otherwise.
+std::optional<std::pair<std::string, std::string>> shard_place(const std::string& name) {
+  constexpr std::string_view kTag = ".shard-", kOf = "-of-", kExt = ".h5";
+  if (!name.ends_with(kExt)) return std::nullopt;
+  const std::string_view body(name.data(), name.size() - kExt.size());
+  const auto tag = body.rfind(kTag);
+  if (tag == std::string_view::npos) return std::nullopt;
+  const std::string_view rest = body.substr(tag + kTag.size());
+  const auto of = rest.find(kOf);
+  if (of == std::string_view::npos) return std::nullopt;
+  const std::string_view k = rest.substr(0, of), n = rest.substr(of + kOf.size());
+  const auto number = [](std::string_view d) {
+    return !d.empty() && d.size() <= 9 &&
+           std::all_of(d.begin(), d.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  if (!number(k) || !number(n)) return std::nullopt;
+  return std::pair{std::string(k), std::string(n)};
+}
 
 using json = nlohmann::json;
 
@@ -90,13 +113,11 @@ CollectionManifest read_collection_manifest(const std::filesystem::path& path) {
     clips_before += sh.clips;
     // A shard built by mocap-index build --shards names its place:
     // STEM.shard-K-of-N.h5 must be entry K of N.
-    std::smatch place;
     const std::string name = std::filesystem::path(sh.path).filename().string();
-    static const std::regex kShardName(R"(.*\.shard-([0-9]{1,9})-of-([0-9]{1,9})\.h5)");
-    if (std::regex_match(name, place, kShardName) &&
-        (std::stoul(place[1].str()) != i + 1 || std::stoul(place[2].str()) != count))
+    const auto place = shard_place(name);
+    if (place && (std::stoul(place->first) != i + 1 || std::stoul(place->second) != count))
       fail(path, at + ".path",
-           name + " is shard " + place[1].str() + " of " + place[2].str() + ", listed as shard " +
+           name + " is shard " + place->first + " of " + place->second + ", listed as shard " +
                std::to_string(i + 1) + " of " + std::to_string(count) +
                ": the manifest's shards are reordered, repeated or missing (rebuild it with "
                "mocap-index build --shards)");
