@@ -37,17 +37,7 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
   options.approx_checks = approx_checks;
   options.approx_trees = approx_trees;
   options.compute_recall = compute_recall;
-  try {
-    validate_search_options(options);
-  } catch (const InputError& e) {  // named as the keywords that gave the values
-    std::string detail = e.detail();
-    for (const auto& [flag, keyword] :
-         {std::pair<std::string, std::string>{"--min-length", "min_length_s"},
-          {"--max-length", "max_length_s"}})
-      for (auto at = detail.find(flag); at != std::string::npos; at = detail.find(flag))
-        detail.replace(at, flag.size(), keyword);
-    throw InputError(e.source() == "--max-length" ? "max_length_s" : "min_length_s", 0, detail);
-  }
+  validate_search_options(options, "min_length_s", "max_length_s");
 
   std::vector<std::string> lines;
   {

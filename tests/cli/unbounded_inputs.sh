@@ -43,8 +43,14 @@ timeout 60 "$search" -q --index "$tmp/i.h5" --queries "$tmp/batch.jsonl" >/dev/n
 [ "$status" -eq 2 ] || fail "a FIFO query batch: exit $status (expected 2)"
 # No reader reserves its limit up front: mocap-synth with a 150-byte query
 # under a 4 GB address-space limit (the batch limit is 4 GiB) makes its motion.
-status=0
-(ulimit -v 4000000 && timeout 120 "$synth" --index "$tmp/i.h5" --query "$tmp/s.json" \
-  --out "$tmp/m4g.bvh" >/dev/null 2>"$tmp/err.txt") || status=$?
-[ "$status" -eq 0 ] || fail "mocap-synth under 4 GB of address space: exit $status: $(cat "$tmp/err.txt")"
+# Not in the sanitizer build: AddressSanitizer maps terabytes of shadow
+# memory at start-up, which no 4 GB limit allows (the Release run checks it).
+if ldd "$synth" 2>/dev/null | grep -q libasan; then
+  echo "mocap-synth under 4 GB of address space: not checked (sanitizer build)"
+else
+  status=0
+  (ulimit -v 4000000 && timeout 120 "$synth" --index "$tmp/i.h5" --query "$tmp/s.json" \
+    --out "$tmp/m4g.bvh" >/dev/null 2>"$tmp/err.txt") || status=$?
+  [ "$status" -eq 0 ] || fail "mocap-synth under 4 GB of address space: exit $status: $(cat "$tmp/err.txt")"
+fi
 echo "PASS"

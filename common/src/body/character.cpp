@@ -7,8 +7,6 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <vector>
 
 #include "mocap/common/util/error.hpp"
@@ -156,13 +154,8 @@ Character parse_character_json(const std::string& text, const std::string& sourc
 }
 
 Character read_character_file(const std::filesystem::path& path) {
-  (void)check_input_file(path, input_limits().json_file_bytes);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, "cannot open character file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path.string(), 0, "cannot read character file");
-  return parse_character_json(text.str(), path.string());
+  const FileBytes text = read_input_file(path, input_limits().json_file_bytes);
+  return parse_character_json(std::string(text.view()), path.string());
 }
 
 }  // namespace mocap

@@ -4,7 +4,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <optional>
 #include <stdexcept>
 #include <system_error>
@@ -598,19 +597,8 @@ bool BvhHierarchy::heads(std::string_view text) const {
 }
 
 RawClip read_bvh_file(const std::filesystem::path& path) {
-  (void)check_input_file(path, input_limits().bvh_bytes);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, "cannot open file for reading");
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  std::string text;
-  if (!ec) {
-    text.resize(static_cast<std::size_t>(size));
-    in.read(text.data(), static_cast<std::streamsize>(size));
-    text.resize(static_cast<std::size_t>(in.gcount()));
-  }
-  if (ec || in.bad()) throw InputError(path.string(), 0, "cannot read file");
-  return parse_bvh(text, path.string());
+  const FileBytes text = read_input_file(path, input_limits().bvh_bytes);
+  return parse_bvh(text.view(), path.string());
 }
 
 }  // namespace mocap

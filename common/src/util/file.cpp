@@ -107,6 +107,16 @@ FileBytes read_input_file(const std::filesystem::path& path, std::uint64_t max_b
   return read_file_bytes(path, st.size);
 }
 
+void for_each_line(std::string_view text,
+                   const std::function<bool(std::string_view, std::size_t)>& line) {
+  std::size_t n = 0;
+  for (std::size_t at = 0; at < text.size();) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    if (!line(text.substr(at, end - at), ++n)) return;
+    at = end + 1;
+  }
+}
+
 std::uint64_t hash_file(const std::filesystem::path& path, std::uint64_t offset) {
   ReadOnlyFile file(path);
   file.seek(offset);

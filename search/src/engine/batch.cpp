@@ -3,10 +3,8 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
-#include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/file.hpp"
@@ -18,31 +16,25 @@
 namespace mocap {
 
 std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
-  (void)check_input_file(path, input_limits().batch_bytes);
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), 0, "cannot open the query file");
+  const FileBytes text = read_input_file(path, input_limits().batch_bytes);
   std::vector<BatchEntry> out;
-  std::string line;
-  std::size_t n = 0;
   const std::filesystem::path base = path.parent_path();
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    out.push_back(parse_batch_entry(line, path.string(), n, base, fmt::format("line {}", n)));
-  }
+  for_each_line(text.view(), [&](std::string_view line, std::size_t n) {
+    if (line.find_first_not_of(" \t\r") != std::string_view::npos)
+      out.push_back(
+          parse_batch_entry(std::string(line), path.string(), n, base, fmt::format("line {}", n)));
+    return true;
+  });
   return out;
 }
 
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {
-  (void)check_input_file(path, input_limits().json_file_bytes);
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), 0, "cannot open the query file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const FileBytes text = read_input_file(path, input_limits().json_file_bytes);
   BatchEntry e;
   e.id = path.stem().string();
   try {
-    e.query = parse_query_text(ss.str(), path.string(), 0, path.parent_path(), e.id);
+    e.query =
+        parse_query_text(std::string(text.view()), path.string(), 0, path.parent_path(), e.id);
     e.id = e.query->id;
   } catch (const InputError& err) {
     e.error = err.what();

@@ -47,16 +47,17 @@ std::optional<SearchMode> parse_search_mode(const std::string& s) {
   return std::nullopt;
 }
 
-void validate_search_options(const SearchOptions& options) {
+void validate_search_options(const SearchOptions& options, const std::string& min_name,
+                             const std::string& max_name) {
   if (!(options.max_length_s > 0.0))
-    throw InputError("--max-length", 0,
+    throw InputError(max_name, 0,
                      fmt::format("must be a number of seconds > 0, got {}", options.max_length_s));
   if (!(options.min_length_s > 0.0))
-    throw InputError("--min-length", 0,
+    throw InputError(min_name, 0,
                      fmt::format("must be a number of seconds > 0, got {}", options.min_length_s));
   if (!(options.min_length_s <= options.max_length_s))
-    throw InputError("--min-length", 0,
-                     fmt::format("{} s must not exceed --max-length ({} s)", options.min_length_s,
+    throw InputError(min_name, 0,
+                     fmt::format("{} s must not exceed {} ({} s)", options.min_length_s, max_name,
                                  options.max_length_s));
 }
 

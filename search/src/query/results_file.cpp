@@ -1,7 +1,6 @@
 // Reading mocap-search's results files (mocap/search/results_file.hpp).
 #include "mocap/search/results_file.hpp"
 
-#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -25,18 +24,14 @@ std::string base_name(const std::string& path) {
 // line that is not an object with a string "id".
 void read_results_lines(const std::filesystem::path& path,
                         const std::function<bool(const nlohmann::json&, std::size_t)>& line) {
+  std::optional<FileBytes> bytes;
   try {
-    (void)check_input_file(path, input_limits().batch_bytes);
+    bytes = read_input_file(path, input_limits().batch_bytes);
   } catch (const InputError& e) {
     throw InputError(path.string(), 0, "cannot read the search results: " + e.detail());
   }
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), 0, "cannot read the search results");
-  std::string text;
-  std::size_t n = 0;
-  while (std::getline(in, text)) {
-    ++n;
-    if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
+  for_each_line(bytes->view(), [&](std::string_view text, std::size_t n) {
+    if (text.find_first_not_of(" \t\r") == std::string_view::npos) return true;
     nlohmann::json j;
     try {
       j = nlohmann::json::parse(text);
@@ -45,8 +40,8 @@ void read_results_lines(const std::filesystem::path& path,
     }
     if (!j.is_object() || !j.contains("id") || !j["id"].is_string())
       throw InputError(path.string(), n, "expected an object with a string \"id\"");
-    if (!line(j, n)) return;
-  }
+    return line(j, n);
+  });
 }
 
 // The "pairs" of results line `j` (line n of `path`), checked against

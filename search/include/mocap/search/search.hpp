@@ -80,10 +80,12 @@ struct SearchOptions {
 };
 
 /// Checks the options' ranges (0 < min_length_s <= max_length_s): values a
-/// user gives (--min-length, --max-length, Python's keywords), so an invalid
-/// one throws InputError naming the flag and the value. SearchEngine::run and
-/// run_query_batch call it.
-void validate_search_options(const SearchOptions& options);
+/// user gives, so an invalid one throws InputError naming where it came from
+/// (`min_name`, `max_name`: the command line's flags, or Python's keywords)
+/// and the value. SearchEngine::run and run_query_batch call it.
+void validate_search_options(const SearchOptions& options,
+                             const std::string& min_name = "--min-length",
+                             const std::string& max_name = "--max-length");
 
 /// One ranked partial motion. Frames are 0-based within the clip.
 struct SearchResult {

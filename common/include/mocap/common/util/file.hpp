@@ -6,6 +6,7 @@
 // (content hashes of the indexer, the index's whole-file checksum).
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string_view>
 
@@ -50,6 +51,12 @@ FileBytes read_file_bytes(const std::filesystem::path& path, std::uint64_t max_b
 /// (a regular file of at most `max_bytes`, else InputError naming the limit),
 /// then read_file_bytes of its size. The one reader of a bounded input file.
 FileBytes read_input_file(const std::filesystem::path& path, std::uint64_t max_bytes);
+
+/// Calls `line(text, n)` for each line of `text` in order (split at '\n',
+/// which is not part of the line; a last line without one included; n
+/// 1-based) until it returns false: the lines std::getline would read.
+void for_each_line(std::string_view text,
+                   const std::function<bool(std::string_view, std::size_t)>& line);
 
 /// XXH64 (seed 0, mocap/common/util/xxh64.hpp) of the file's bytes from `offset` to its
 /// end (none when offset is at or past the end), read in 1 MiB blocks.
