@@ -9,6 +9,9 @@
 //       MPI"); rank 0 writes the output, identical to one process's.
 //   mocap-search energy --from FILE:FRAME --to FILE:FRAME [--transition-time S]
 //                [--character C.json] [--unit U] [--json]
+//   mocap-search energy --motion FILE.bvh [--frames S-E] [--character C.json] [--unit U]
+//                [--unsupported-speed V] [--json]
+//       a whole motion's energy, summed over its steps (energy_command.hpp).
 //   mocap-search export --index I (--clip NAME --frames S-E | --results R.jsonl --id Q
 //                --pair P --rank K) --out X.bvh [--force]
 //       writes one partial motion as BVH (export_command.hpp).
@@ -40,6 +43,7 @@
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/io/units.hpp"
 #include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/motion/export.hpp"
 #include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/input_limits_cli.hpp"
@@ -68,7 +72,11 @@ constexpr int kExitFatal = 2;
 struct EnergyArgs {
   std::string from;
   std::string to;
+  std::string motion;
+  std::string frames;
   double transition_time_s = 0.5;
+  double unsupported_speed_mps = mocap::WorkEnergyParams{}.unsupported_speed_mps;
+  const CLI::Option* transition_time_option = nullptr;  // its count(): given on the command line
   std::string character;
   std::string unit = "auto";
   bool json = false;
@@ -156,23 +164,33 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
 
 void add_energy_command(CLI::App& app, EnergyArgs& args) {
   CLI::App* cmd = app.add_subcommand("energy",
-                                     "Energy change of the transition between two capture frames: "
-                                     "the approximate h (retrieval) and the full g "
+                                     "Energy change of the transition between two capture frames "
+                                     "(--from, --to), or of a whole motion summed over its steps "
+                                     "(--motion): the approximate h (retrieval) and the full g "
                                      "(Newton-Euler with ground contact), in joules, with "
                                      "per-segment and per-joint terms (docs/energy.md).");
   cmd->add_option("--from", args.from,
-                  "First state: FILE:FRAME (BVH file, 0-based frame; with its clip velocities)")
-      ->required();
-  cmd->add_option("--to", args.to, "Second state: FILE:FRAME (same skeleton as --from)")
-      ->required();
-  cmd->add_option("--transition-time", args.transition_time_s, "Transition time T in seconds (> 0)")
-      ->default_val(0.5)
-      ->check(CLI::PositiveNumber);
+                  "First state: FILE:FRAME (BVH file, 0-based frame; with its clip velocities)");
+  cmd->add_option("--to", args.to, "Second state: FILE:FRAME (same skeleton as --from)");
+  cmd->add_option("--motion", args.motion,
+                  "A whole motion instead: the BVH file's steps, T = its frame time, summed "
+                  "(with its residual, frames without contact and peak joint speed)");
+  cmd->add_option("--frames", args.frames,
+                  "With --motion: only the steps of frames S-E (0-based, inclusive)");
+  args.transition_time_option =
+      cmd->add_option("--transition-time", args.transition_time_s,
+                      "Transition time T in seconds (> 0; --from/--to only)")
+          ->default_val(0.5)
+          ->check(CLI::PositiveNumber);
   cmd->add_option("--character", args.character,
                   "Character JSON file (docs/character.md); default body otherwise");
   cmd->add_option("--unit", args.unit,
                   "Length unit of both files: m, dm, cm, mm, inch, cmu or auto (detected per file)")
       ->default_val("auto");
+  cmd->add_option("--unsupported-speed", args.unsupported_speed_mps,
+                  "W's price of unsupported force, m/s: joules per newton-second of support no "
+                  "contact gives (docs/energy.md \"W: the work energy\")")
+      ->capture_default_str();
   cmd->add_flag("--json", args.json,
                 "Print one JSON object: {h_J, g_J, terms: [{name, kind, h_J, g_J}], ...}");
 }
@@ -207,18 +225,49 @@ int run_view(const ViewArgs& a) {
   return kExitOk;
 }
 
+// --motion given: a whole motion's energy (run_motion_energy_command).
+int run_motion_energy(const EnergyArgs& args, const std::optional<mocap::LengthUnit>& unit) {
+  if (!args.from.empty() || !args.to.empty())
+    throw mocap::InputError("--motion", 0, "give either --motion or --from and --to, not both");
+  if (args.transition_time_option && args.transition_time_option->count() > 0)
+    throw mocap::InputError("--transition-time", 0,
+                            "not with --motion: its steps take the file's frame time");
+  mocap::MotionEnergyOptions o;
+  o.file = args.motion;
+  if (!args.frames.empty()) {
+    const mocap::FrameRange range = mocap::parse_frame_range(args.frames, "--frames");
+    o.frames = std::make_pair(range.first, range.last);
+  }
+  o.character = args.character;
+  o.unit = unit;
+  o.work.unsupported_speed_mps = args.unsupported_speed_mps;
+  const mocap::MotionEnergyReport r = mocap::run_motion_energy_command(o);
+  std::cout << (args.json ? mocap::motion_energy_report_json(r) + "\n"
+                          : mocap::motion_energy_report_text(r));
+  return kExitOk;
+}
+
 int run_energy(const EnergyArgs& args) {
+  std::optional<mocap::LengthUnit> unit;
+  if (args.unit != "auto") {
+    unit = mocap::parse_unit(args.unit);
+    if (!unit)
+      throw mocap::InputError("--unit", 0,
+                              "expected m, dm, cm, mm, inch, cmu or auto, got '" + args.unit + "'");
+  }
+  if (!args.motion.empty()) return run_motion_energy(args, unit);
+  if (!args.frames.empty()) throw mocap::InputError("--frames", 0, "only with --motion FILE.bvh");
+  if (args.from.empty() || args.to.empty())
+    throw mocap::InputError(args.from.empty() ? "--from" : "--to", 0,
+                            "required: give --from FILE:FRAME and --to FILE:FRAME, or --motion "
+                            "FILE.bvh");
   mocap::EnergyCommandOptions o;
   o.from = mocap::parse_frame_spec(args.from, "--from");
   o.to = mocap::parse_frame_spec(args.to, "--to");
   o.transition_time_s = args.transition_time_s;
   o.character = args.character;
-  if (args.unit != "auto") {
-    o.unit = mocap::parse_unit(args.unit);
-    if (!o.unit)
-      throw mocap::InputError("--unit", 0,
-                              "expected m, dm, cm, mm, inch, cmu or auto, got '" + args.unit + "'");
-  }
+  o.unit = unit;
+  o.work.unsupported_speed_mps = args.unsupported_speed_mps;
   const mocap::EnergyReport r = mocap::run_energy_command(o);
   std::cout << (args.json ? mocap::energy_report_json(r) + "\n" : mocap::energy_report_text(r));
   return kExitOk;

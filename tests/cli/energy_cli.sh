@@ -53,4 +53,31 @@ expect_fail energy --from "$walk:1" --to "$walk:2" --transition-time 0 --json
 expect_fail energy --from "$walk:1" --to "$walk:2" --unit furlong --json
 expect_fail energy --from "$walk:1"
 expect_fail
+
+# --motion: a whole motion summed over its steps; W beside g.
+"$bin" energy --motion "$walk" --frames 40-71 --json > "$tmp/m.json"
+"$bin" energy --motion "$walk" --frames 40-71 > "$tmp/m.txt"
+grep -q "^W = " "$tmp/m.txt"
+grep -q "frames without contact" "$tmp/m.txt"
+python3 - "$tmp/m.json" "$tmp/a.json" <<'PY'
+import json, sys
+m, a = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert m["motion"]["steps"] == 31 and len(m["step_g_J"]) == 31 == len(m["step_w_J"]), m["motion"]
+assert abs(sum(m["step_g_J"]) - m["g_J"]) <= 1e-9 * m["g_J"]
+assert abs(sum(m["step_w_J"]) - m["w_J"]) <= 1e-9 * m["w_J"]
+assert abs(sum(m["parts"].values()) - m["g_J"]) <= 1e-9 * m["g_J"], m["parts"]
+assert abs(sum(m["w_parts"].values()) - m["w_J"]) <= 1e-9 * m["w_J"], m["w_parts"]
+assert 0 <= m["no_contact_ratio"] <= 1 and m["peak_angular_speed_radps"] > 0 and m["peak_joint"]
+for d in (m, a):
+    assert d["w_J"] >= 0 and set(d["w_parts"]) == {"joint_J", "ground_J", "residual_work_J", "unsupported_J"}
+print("energy --motion JSON ok")
+PY
+expect_fail energy --motion "$walk" --frames 5-5
+grep -q "S < E" "$tmp/err"
+expect_fail energy --motion "$walk" --frames 0-100000
+expect_fail energy --motion "$walk" --frames 7
+expect_fail energy --motion "$walk" --from "$walk:1" --to "$walk:2"
+expect_fail energy --motion "$walk" --transition-time 0.1
+expect_fail energy --from "$walk:1" --to "$walk:2" --frames 1-3
+expect_fail energy --motion /nonexistent.bvh
 echo "energy CLI ok"

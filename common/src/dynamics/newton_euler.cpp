@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "dynamics/lanes.hpp"
+#include "dynamics/step_geometry.hpp"
 #include "mocap/common/util/multiversion.hpp"
 
 namespace mocap {
@@ -689,14 +690,7 @@ struct KineticChange {
   const Eigen::Vector3d tc =
       0.5 * (contact_moment_about_com(da, a, j) + contact_moment_about_com(db, b, j));
   double w_contact = sm.abs(fc.dot(dc) + tc.dot(dphi));
-  Eigen::Vector3d slide;
-  if (da.in_contact[j]) {
-    const Eigen::Vector3d& p = da.contact_points_m[j];
-    slide = b.coms_m[j] + (b.rotations[j] * a.rotations[j].conjugate()) * (p - a.coms_m[j]) - p;
-  } else {
-    const Eigen::Vector3d& p = db.contact_points_m[j];
-    slide = p - (a.coms_m[j] + (a.rotations[j] * b.rotations[j].conjugate()) * (p - b.coms_m[j]));
-  }
+  const Eigen::Vector3d slide = detail::contact_slide(a, b, da, db, j);
   const double normal = std::max(0.0, fc.y());
   const double friction = model.params.friction_coefficient * normal;
   const double smooth = sm.s;
@@ -714,12 +708,8 @@ struct KineticChange {
 [[gnu::always_inline]] inline double residual_work(
     const StateView& a, const StateView& b, const NewtonEulerData& da, const NewtonEulerData& db,
     std::size_t j, const Eigen::Vector3d& dc, const Eigen::Vector3d& dphi, const Smoothing& sm) {
-  const Eigen::Vector3d fr = 0.5 * (da.joint_forces_N[j] + db.joint_forces_N[j]);
-  const Eigen::Vector3d mr =
-      0.5 *
-      (da.joint_torques_Nm[j] + (a.joint_positions_m[j] - a.coms_m[j]).cross(da.joint_forces_N[j]) +
-       db.joint_torques_Nm[j] + (b.joint_positions_m[j] - b.coms_m[j]).cross(db.joint_forces_N[j]));
-  return sm.abs(fr.dot(dc) + mr.dot(dphi));
+  const detail::MeanWrench r = detail::mean_residual_wrench(a, b, da, db, j);
+  return sm.abs(r.force_N.dot(dc) + r.moment_Nm.dot(dphi));
 }
 
 // g_b - h_b of segment j (J): the work of the adjacent force (what the

@@ -14,6 +14,7 @@
 #include "mocap/common/dynamics/energy.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/dynamics/work_energy.hpp"
 #include "mocap/common/io/bvh.hpp"
 #include "mocap/common/util/error.hpp"
 
@@ -120,11 +121,35 @@ LoadedClip load_retargeted_clip(const RawClip& raw, LengthUnit u, const LoadedCl
   return c;
 }
 
+// --unsupported-speed: finite and >= 0 (work_energy throws invalid_argument otherwise).
+void check_work_params(const WorkEnergyParams& p) {
+  if (!(p.unsupported_speed_mps >= 0.0) || !std::isfinite(p.unsupported_speed_mps))
+    throw InputError("--unsupported-speed", 0, "must be a finite speed >= 0 (m/s)");
+}
+
+// W's parts summed into a report's w_* fields (EnergyReport or MotionEnergyReport).
+template <typename Report>
+void add_work_parts(const WorkEnergyTerms& w, Report& r) {
+  for (const double v : w.joint_J) r.w_joint_J += v;
+  for (const double v : w.ground_J) r.w_ground_J += v;
+  r.w_residual_work_J += w.residual_work_J;
+  r.w_unsupported_J += w.unsupported_J;
+}
+
+template <typename Report>
+nlohmann::json work_parts_json(const Report& r) {
+  return {{"joint_J", r.w_joint_J},
+          {"ground_J", r.w_ground_J},
+          {"residual_work_J", r.w_residual_work_J},
+          {"unsupported_J", r.w_unsupported_J}};
+}
+
 }  // namespace
 
 EnergyReport run_energy_command(const EnergyCommandOptions& o) {
   if (!(o.transition_time_s > 0.0) || !std::isfinite(o.transition_time_s))
     throw InputError("--transition-time", 0, "must be a positive number of seconds");
+  check_work_params(o.work);
   Character character;
   if (!o.character.empty()) character = read_character_file(o.character);
   const RawClip raw_a = read_frame_clip(o.from);
@@ -186,6 +211,9 @@ EnergyReport run_energy_command(const EnergyCommandOptions& o) {
   r.to_contacts = ws.b.contact_count;
   r.residual_work_J = terms.residual_work_J;
   r.residual_impulse_J = terms.residual_impulse_J;
+  WorkEnergyTerms w;
+  r.w_J = work_energy(model, sa, sb, o.transition_time_s, ws.a, ws.b, o.work, &w);
+  add_work_parts(w, r);
   return r;
 }
 
@@ -208,6 +236,8 @@ std::string energy_report_json(const EnergyReport& r) {
   j["unit"] = {{"from", r.from_unit}, {"to", r.to_unit}};
   j["contacts"] = {{"from", r.from_contacts}, {"to", r.to_contacts}};
   j["residual"] = {{"work_J", r.residual_work_J}, {"impulse_J", r.residual_impulse_J}};
+  j["w_J"] = r.w_J;
+  j["w_parts"] = work_parts_json(r);
   j["cross_rig"] = r.cross_rig;
   if (r.cross_rig) j["compared_classes"] = r.compared_classes;
   return json_text(j);
@@ -222,11 +252,196 @@ std::string energy_report_text(const EnergyReport& r) {
       "h = {:.6g} J   g = {:.6g} J   (contacts {} / {}, root residual work {:.4g} J, impulse "
       "{:.4g} J)\n\n",
       r.h_J, r.g_J, r.from_contacts, r.to_contacts, r.residual_work_J, r.residual_impulse_J);
+  s += fmt::format(
+      "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}\n\n",
+      r.w_J, r.w_joint_J, r.w_ground_J, r.w_residual_work_J, r.w_unsupported_J);
   if (r.cross_rig) {
     s += "across rigs: the --to frame retargeted onto the --from skeleton; compared:";
     for (const auto& c : r.compared_classes) s += " " + c;
     s += "\n\n";
   }
+  s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
+  for (const auto& t : r.terms)
+    s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",
+                     t.h_J, t.g_J);
+  return s;
+}
+
+namespace {
+
+// The motion's file read as the indexer reads it (Y up), at least 2 frames.
+RawClip read_motion_clip(const std::filesystem::path& file) {
+  RawClip raw = read_bvh_file(file);
+  normalise_up_axis(raw, std::nullopt);
+  if (raw.frame_count < 2)
+    throw InputError(
+        file.string(), 0,
+        fmt::format("a motion needs at least 2 frames; the file has {}", raw.frame_count));
+  return raw;
+}
+
+// --frames S-E checked against the file: S < E < frame count (the whole file without it).
+std::pair<std::size_t, std::size_t> motion_frames(const MotionEnergyOptions& o,
+                                                  std::size_t frame_count) {
+  if (!o.frames) return {0, frame_count - 1};
+  const auto [first, last] = *o.frames;
+  if (first >= last)
+    throw InputError(
+        "--frames", 0,
+        fmt::format("{}-{} holds no step: a motion's energy needs S < E", first, last));
+  if (last >= frame_count)
+    throw InputError("--frames", 0,
+                     fmt::format("frame {} out of range: {} has {} frames (0-based)", last,
+                                 o.file.string(), frame_count));
+  return {first, last};
+}
+
+// Adds the step's terms to the report's sums (per term, in energy_term_names order).
+void add_step_terms(const FullEnergyTerms& t, const std::vector<NamedEnergyTerm>& names,
+                    MotionEnergyReport& r) {
+  r.h_J += t.h.total();
+  for (std::size_t j = 0; j < t.adjacent_work_J.size(); ++j) {
+    r.adjacent_work_J += t.adjacent_work_J[j];
+    r.contact_work_J += t.contact_work_J[j];
+    r.joint_work_J += t.joint_work_J[j];
+  }
+  r.residual_work_J += t.residual_work_J;
+  r.residual_impulse_J += t.residual_impulse_J;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const auto j = static_cast<std::size_t>(names[i].joint);
+    r.terms[i].h_J += names[i].is_joint ? t.h.joint_J[j] : t.h.segment_J[j];
+    r.terms[i].g_J += names[i].is_joint ? t.g.joint_J[j] : t.g.segment_J[j];
+  }
+}
+
+// The steps S -> S+1 .. E-1 -> E: g with its parts and terms, and the frames
+// without contact (one inverse dynamics per frame, reused by both its steps).
+void sum_motion_steps(const LoadedClip& c, double dt, const WorkEnergyParams& work,
+                      MotionEnergyReport& r) {
+  const std::vector<NamedEnergyTerm> names = energy_term_names(c.model);
+  for (const NamedEnergyTerm& n : names) r.terms.push_back({n.name, n.is_joint, 0.0, 0.0});
+  NewtonEulerData id[2];
+  NewtonEulerWorkspace ws;
+  FullEnergyTerms terms;
+  WorkEnergyTerms w_terms;
+  inverse_dynamics(c.model, c.dynamics.state(r.first_frame), id[0]);
+  r.no_contact_frames = id[0].contact_count == 0 ? 1 : 0;
+  for (std::size_t f = r.first_frame; f < r.last_frame; ++f) {
+    const NewtonEulerData& a = id[(f - r.first_frame) % 2];
+    NewtonEulerData& b = id[(f - r.first_frame + 1) % 2];
+    inverse_dynamics(c.model, c.dynamics.state(f + 1), b);
+    if (b.contact_count == 0) ++r.no_contact_frames;
+    const double g =
+        full_energy(c.model, c.dynamics.state(f), c.dynamics.state(f + 1), dt, a, b, ws, &terms);
+    r.step_g_J.push_back(g);
+    r.g_J += g;
+    add_step_terms(terms, names, r);
+    const double w = work_energy(c.model, c.dynamics.state(f), c.dynamics.state(f + 1), dt, a, b,
+                                 work, &w_terms);
+    r.step_w_J.push_back(w);
+    r.w_J += w;
+    add_work_parts(w_terms, r);
+  }
+}
+
+// The largest local angular speed of a segment joint other than a body root
+// (the pelvis's local rotation is the body's turn, not a joint's).
+void peak_joint_speed(const LoadedClip& c, double dt, MotionEnergyReport& r) {
+  const std::size_t n = c.skeleton.joint_count();
+  for (const int joint : c.model.segments) {
+    const auto j = static_cast<std::size_t>(joint);
+    if (c.model.is_body_root[j]) continue;
+    for (std::size_t f = r.first_frame; f < r.last_frame; ++f) {
+      const Eigen::Quaterniond step =
+          c.local_rotations[(f + 1) * n + j] * c.local_rotations[f * n + j].conjugate();
+      const double speed = rotation_vector(step).norm() / dt;
+      if (speed > r.peak_angular_speed_radps) {
+        r.peak_angular_speed_radps = speed;
+        r.peak_joint = c.model.names[j];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+MotionEnergyReport run_motion_energy_command(const MotionEnergyOptions& o) {
+  check_work_params(o.work);
+  Character character;
+  if (!o.character.empty()) character = read_character_file(o.character);
+  const RawClip raw = read_motion_clip(o.file);
+  const auto [first, last] = motion_frames(o, raw.frame_count);
+  if (!(raw.frame_time_s > 0.0) || !std::isfinite(raw.frame_time_s))
+    throw InputError(o.file.string(), 0, "the frame time must be a positive number of seconds");
+  const LengthUnit unit = o.unit ? *o.unit : detect_unit(raw);
+  const LoadedClip c = load_clip({o.file, 0}, raw, character, unit);
+  MotionEnergyReport r;
+  r.file = o.file;
+  r.first_frame = first;
+  r.last_frame = last;
+  r.frame_time_s = raw.frame_time_s;
+  r.character = character.name;
+  r.unit = c.unit;
+  r.total_mass_kg = c.model.total_mass_kg;
+  sum_motion_steps(c, raw.frame_time_s, o.work, r);
+  peak_joint_speed(c, raw.frame_time_s, r);
+  return r;
+}
+
+std::string motion_energy_report_json(const MotionEnergyReport& r) {
+  nlohmann::json j;
+  const std::size_t frames = r.last_frame - r.first_frame + 1;
+  j["motion"] = {{"file", r.file.string()},
+                 {"first_frame", r.first_frame},
+                 {"last_frame", r.last_frame},
+                 {"steps", r.step_g_J.size()},
+                 {"frame_time_s", r.frame_time_s}};
+  j["h_J"] = r.h_J;
+  j["g_J"] = r.g_J;
+  j["parts"] = {{"h_J", r.h_J},
+                {"adjacent_work_J", r.adjacent_work_J},
+                {"contact_work_J", r.contact_work_J},
+                {"joint_work_J", r.joint_work_J},
+                {"residual_work_J", r.residual_work_J},
+                {"residual_impulse_J", r.residual_impulse_J}};
+  j["w_J"] = r.w_J;
+  j["w_parts"] = work_parts_json(r);
+  nlohmann::json terms = nlohmann::json::array();
+  for (const auto& t : r.terms)
+    terms.push_back({{"name", t.name},
+                     {"kind", t.is_joint ? "joint" : "segment"},
+                     {"h_J", t.h_J},
+                     {"g_J", t.g_J}});
+  j["terms"] = std::move(terms);
+  j["step_g_J"] = r.step_g_J;
+  j["step_w_J"] = r.step_w_J;
+  j["no_contact_frames"] = r.no_contact_frames;
+  j["no_contact_ratio"] = static_cast<double>(r.no_contact_frames) / static_cast<double>(frames);
+  j["peak_angular_speed_radps"] = r.peak_angular_speed_radps;
+  j["peak_joint"] = r.peak_joint;
+  j["character"] = r.character;
+  j["total_mass_kg"] = r.total_mass_kg;
+  j["unit"] = r.unit;
+  return json_text(j);
+}
+
+std::string motion_energy_report_text(const MotionEnergyReport& r) {
+  const std::size_t frames = r.last_frame - r.first_frame + 1;
+  std::string s =
+      fmt::format("{} frames {}-{} ({} steps of {} s)  character {} ({:.1f} kg)  unit {}\n",
+                  r.file.string(), r.first_frame, r.last_frame, r.step_g_J.size(), r.frame_time_s,
+                  r.character, r.total_mass_kg, r.unit);
+  s += fmt::format(
+      "h = {:.6g} J   g = {:.6g} J = h + adjacent {:.4g} + contact {:.4g} + joint {:.4g} + "
+      "residual work {:.4g} + residual impulse {:.4g}\n",
+      r.h_J, r.g_J, r.adjacent_work_J, r.contact_work_J, r.joint_work_J, r.residual_work_J,
+      r.residual_impulse_J);
+  s += fmt::format(
+      "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}\n",
+      r.w_J, r.w_joint_J, r.w_ground_J, r.w_residual_work_J, r.w_unsupported_J);
+  s += fmt::format(
+      "frames without contact {} of {}   peak joint angular speed {:.3g} rad/s ({})\n\n",
+      r.no_contact_frames, frames, r.peak_angular_speed_radps, r.peak_joint);
   s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
   for (const auto& t : r.terms)
     s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",

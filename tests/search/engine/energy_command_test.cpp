@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "mocap/common/io/bvh.hpp"
 #include "mocap/common/io/units.hpp"
@@ -213,6 +214,102 @@ TEST(EnergyCommand, BadInputsAreInputErrors) {
   o = options(0, 1);
   o.character = "/nonexistent/character.json";
   EXPECT_THROW(run_energy_command(o), InputError);
+}
+
+// --- energy --motion: a whole motion summed over its steps ---------------
+
+MotionEnergyOptions motion_options(std::size_t first, std::size_t last) {
+  MotionEnergyOptions o;
+  o.file = walk();
+  o.frames = std::make_pair(first, last);
+  return o;
+}
+
+TEST(MotionEnergyCommand, BadInputsAreInputErrorsNamingTheSource) {
+  MOCAP_REQUIRE_DATA();
+  const auto expect_source = [](const MotionEnergyOptions& o, const std::string& source,
+                                const char* says) {
+    try {
+      run_motion_energy_command(o);
+      ADD_FAILURE() << "accepted: " << says;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.source(), source) << e.what();
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  expect_source(motion_options(5, 5), "--frames", "S < E");
+  expect_source(motion_options(9, 3), "--frames", "S < E");
+  expect_source(motion_options(0, 100000), "--frames", "out of range");
+  MotionEnergyOptions o = motion_options(0, 1);
+  o.file = "/nonexistent/clip.bvh";
+  EXPECT_THROW(run_motion_energy_command(o), InputError);
+  o = motion_options(0, 1);
+  o.character = "/nonexistent/character.json";
+  EXPECT_THROW(run_motion_energy_command(o), InputError);
+  // A file of one frame holds no step.
+  const auto one = test::temp_dir("motion-energy-one") / "one.bvh";
+  std::ofstream(one) << "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition "
+                        "Yposition Zposition Zrotation Xrotation Yrotation\n  End Site\n  {\n    "
+                        "OFFSET 0 10 0\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.0333333\n0 90 0 "
+                        "0 0 0\n";
+  o = MotionEnergyOptions{};
+  o.file = one;
+  expect_source(o, one.string(), "at least 2 frames");
+}
+
+// Each step's g equals the pair command's g between the same two frames at
+// T = the frame time (the slow path: both frames' inverse dynamics redone),
+// the parts add up to g, the terms to h and g, and the frames without
+// contact and the peak speed are those of the frames asked for.
+TEST(MotionEnergyCommand, StepsEqualThePairCommandAndPartsAddUp) {
+  MOCAP_REQUIRE_DATA();
+  const MotionEnergyReport r = run_motion_energy_command(motion_options(40, 52));
+  ASSERT_EQ(r.step_g_J.size(), 12u);
+  EXPECT_EQ(r.first_frame, 40u);
+  EXPECT_EQ(r.last_frame, 52u);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < r.step_g_J.size(); ++i) {
+    EnergyCommandOptions pair = options(40 + i, 41 + i);
+    pair.transition_time_s = r.frame_time_s;
+    const EnergyReport p = run_energy_command(pair);
+    EXPECT_NEAR(r.step_g_J[i], p.g_J, 1e-9 * (1.0 + p.g_J)) << "step " << i;
+    sum += r.step_g_J[i];
+  }
+  EXPECT_NEAR(r.g_J, sum, 1e-9 * sum);
+  const double parts = r.h_J + r.adjacent_work_J + r.contact_work_J + r.joint_work_J +
+                       r.residual_work_J + r.residual_impulse_J;
+  EXPECT_NEAR(parts, r.g_J, 1e-9 * r.g_J);
+  double h = 0.0, g = 0.0;
+  for (const EnergyTermReport& t : r.terms) {
+    h += t.h_J;
+    g += t.g_J;
+  }
+  EXPECT_NEAR(h, r.h_J, 1e-9 * r.h_J);
+  EXPECT_NEAR(g, r.g_J, 1e-9 * r.g_J);
+  EXPECT_GE(r.g_J, r.h_J);
+  // Walking: some frame is on the ground, the knees swing at a few rad/s.
+  EXPECT_LT(r.no_contact_frames, 13u);
+  EXPECT_GT(r.peak_angular_speed_radps, 0.5);
+  EXPECT_LT(r.peak_angular_speed_radps, 30.0);
+  EXPECT_FALSE(r.peak_joint.empty());
+  const nlohmann::json j = nlohmann::json::parse(motion_energy_report_json(r));
+  EXPECT_EQ(j["motion"]["steps"], 12);
+  EXPECT_EQ(j["step_g_J"].size(), 12u);
+  EXPECT_DOUBLE_EQ(j["g_J"].get<double>(), r.g_J);
+  EXPECT_DOUBLE_EQ(j["parts"]["residual_impulse_J"].get<double>(), r.residual_impulse_J);
+}
+
+// A part of a file gives the steps of the whole file's run over the same
+// frames (the rates at its ends come from the frames beside it).
+TEST(MotionEnergyCommand, FramesArePartOfTheWholeFile) {
+  MOCAP_REQUIRE_DATA();
+  MotionEnergyOptions whole;
+  whole.file = walk();
+  const MotionEnergyReport all = run_motion_energy_command(whole);
+  const MotionEnergyReport part = run_motion_energy_command(motion_options(30, 45));
+  ASSERT_GT(all.step_g_J.size(), 45u);
+  for (std::size_t i = 0; i < part.step_g_J.size(); ++i)
+    EXPECT_DOUBLE_EQ(part.step_g_J[i], all.step_g_J[30 + i]) << i;
 }
 
 }  // namespace

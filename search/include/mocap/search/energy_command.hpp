@@ -18,8 +18,10 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "mocap/common/dynamics/work_energy.hpp"
 #include "mocap/common/io/units.hpp"
 
 namespace mocap {
@@ -41,6 +43,8 @@ struct EnergyCommandOptions {
   std::filesystem::path character;
   /// nullopt = detect per file (units.hpp).
   std::optional<LengthUnit> unit;
+  /// W's price of unsupported force (work_energy.hpp).
+  WorkEnergyParams work;
 };
 
 struct EnergyTermReport {
@@ -66,6 +70,13 @@ struct EnergyReport {
   std::size_t to_contacts = 0;
   double residual_work_J = 0.0;
   double residual_impulse_J = 0.0;
+  /// W, the work energy (work_energy.hpp), and its parts, joules (the whole
+  /// body, also across rigs).
+  double w_J = 0.0;
+  double w_joint_J = 0.0;
+  double w_ground_J = 0.0;
+  double w_residual_work_J = 0.0;
+  double w_unsupported_J = 0.0;
   /// The --to file is another rig, retargeted onto the --from skeleton: h_J,
   /// g_J and `terms` cover only the compared segments, whose classes
   /// compared_classes names (retarget.hpp class_key_name).
@@ -80,10 +91,82 @@ EnergyReport run_energy_command(const EnergyCommandOptions& options);
 
 /// {"h_J", "g_J", "terms": [{"name", "kind", "h_J", "g_J"}], "from": {"file", "frame"},
 ///  "to": {...}, "transition_time_s", "character", "total_mass_kg", "unit": {"from", "to"},
-///  "contacts": {"from", "to"}, "residual": {"work_J", "impulse_J"}, "cross_rig",
-///  "compared_classes" (only when cross_rig)} on one line.
+///  "contacts": {"from", "to"}, "residual": {"work_J", "impulse_J"}, "w_J",
+///  "w_parts": {"joint_J", "ground_J", "residual_work_J", "unsupported_J"},
+///  "cross_rig", "compared_classes" (only when cross_rig)} on one line.
 std::string energy_report_json(const EnergyReport& report);
 /// Human-readable table.
 std::string energy_report_text(const EnergyReport& report);
+
+/// `mocap-search energy --motion FILE.bvh [--frames S-E]`: a whole motion's
+/// energy, the sum over its steps F^f -> F^(f+1), f = S .. E-1, with T = the
+/// frame time and every frame's rates from the whole file's finite
+/// differences (so a frame S > 0 takes its velocity from S-1 and S+1), as
+/// clip_step_energies gives a database clip's own energy. It is how a made
+/// motion is judged beside a captured one (docs/energy.md "Realism").
+struct MotionEnergyOptions {
+  std::filesystem::path file;
+  /// Frames S..E (0-based, inclusive, S < E); nullopt: the whole file.
+  std::optional<std::pair<std::size_t, std::size_t>> frames;
+  /// Character file (docs/character.md); empty = default character.
+  std::filesystem::path character;
+  /// nullopt = detect (units.hpp).
+  std::optional<LengthUnit> unit;
+  /// W's price of unsupported force (work_energy.hpp).
+  WorkEnergyParams work;
+};
+
+struct MotionEnergyReport {
+  std::filesystem::path file;
+  std::size_t first_frame = 0;
+  std::size_t last_frame = 0;
+  double frame_time_s = 0.0;
+  std::string character;
+  std::string unit;
+  double total_mass_kg = 0.0;
+  /// Sums over the steps, joules: h, g and g's parts (h + adjacent + contact
+  /// + joint + residual work + residual impulse = g, to round-off).
+  double h_J = 0.0;
+  double g_J = 0.0;
+  double adjacent_work_J = 0.0;
+  double contact_work_J = 0.0;
+  double joint_work_J = 0.0;
+  double residual_work_J = 0.0;
+  double residual_impulse_J = 0.0;
+  /// Every segment's and joint's terms summed over the steps.
+  std::vector<EnergyTermReport> terms;
+  /// W, the work energy (work_energy.hpp), summed over the steps, and its
+  /// parts (joint + ground + residual work + unsupported = W), joules.
+  double w_J = 0.0;
+  double w_joint_J = 0.0;
+  double w_ground_J = 0.0;
+  double w_residual_work_J = 0.0;
+  double w_unsupported_J = 0.0;
+  /// g and W of each step, joules (E - S values each).
+  std::vector<double> step_g_J;
+  std::vector<double> step_w_J;
+  /// Frames S..E with no contact point on the ground (inverse_dynamics's
+  /// contact test: near the ground and slower than contact_speed_mps).
+  std::size_t no_contact_frames = 0;
+  /// Largest local angular speed of a segment joint (not a body root) over
+  /// the steps, rad/s, and that joint's name ("" for a motion without one).
+  double peak_angular_speed_radps = 0.0;
+  std::string peak_joint;
+};
+
+/// Runs `energy --motion`. Bad input (unreadable / malformed file, frames
+/// outside the file or S >= E, a file of fewer than 2 frames, bad character
+/// file, no body segment) throws InputError naming the file or the option.
+MotionEnergyReport run_motion_energy_command(const MotionEnergyOptions& options);
+/// {"motion": {"file", "first_frame", "last_frame", "steps", "frame_time_s"},
+///  "h_J", "g_J", "parts": {"h_J", "adjacent_work_J", "contact_work_J",
+///  "joint_work_J", "residual_work_J", "residual_impulse_J"}, "w_J", "w_parts":
+///  {"joint_J", "ground_J", "residual_work_J", "unsupported_J"}, "terms":
+///  [{"name", "kind", "h_J", "g_J"}], "step_g_J": [...], "step_w_J": [...], "no_contact_frames",
+///  "no_contact_ratio", "peak_angular_speed_radps", "peak_joint", "character",
+///  "total_mass_kg", "unit"} on one line.
+std::string motion_energy_report_json(const MotionEnergyReport& report);
+/// Human-readable summary and table.
+std::string motion_energy_report_text(const MotionEnergyReport& report);
 
 }  // namespace mocap
