@@ -37,7 +37,7 @@ namespace {
 // What the command line gives (add_synth_options); the job (run_synth) reads it.
 struct SynthArgs {
   std::string index_path, query_path, results_path, out_path, report_path, html_path,
-      method = "astar";
+      method = "astar", energy = "g";
   std::vector<std::string> picks;
   mocap::SynthOptions options;
   std::string query_id;
@@ -88,6 +88,10 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                        : "";
           },
           "", "not NaN"));
+  app.add_option("--energy", a.energy,
+                 "the energy the A* search minimises: g (the paper's) or w (the work energy; "
+                 "docs/synthesis.md \"The search's energy\")")
+      ->capture_default_str();
   app.add_flag("--no-step-feet", a.no_step,
                "no stepping pass after the A* search (feet may glide; lowest g)");
   app.add_option("--threads", a.threads,
@@ -108,6 +112,9 @@ void check_synth_options(SynthArgs& a) {
     throw mocap::InputError("--transition", 0,
                             "expected astar, slerp or inertialize, got \"" + a.method + "\"");
   a.options.method = methods.at(a.method);
+  if (a.energy != "g" && a.energy != "w")
+    throw mocap::InputError("--energy", 0, "expected g or w, got \"" + a.energy + "\"");
+  a.options.params.energy = a.energy == "w" ? mocap::SearchEnergy::work : mocap::SearchEnergy::g;
   if (a.options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
   mocap::check_supplement_options(a.options.params);
   for (const auto& p : a.picks) a.options.picks.push_back(mocap::parse_pick(p));

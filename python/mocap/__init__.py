@@ -317,7 +317,7 @@ class Index:
                    cost_threshold_J=5.0, step_feet=True, fps=None, refine=0,
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
-                   base_dir=None):
+                   base_dir=None, energy="g"):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         `results`: the search's answer for this query (a dict from search(),
@@ -325,8 +325,8 @@ class Index:
         is searched here with the default options. `picks`: (pair, rank)
         tuples or "PAIR:RANK" strings (1-based; default rank 1). The other
         keywords are mocap-synth's flags (--transition, --max-states,
-        --cost-threshold, --no-step-feet, --fps, --refine...). Returns a
-        Synthesis.
+        --cost-threshold, --no-step-feet, --fps, --refine..., --energy: "g"
+        or "w", the energy the A* search minimises). Returns a Synthesis.
         """
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
@@ -335,7 +335,8 @@ class Index:
                     refine=refine, refine_smoothing_J=refine_smoothing_J,
                     refine_polish=refine_polish, refine_polish_window=refine_polish_window,
                     refine_polish_segments=refine_polish_segments,
-                    refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads)
+                    refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
+                    energy=energy)
         if results is None or isinstance(results, (str, os.PathLike)):
             raw = self._raw.synthesize(text, _base_dir(base_dir), results=results, **args)
         else:

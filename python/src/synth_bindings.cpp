@@ -53,6 +53,7 @@ struct SynthArgs {
   std::size_t max_states = SupplementParams{}.max_states;
   double cost_threshold_J = SupplementParams{}.cost_threshold_J;
   bool step_feet = true;
+  std::string energy = "g";
   std::optional<double> fps;
   std::size_t refine = 0;
   double refine_smoothing_J = 0.0;
@@ -86,6 +87,9 @@ SynthOptions synth_options(const SynthArgs& a) {
   o.params.max_states = a.max_states;
   o.params.cost_threshold_J = a.cost_threshold_J;
   o.params.step_feet = a.step_feet;
+  if (a.energy != "g" && a.energy != "w")
+    throw InputError("energy", 0, "expected g or w, got '" + a.energy + "'");
+  o.params.energy = a.energy == "w" ? SearchEnergy::work : SearchEnergy::g;
   o.params.refine.iterations = a.refine;
   o.params.refine.smoothing_J = a.refine_smoothing_J;
   o.params.refine.polish_sweeps = a.refine_polish;
@@ -299,13 +303,15 @@ void bind_index_synthesize(py::module_& m) {
          const std::string& method, const std::vector<std::string>& picks, std::size_t max_states,
          double cost_threshold_J, bool step_feet, std::optional<double> fps, std::size_t refine,
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
-         bool refine_polish_segments, double refine_polish_smoothing_J, int threads) {
+         bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
+         const std::string& energy) {
         SynthArgs a;
         a.method = method;
         a.picks = picks;
         a.max_states = max_states;
         a.cost_threshold_J = cost_threshold_J;
         a.step_feet = step_feet;
+        a.energy = energy;
         a.fps = fps;
         a.refine = refine;
         a.refine_smoothing_J = refine_smoothing_J;
@@ -322,7 +328,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("step_feet") = true, py::arg("fps") = std::nullopt, py::arg("refine") = 0,
       py::arg("refine_smoothing_J") = 0.0, py::arg("refine_polish") = 0,
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
-      py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0,
+      py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "g",
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

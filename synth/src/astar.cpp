@@ -12,23 +12,40 @@
 #include "measures.hpp"
 #include "mocap/common/dynamics/energy.hpp"
 #include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/dynamics/work_energy.hpp"
 #include "transition_math.hpp"
 
 namespace mocap::synth_detail {
 namespace {
 
+// The search's energy of one step from inverse dynamics already run on both
+// states: g, or W (SupplementParams::energy); per-joint costs into the terms
+// when given.
+double step_energy(SearchEnergy energy, const DynamicsModel& model, const StateView& a,
+                   const StateView& b, double dt, const NewtonEulerData& da,
+                   const NewtonEulerData& db, NewtonEulerWorkspace& ws, FullEnergyTerms* g_terms,
+                   WorkEnergyTerms* w_terms) {
+  if (energy == SearchEnergy::work) return work_energy(model, a, b, dt, da, db, {}, w_terms);
+  return full_energy(model, a, b, dt, da, db, ws, g_terms);
+}
+
 // Energies of steps between world poses with rates from their neighbours.
 struct StepEvaluator {
   const SynthSkeleton& sk;
   double dt;
+  SearchEnergy energy;
   BodyState sa, sb;
   NewtonEulerWorkspace ws;
   FullEnergyTerms terms;
+  WorkEnergyTerms w_terms;
   std::size_t evaluations = 0;
 
-  StepEvaluator(const SynthSkeleton& s, double frame_time) : sk(s), dt(frame_time) {}
+  StepEvaluator(const SynthSkeleton& s, double frame_time, SearchEnergy e)
+      : sk(s), dt(frame_time), energy(e) {}
 
-  // g(A -> B): A's rates from (a_prev, A, B), B's from (A, B, b_next).
+  // The step's energy (g or W) A -> B: A's rates from (a_prev, A, B), B's
+  // from (A, B, b_next); with want_terms, joint_cost() then gives each
+  // joint's part.
   double g(const WorldPose* a_prev, const WorldPose& a, const WorldPose& b, const WorldPose* b_next,
            bool want_terms) {
     const PoseView pa = pose_view(a), pb = pose_view(b);
@@ -38,7 +55,17 @@ struct StepEvaluator {
     sequence_state(sk.model, a_prev ? &pap : nullptr, pa, &pb, dt, sa);
     sequence_state(sk.model, &pa, pb, b_next ? &pbn : nullptr, dt, sb);
     ++evaluations;
-    return full_energy(sk.model, sa.view(), sb.view(), dt, ws, want_terms ? &terms : nullptr);
+    inverse_dynamics(sk.model, sa.view(), ws.a);
+    inverse_dynamics(sk.model, sb.view(), ws.b);
+    return step_energy(energy, sk.model, sa.view(), sb.view(), dt, ws.a, ws.b, ws,
+                       want_terms ? &terms : nullptr, want_terms ? &w_terms : nullptr);
+  }
+
+  // Joint j's part of the last g(..., true): its segment and joint terms of
+  // g, or its joint work and ground work in W.
+  double joint_cost(std::size_t j) const {
+    if (energy == SearchEnergy::work) return w_terms.joint_J[j] + w_terms.ground_J[j];
+    return terms.g.joint_J[j] + terms.g.segment_J[j];
   }
 };
 
@@ -54,7 +81,7 @@ class AStarSearch {
         dt_(gap.frame_time_s),
         n_(sk_.joint_count()),
         planned_(planned),
-        ev_(sk_, dt_) {
+        ev_(sk_, dt_, params.energy) {
     synth_world_pose(sk_, gap.goal, w_goal_);
     synth_world_pose(sk_, gap.after, w_after_);
     // Neighbours of each joint (parent and children that carry rotations).
@@ -172,13 +199,14 @@ class AStarSearch {
     for (std::size_t k = closed_.empty() ? 1 : 0; k + 2 < L; ++k) {
       // g on the steps C changes and on the last two (into S_G, where the
       // velocity jump is), h (or g: exact_lookahead) in between.
-      if (k <= 2 || k + 4 >= L || params_.exact_lookahead) {
+      if (k <= 2 || k + 4 >= L || params_.exact_lookahead || params_.energy == SearchEnergy::work) {
         if (!have_id) inverse_dynamics(sk_.model, seq_states_[k].view(), seq_ids_[k]);
         inverse_dynamics(sk_.model, seq_states_[k + 1].view(), seq_ids_[k + 1]);
         have_id = true;
         ++ev_.evaluations;
-        f += full_energy(sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(), dt_,
-                         seq_ids_[k], seq_ids_[k + 1], ev_.ws);
+        f +=
+            step_energy(params_.energy, sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(),
+                        dt_, seq_ids_[k], seq_ids_[k + 1], ev_.ws, nullptr, nullptr);
       } else {
         have_id = false;
         f += approximate_energy(sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(), dt_);
@@ -241,7 +269,7 @@ class AStarSearch {
     ev_.g(&w_prev_, w_cur_, w_cand_, nullptr, true);
     costs_.clear();
     for (std::size_t j = 0; j < n_; ++j) {
-      const double c = ev_.terms.g.joint_J[j] + ev_.terms.g.segment_J[j];
+      const double c = ev_.joint_cost(j);
       if (c > 0.0) costs_.emplace_back(c, static_cast<int>(j));
     }
     std::sort(costs_.begin(), costs_.end(), [](const auto& x, const auto& y) {

@@ -24,7 +24,8 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
 }
 
 nlohmann::json supplement_params_json(const SupplementParams& params) {
-  return {{"max_states", params.max_states},
+  return {{"energy", params.energy == SearchEnergy::work ? "w" : "g"},
+          {"max_states", params.max_states},
           {"cost_threshold_J", params.cost_threshold_J},
           {"step_feet", params.step_feet},
           {"refine_iterations", params.refine.iterations},

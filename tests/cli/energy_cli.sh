@@ -68,6 +68,7 @@ assert abs(sum(m["step_w_J"]) - m["w_J"]) <= 1e-9 * m["w_J"]
 assert abs(sum(m["parts"].values()) - m["g_J"]) <= 1e-9 * m["g_J"], m["parts"]
 assert abs(sum(m["w_parts"].values()) - m["w_J"]) <= 1e-9 * m["w_J"], m["w_parts"]
 assert 0 <= m["no_contact_ratio"] <= 1 and m["peak_angular_speed_radps"] > 0 and m["peak_joint"]
+assert 0 <= m["skating_ratio"] <= 1 and m["skating_steps"] <= 31
 for d in (m, a):
     assert d["w_J"] >= 0 and set(d["w_parts"]) == {"joint_J", "ground_J", "residual_work_J", "unsupported_J"}
 print("energy --motion JSON ok")
@@ -80,4 +81,15 @@ expect_fail energy --motion "$walk" --from "$walk:1" --to "$walk:2"
 expect_fail energy --motion "$walk" --transition-time 0.1
 expect_fail energy --from "$walk:1" --to "$walk:2" --frames 1-3
 expect_fail energy --motion /nonexistent.bvh
+expect_fail energy --motion "$walk" --unsupported-speed -1
+grep -q "unsupported-speed" "$tmp/err"
+# The price of unsupported force scales only W's unsupported part.
+"$bin" energy --motion "$walk" --frames 40-71 --unsupported-speed 10 --json > "$tmp/m10.json"
+python3 - "$tmp/m.json" "$tmp/m10.json" <<'PY'
+import json, sys
+a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert a["g_J"] == b["g_J"]
+assert abs(b["w_parts"]["unsupported_J"] - 2 * a["w_parts"]["unsupported_J"]) <= 1e-9 * (1 + b["w_J"])
+assert b["w_parts"]["joint_J"] == a["w_parts"]["joint_J"]
+PY
 echo "energy CLI ok"

@@ -58,6 +58,8 @@ def test_invalid_options(index, data_dir):
         index.synthesize(q, refine=4, refine_smoothing_J=-1.0)
     with pytest.raises(mocap.InputError, match="fps"):
         index.synthesize(q, fps=0.0)
+    with pytest.raises(mocap.InputError, match="expected g or w"):
+        index.synthesize(q, energy="work")
     bad = dict(q, frames=q["frames"][:1] + [{"joints": {"NoSuchJoint": {"quat": [1, 0, 0, 0]}}}])
     with pytest.raises(mocap.InputError, match="unknown joint"):
         index.synthesize(bad)
@@ -103,6 +105,17 @@ def test_given_results_and_picks_as_mocap_synth(index, index_path, query_file, s
     assert by_file.bvh() == by_dict.bvh() == theirs
     assert by_file.chosen[0]["rank"] == 2
     assert by_file.report()["timings_ms"]["search"] == 0.0
+
+
+def test_search_energy_as_mocap_synth(index, index_path, query_file, scratch):
+    out = os.path.join(scratch, "w.bvh")
+    theirs = mocap_synth(index_path, query_file, out, "--energy", "w")
+    with open(query_file) as f:
+        query = json.load(f)
+    motion = index.synthesize(query, base_dir=scratch, energy="w")
+    assert motion.bvh() == theirs
+    assert motion.report()["parameters"]["energy"] == "w"
+    assert index.synthesize(query, base_dir=scratch).report()["parameters"]["energy"] == "g"
 
 
 # The motion as arrays.

@@ -10,7 +10,11 @@
 #include <fstream>
 #include <limits>
 #include <string>
+#include <vector>
 
+#include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/dynamics/work_energy.hpp"
+#include "mocap/common/motion/skeleton_motion.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/synth/refine.hpp"
 #include "mocap/synth/synth.hpp"
@@ -432,6 +436,61 @@ TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
     }
   }
   EXPECT_GE(strictly_lower, 2u);
+}
+
+// W (work_energy.hpp) of the transition S_0 -> frames -> S_G, each state's
+// rates from its neighbours (S_-1 and S_G+1 at the ends), as the search
+// costs it.
+double transition_work(const mocap::GapProblem& gap, const std::vector<mocap::SynthFrame>& frames) {
+  const mocap::SynthSkeleton& sk = *gap.skeleton;
+  std::vector<mocap::SynthFrame> seq{gap.before, gap.start};
+  seq.insert(seq.end(), frames.begin(), frames.end());
+  seq.push_back(gap.goal);
+  seq.push_back(gap.after);
+  std::vector<mocap::WorldPose> w(seq.size());
+  for (std::size_t k = 0; k < seq.size(); ++k) mocap::synth_world_pose(sk, seq[k], w[k]);
+  std::vector<mocap::BodyState> st(seq.size());
+  for (std::size_t k = 1; k + 1 < seq.size(); ++k) {
+    const mocap::PoseView p = mocap::pose_view(w[k - 1]), c = mocap::pose_view(w[k]),
+                          n = mocap::pose_view(w[k + 1]);
+    mocap::sequence_state(sk.model, &p, c, &n, gap.frame_time_s, st[k]);
+  }
+  double total = 0.0;
+  mocap::NewtonEulerData da, db;
+  for (std::size_t k = 1; k + 2 < seq.size(); ++k) {
+    mocap::inverse_dynamics(sk.model, st[k].view(), da);
+    mocap::inverse_dynamics(sk.model, st[k + 1].view(), db);
+    total += mocap::work_energy(sk.model, st[k].view(), st[k + 1].view(), gap.frame_time_s, da, db);
+  }
+  return total;
+}
+
+// The search on W keeps the search's guarantee in its own energy: every
+// iteration offers the geodesic step, whose completion is the previous
+// path, so the path's W can only go down from the slerp's; and it changes
+// the path (W is not g).
+TEST(SynthSupplement, AStarOnWNeverCostsMoreWThanSlerp) {
+  REQUIRE_INDEX();
+  std::size_t strictly_lower = 0, differs_from_g = 0;
+  for (const auto& [xn, yn] : kRefinePairs) {
+    auto g = make_gap(index, xn, 20, yn, 30);
+    mocap::SupplementParams p;
+    p.energy = mocap::SearchEnergy::work;
+    p.step_feet = false;
+    mocap::SupplementStats st;
+    const auto a = mocap::supplement_astar(g->gap, p, &st);
+    ASSERT_EQ(st.stop_reason, "horizon") << xn;
+    const double wa = transition_work(g->gap, a);
+    const double ws = transition_work(g->gap, mocap::slerp_transition(g->gap, a.size()));
+    EXPECT_LE(wa, ws * (1 + 1e-9)) << xn;
+    if (wa < ws * 0.999) ++strictly_lower;
+    mocap::SupplementParams pg = p;
+    pg.energy = mocap::SearchEnergy::g;
+    const auto ag = mocap::supplement_astar(g->gap, pg, nullptr);
+    if (ag.size() != a.size() || transition_work(g->gap, ag) != wa) ++differs_from_g;
+  }
+  EXPECT_GE(strictly_lower, 2u);
+  EXPECT_GE(differs_from_g, 2u);
 }
 
 TEST(SynthSupplement, IdenticalEndsCostLittle) {

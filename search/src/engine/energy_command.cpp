@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mocap/common/body/body.hpp"
+#include "mocap/common/body/joint_classes.hpp"
 #include "mocap/common/body/retarget.hpp"
 #include "mocap/common/body/skeleton.hpp"
 #include "mocap/common/dynamics/dynamics.hpp"
@@ -16,6 +17,7 @@
 #include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/common/dynamics/work_energy.hpp"
 #include "mocap/common/io/bvh.hpp"
+#include "mocap/common/motion/skeleton_motion.hpp"
 #include "mocap/common/util/error.hpp"
 
 namespace mocap {
@@ -363,6 +365,31 @@ void peak_joint_speed(const LoadedClip& c, double dt, MotionEnergyReport& r) {
   }
 }
 
+// Steps in which a foot or toe joint skates: its origin below
+// kSkatingHeightM above the ground in both frames, moving horizontally
+// faster than kSkatingSpeedMps (the synthesis measures' rule).
+void skating_steps(const LoadedClip& c, double dt, MotionEnergyReport& r) {
+  std::vector<std::size_t> feet;
+  const auto classes = classify_joints(c.skeleton);
+  for (std::size_t j = 0; j < classes.size(); ++j)
+    if ((classes[j].first == SegmentClass::foot || classes[j].first == SegmentClass::toes) &&
+        c.model.masses_kg[j] > 0.0)
+      feet.push_back(j);
+  const double ground = c.model.params.ground_height_m;
+  for (std::size_t f = r.first_frame; f < r.last_frame; ++f) {
+    const StateView a = c.dynamics.state(f), b = c.dynamics.state(f + 1);
+    for (const std::size_t j : feet) {
+      const Eigen::Vector3d& pa = a.joint_positions_m[j];
+      const Eigen::Vector3d& pb = b.joint_positions_m[j];
+      if (pa.y() - ground < kSkatingHeightM && pb.y() - ground < kSkatingHeightM &&
+          std::hypot(pb.x() - pa.x(), pb.z() - pa.z()) > kSkatingSpeedMps * dt) {
+        ++r.skating_steps;
+        break;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 MotionEnergyReport run_motion_energy_command(const MotionEnergyOptions& o) {
@@ -385,6 +412,7 @@ MotionEnergyReport run_motion_energy_command(const MotionEnergyOptions& o) {
   r.total_mass_kg = c.model.total_mass_kg;
   sum_motion_steps(c, raw.frame_time_s, o.work, r);
   peak_joint_speed(c, raw.frame_time_s, r);
+  skating_steps(c, raw.frame_time_s, r);
   return r;
 }
 
@@ -419,6 +447,9 @@ std::string motion_energy_report_json(const MotionEnergyReport& r) {
   j["no_contact_ratio"] = static_cast<double>(r.no_contact_frames) / static_cast<double>(frames);
   j["peak_angular_speed_radps"] = r.peak_angular_speed_radps;
   j["peak_joint"] = r.peak_joint;
+  j["skating_steps"] = r.skating_steps;
+  j["skating_ratio"] =
+      static_cast<double>(r.skating_steps) / static_cast<double>(r.step_g_J.size());
   j["character"] = r.character;
   j["total_mass_kg"] = r.total_mass_kg;
   j["unit"] = r.unit;
@@ -440,8 +471,10 @@ std::string motion_energy_report_text(const MotionEnergyReport& r) {
       "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}\n",
       r.w_J, r.w_joint_J, r.w_ground_J, r.w_residual_work_J, r.w_unsupported_J);
   s += fmt::format(
-      "frames without contact {} of {}   peak joint angular speed {:.3g} rad/s ({})\n\n",
-      r.no_contact_frames, frames, r.peak_angular_speed_radps, r.peak_joint);
+      "frames without contact {} of {}   peak joint angular speed {:.3g} rad/s ({})   skating "
+      "steps {} of {}\n\n",
+      r.no_contact_frames, frames, r.peak_angular_speed_radps, r.peak_joint, r.skating_steps,
+      r.step_g_J.size());
   s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
   for (const auto& t : r.terms)
     s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",

@@ -152,6 +152,10 @@ struct MotionEnergyReport {
   /// the steps, rad/s, and that joint's name ("" for a motion without one).
   double peak_angular_speed_radps = 0.0;
   std::string peak_joint;
+  /// Steps in which a foot or toe joint skates (docs/synthesis.md
+  /// "Measures": below kSkatingHeightM in both frames, faster than
+  /// kSkatingSpeedMps horizontally).
+  std::size_t skating_steps = 0;
 };
 
 /// Runs `energy --motion`. Bad input (unreadable / malformed file, frames
@@ -163,7 +167,8 @@ MotionEnergyReport run_motion_energy_command(const MotionEnergyOptions& options)
 ///  "joint_work_J", "residual_work_J", "residual_impulse_J"}, "w_J", "w_parts":
 ///  {"joint_J", "ground_J", "residual_work_J", "unsupported_J"}, "terms":
 ///  [{"name", "kind", "h_J", "g_J"}], "step_g_J": [...], "step_w_J": [...], "no_contact_frames",
-///  "no_contact_ratio", "peak_angular_speed_radps", "peak_joint", "character",
+///  "no_contact_ratio", "peak_angular_speed_radps", "peak_joint", "skating_steps",
+///  "skating_ratio", "character",
 ///  "total_mass_kg", "unit"} on one line.
 std::string motion_energy_report_json(const MotionEnergyReport& report);
 /// Human-readable summary and table.

@@ -79,7 +79,15 @@ struct RefineOptions {
 enum class TransitionMethod { astar, slerp, inertialize };
 const char* transition_method_name(TransitionMethod m);
 
+/// The energy the A* search minimises (docs/synthesis.md "The search's
+/// energy"): the paper's g (newton_euler.hpp) or W, the work energy
+/// (work_energy.hpp; its unsupported force priced at the default 5 m/s).
+enum class SearchEnergy { g, work };
+
 struct SupplementParams {
+  /// The search's step cost, its stop test (T_c) and its choice of the
+  /// joints to vary.
+  SearchEnergy energy = SearchEnergy::g;
   /// T_n: at most this many inserted states (frames) per gap.
   std::size_t max_states = 60;
   /// T_c: stop when the step cost g(S -> S_G) is below this, joules.
