@@ -1,10 +1,12 @@
 // The A* search of the paper's figure 4 (astar.hpp): one state accepted per
-// iteration, chosen among the geodesic step, its foot-planted variants and
-// per-joint variants by f = g of the steps it changes + the cost of its
-// geodesic completion to the goal. docs/synthesis.md gives every choice.
+// iteration, chosen among the geodesic step, its foot-planted variants,
+// (searching on W) its stepping variants and per-joint variants by f = the
+// energy (g or W) of the steps it changes + the cost of its geodesic
+// completion to the goal. docs/synthesis.md gives every choice.
 #include "astar.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 
@@ -17,6 +19,11 @@
 
 namespace mocap::synth_detail {
 namespace {
+
+// Stepping proposals (search on W): a swing's length, seconds, and the
+// ankle's rise or fall per proposed step, metres.
+constexpr double kSwingS = 0.4;
+constexpr double kLiftStepM = 0.03;
 
 // The search's energy of one step from inverse dynamics already run on both
 // states: g, or W (SupplementParams::energy); per-joint costs into the terms
@@ -92,7 +99,14 @@ class AStarSearch {
         adjacent_[j].push_back(p);
       for (int c : sk_.skeleton.children(static_cast<int>(j))) adjacent_[j].push_back(c);
     }
-    if (params.plant_feet) legs_ = leg_chains(sk_);
+    if (params.plant_feet || params.energy == SearchEnergy::work) legs_ = leg_chains(sk_);
+    // A leg's ankle height when it stands: the lower of S_0's and S_G's.
+    WorldPose w_start;
+    synth_world_pose(sk_, gap.start, w_start);
+    for (const LegChain& leg : legs_) {
+      const auto a = static_cast<std::size_t>(leg.ankle);
+      stance_height_.push_back(std::min(w_start.positions_m[a].y(), w_goal_.positions_m[a].y()));
+    }
     prev_ = gap.before;
     cur_ = gap.start;
   }
@@ -149,7 +163,8 @@ class AStarSearch {
     // from cur (the previous iteration's path): the path never slides more
     // than the slerp transition of the same length.
     slide_limit_ = window_slide_ + 1e-9;
-    if (!legs_.empty()) try_planted_feet();
+    if (!legs_.empty() && params_.plant_feet) try_planted_feet();
+    if (!legs_.empty() && params_.energy == SearchEnergy::work) try_steps(remaining);
     try_joint_variants();
   }
 
@@ -215,11 +230,12 @@ class AStarSearch {
     return f;
   }
 
-  // Keeps `cand` as best_ when its f is lower and it slides no more than
-  // the geodesic completion.
+  // Keeps `cand` as best_ when its f is lower and, in the search on g, it
+  // slides no more than the geodesic completion (W prices sliding itself:
+  // friction of a contact, or the support a fast foot does not give).
   void try_candidate(SynthFrame&& cand) {
     const double f = score(cand);
-    if (f < best_f_ && window_slide_ <= slide_limit_) {
+    if (f < best_f_ && (window_slide_ <= slide_limit_ || params_.energy == SearchEnergy::work)) {
       best_f_ = f;
       best_ = std::move(cand);
     }
@@ -259,6 +275,56 @@ class AStarSearch {
       }
       if (all) try_candidate(std::move(both));
     }
+  }
+
+  // Stepping proposals (the search on W only): each leg's ankle lifted,
+  // carried or set down toward where the geodesic completion would have it
+  // a swing from now (S_G's foot when fewer steps remain), its leg turned by
+  // inverse kinematics, with the other leg kept planted where it is down.
+  // W prices what a glide or a step costs; the search chooses.
+  void try_steps(std::size_t remaining) {
+    const SynthFrame base = best_;
+    synth_world_pose(sk_, base, w_cand_);
+    const auto swing = static_cast<std::size_t>(std::ceil(kSwingS / dt_));
+    const double s = std::min(1.0, static_cast<double>(swing) / static_cast<double>(remaining));
+    geodesic_frame(cur_, gap_.goal, s, roll_frame_);
+    synth_world_pose(sk_, roll_frame_, w_ahead_);
+    const EnergyParams& ep = sk_.model.params;
+    for (std::size_t l = 0; l < legs_.size(); ++l) {
+      const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
+      const Eigen::Vector3d now = w_cur_.positions_m[ankle];
+      const Eigen::Vector3d ahead = w_ahead_.positions_m[ankle];
+      const double stance = stance_height_[l];
+      for (double u : {0.25, 0.5}) {
+        for (double dy : {kLiftStepM, 0.0, -kLiftStepM, -1.0}) {  // -1: set down
+          Eigen::Vector3d t = now + u * (ahead - now);
+          t.y() = dy < -0.5 ? stance : std::max(stance, now.y() + dy);
+          SynthFrame cand = base;
+          if (!plant_other_legs(l, ep, cand)) continue;
+          const Eigen::Quaterniond r = w_cur_.rotations[ankle].slerp(u, w_ahead_.rotations[ankle]);
+          if (plant_leg(sk_, gap_.range, legs_[l], t, r, cand, w_ik_))
+            try_candidate(std::move(cand));
+        }
+      }
+    }
+  }
+
+  // Every leg but `skip` that is down in cur_ kept where it is (planted);
+  // false when inverse kinematics fails for one.
+  bool plant_other_legs(std::size_t skip, const EnergyParams& ep, SynthFrame& f) {
+    for (std::size_t l = 0; l < legs_.size(); ++l) {
+      if (l == skip) continue;
+      bool down = false;
+      for (int fj : legs_[l].feet)
+        down =
+            down || contact_point(sk_, w_cur_, fj).y() - ep.ground_height_m <= ep.contact_height_m;
+      if (!down) continue;
+      const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
+      if (!plant_leg(sk_, gap_.range, legs_[l], w_cur_.positions_m[ankle], w_cur_.rotations[ankle],
+                     f, w_ik_))
+        return false;
+    }
+    return true;
   }
 
   // The costliest joints of the proposal step, in decreasing order, each
@@ -332,7 +398,8 @@ class AStarSearch {
   const std::size_t n_;
   const std::size_t planned_;
   StepEvaluator ev_;
-  WorldPose w_goal_, w_after_, w_prev_, w_cur_, w_cand_, w_ik_, w_pprev_;
+  WorldPose w_goal_, w_after_, w_prev_, w_cur_, w_cand_, w_ik_, w_pprev_, w_ahead_;
+  std::vector<double> stance_height_;  // per leg: its ankle's height standing, m
   std::vector<std::vector<int>> adjacent_;
   std::vector<LegChain> legs_;
   // CLOSED: accepted states (the path).
