@@ -164,7 +164,17 @@ class AStarSearch {
     // than the slerp transition of the same length.
     slide_limit_ = window_slide_ + 1e-9;
     if (!legs_.empty() && params_.plant_feet) try_planted_feet();
-    if (!legs_.empty() && params_.energy == SearchEnergy::work) try_steps(remaining);
+    if (params_.energy == SearchEnergy::work) {
+      // The whole velocity-continuous (Hermite) step, and half-way to it:
+      // the step that meets S_G with its own velocity, where W's price of
+      // a velocity jump (unsupported force) is highest.
+      const SynthFrame base = best_;
+      try_candidate(SynthFrame(smooth_));
+      SynthFrame half;
+      geodesic_frame(base, smooth_, 0.5, half);
+      try_candidate(std::move(half));
+      if (!legs_.empty()) try_steps(remaining);
+    }
     try_joint_variants();
   }
 

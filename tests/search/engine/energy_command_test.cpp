@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <utility>
 
@@ -214,6 +216,9 @@ TEST(EnergyCommand, BadInputsAreInputErrors) {
   o = options(0, 1);
   o.character = "/nonexistent/character.json";
   EXPECT_THROW(run_energy_command(o), InputError);
+  o = options(0, 1);
+  o.work.unsupported_speed_mps = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(run_energy_command(o), InputError);
 }
 
 // --- energy --motion: a whole motion summed over its steps ---------------
@@ -246,6 +251,11 @@ TEST(MotionEnergyCommand, BadInputsAreInputErrorsNamingTheSource) {
   o = motion_options(0, 1);
   o.character = "/nonexistent/character.json";
   EXPECT_THROW(run_motion_energy_command(o), InputError);
+  o = motion_options(0, 1);
+  o.work.unsupported_speed_mps = -1.0;
+  expect_source(o, "--unsupported-speed", "finite speed");
+  o.work.unsupported_speed_mps = std::nan("");
+  expect_source(o, "--unsupported-speed", "finite speed");
   // A file of one frame holds no step.
   const auto one = test::temp_dir("motion-energy-one") / "one.bvh";
   std::ofstream(one) << "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition "
