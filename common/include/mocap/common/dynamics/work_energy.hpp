@@ -2,8 +2,8 @@
 // W, the work energy of a step A -> B: the mechanical work a body does,
 // counted once, plus a price for what physics forbids (docs/energy.md "W:
 // the work energy"). It is measured beside the paper's g (newton_euler.hpp)
-// by `mocap-search energy` and scripts/energy-realism; synthesis still
-// minimises g.
+// by `mocap-search energy` and scripts/energy-realism; synthesis minimises
+// g by default and W with `mocap-synth --energy w` (SearchEnergy::work).
 //
 // From the same inverse dynamics as g (the same contacts, joint wrenches and
 // residual), each force's work by the trapezoid rule (mean of its value in A
@@ -33,7 +33,8 @@
 // supports, v_u T M g for one held in the air; invariant under horizontal
 // moves and turns about the vertical; the joint terms equal g's joint work
 // (FullEnergyTerms::joint_work_J); the same in centimetres and metres.
-// W is not bounded below by h: it is not (yet) the A* search's energy.
+// W is not bounded below by h: h is no A* estimate of it (the search on W
+// costs its completions exactly).
 #include <cstddef>
 #include <vector>
 
