@@ -9,6 +9,7 @@
 
 #include "mocap/common/dynamics/energy.hpp"
 #include "mocap/common/dynamics/newton_euler.hpp"
+#include "mocap/common/dynamics/work_energy.hpp"
 #include "mocap/synth/path_cache.hpp"
 #include "transition_math.hpp"
 
@@ -156,9 +157,15 @@ TransitionMeasures measure_transition(const GapProblem& gap,
   FullEnergyTerms terms;
   TransitionMeasures::EnergySplit& split = m.energy_split;
   SkatingTally skating;
+  WorkEnergyTerms w_terms;
+  std::size_t no_contact = ids[1].contact_count == 0 ? 1 : 0;
   for (std::size_t k = 1; k + 2 < L; ++k) {
     const double g = full_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
                                  ids[k + 1], ws, &terms);
+    m.work_energy_J += work_energy(sk.model, states[k].view(), states[k + 1].view(), dt, ids[k],
+                                   ids[k + 1], {}, &w_terms);
+    m.unsupported_J += w_terms.unsupported_J;
+    if (ids[k + 1].contact_count == 0) ++no_contact;
     m.step_energies_J.push_back(g);
     m.energy_J += g;
     split.h_J += terms.h.total();
@@ -175,6 +182,7 @@ TransitionMeasures measure_transition(const GapProblem& gap,
     m.peak_angular_speed_radps =
         std::max(m.peak_angular_speed_radps, step_peak_angular_speed(gap, *seq[k], *seq[k + 1]));
   }
+  m.no_contact_ratio = static_cast<double>(no_contact) / static_cast<double>(L - 2);
   m.range_violations = count_range_violations(gap, frames);
   m.foot_sliding_m = skating.sliding_m;
   m.skating_ratio = skating.ratio();

@@ -483,6 +483,12 @@ TEST(SynthSupplement, AStarOnWNeverCostsMoreWThanSlerp) {
     const double wa = transition_work(g->gap, a);
     const double ws = transition_work(g->gap, mocap::slerp_transition(g->gap, a.size()));
     EXPECT_LE(wa, ws * (1 + 1e-9)) << xn;
+    // The report's measure is the same W (its own path through PathCache).
+    const mocap::TransitionMeasures m = mocap::measure_transition(g->gap, a);
+    EXPECT_NEAR(m.work_energy_J, wa, 1e-9 * wa) << xn;
+    EXPECT_GE(m.work_energy_J, m.unsupported_J);
+    EXPECT_GE(m.no_contact_ratio, 0.0);
+    EXPECT_LE(m.no_contact_ratio, 1.0);
     if (wa < ws * 0.999) ++strictly_lower;
     mocap::SupplementParams pg = p;
     pg.energy = mocap::SearchEnergy::g;

@@ -214,6 +214,13 @@ struct TransitionMeasures {
   std::size_t range_violations = 0;
   /// max over steps and joints of |log(q_f+1 q_f^-1)| / dt, local rotations, rad/s.
   double peak_angular_speed_radps = 0.0;
+  /// W, the work energy (work_energy.hpp), over the same steps, and its
+  /// unsupported part (v_u T |F_res|: the support no contact gives), joules.
+  double work_energy_J = 0.0;
+  double unsupported_J = 0.0;
+  /// The fraction of the states S_0 .. S_G with no contact point on the
+  /// ground (inverse_dynamics's contact test).
+  double no_contact_ratio = 0.0;
   /// g of each step (frames + 1 values), joules.
   std::vector<double> step_energies_J;
   /// energy_J split by term (docs/energy.md, "g"), summed over the same
