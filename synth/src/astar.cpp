@@ -45,6 +45,7 @@ struct StepEvaluator {
   NewtonEulerWorkspace ws;
   FullEnergyTerms terms;
   WorkEnergyTerms w_terms;
+  WorkEnergyTerms w_scratch;  // score()'s: W's terms reused, not allocated per step
   std::size_t evaluations = 0;
 
   StepEvaluator(const SynthSkeleton& s, double frame_time, SearchEnergy e)
@@ -231,7 +232,7 @@ class AStarSearch {
         ++ev_.evaluations;
         f +=
             step_energy(params_.energy, sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(),
-                        dt_, seq_ids_[k], seq_ids_[k + 1], ev_.ws, nullptr, nullptr);
+                        dt_, seq_ids_[k], seq_ids_[k + 1], ev_.ws, nullptr, &ev_.w_scratch);
       } else {
         have_id = false;
         f += approximate_energy(sk_.model, seq_states_[k].view(), seq_states_[k + 1].view(), dt_);
@@ -256,14 +257,9 @@ class AStarSearch {
   // kinematics, each leg alone and both together.
   void try_planted_feet() {
     synth_world_pose(sk_, best_, w_cand_);
-    const EnergyParams& ep = sk_.model.params;
     std::vector<std::size_t> down;
     for (std::size_t l = 0; l < legs_.size(); ++l)
-      for (int fj : legs_[l].feet)
-        if (contact_point(sk_, w_cur_, fj).y() - ep.ground_height_m <= ep.contact_height_m) {
-          down.push_back(l);
-          break;
-        }
+      if (leg_down(l)) down.push_back(l);
     const SynthFrame base = best_;
     auto planted = [&](const SynthFrame& from, std::size_t l, double alpha, SynthFrame& out) {
       const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
@@ -299,8 +295,9 @@ class AStarSearch {
     const double s = std::min(1.0, static_cast<double>(swing) / static_cast<double>(remaining));
     geodesic_frame(cur_, gap_.goal, s, roll_frame_);
     synth_world_pose(sk_, roll_frame_, w_ahead_);
-    const EnergyParams& ep = sk_.model.params;
     for (std::size_t l = 0; l < legs_.size(); ++l) {
+      SynthFrame planted = base;  // the other legs, where down, kept in place
+      if (!plant_other_legs(l, planted)) continue;
       const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
       const Eigen::Vector3d now = w_cur_.positions_m[ankle];
       const Eigen::Vector3d ahead = w_ahead_.positions_m[ankle];
@@ -309,8 +306,7 @@ class AStarSearch {
         for (double dy : {kLiftStepM, 0.0, -kLiftStepM, -1.0}) {  // -1: set down
           Eigen::Vector3d t = now + u * (ahead - now);
           t.y() = dy < -0.5 ? stance : std::max(stance, now.y() + dy);
-          SynthFrame cand = base;
-          if (!plant_other_legs(l, ep, cand)) continue;
+          SynthFrame cand = planted;
           const Eigen::Quaterniond r = w_cur_.rotations[ankle].slerp(u, w_ahead_.rotations[ankle]);
           if (plant_leg(sk_, gap_.range, legs_[l], t, r, cand, w_ik_))
             try_candidate(std::move(cand));
@@ -319,16 +315,21 @@ class AStarSearch {
     }
   }
 
+  // Leg l is down in cur_: one of its foot joints' contact points within
+  // contact height of the ground.
+  bool leg_down(std::size_t l) const {
+    const EnergyParams& ep = sk_.model.params;
+    for (int fj : legs_[l].feet)
+      if (contact_point(sk_, w_cur_, fj).y() - ep.ground_height_m <= ep.contact_height_m)
+        return true;
+    return false;
+  }
+
   // Every leg but `skip` that is down in cur_ kept where it is (planted);
   // false when inverse kinematics fails for one.
-  bool plant_other_legs(std::size_t skip, const EnergyParams& ep, SynthFrame& f) {
+  bool plant_other_legs(std::size_t skip, SynthFrame& f) {
     for (std::size_t l = 0; l < legs_.size(); ++l) {
-      if (l == skip) continue;
-      bool down = false;
-      for (int fj : legs_[l].feet)
-        down =
-            down || contact_point(sk_, w_cur_, fj).y() - ep.ground_height_m <= ep.contact_height_m;
-      if (!down) continue;
+      if (l == skip || !leg_down(l)) continue;
       const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
       if (!plant_leg(sk_, gap_.range, legs_[l], w_cur_.positions_m[ankle], w_cur_.rotations[ankle],
                      f, w_ik_))

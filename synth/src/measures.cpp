@@ -52,8 +52,7 @@ StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const Worl
     const Eigen::Vector3d& pb = b.positions_m[ju];
     if (pa.y() - ground < kSkatingHeightM || pb.y() - ground < kSkatingHeightM)
       out.airborne = false;
-    if (pa.y() - ground >= kSkatingHeightM || pb.y() - ground >= kSkatingHeightM) continue;
-    const double v = std::hypot(pb.x() - pa.x(), pb.z() - pa.z()) / dt;
+    const double v = low_foot_speed(pa, pb, dt, ground);
     if (v <= kSkatingSpeedMps) continue;
     ++out.joints;
     out.speed_sum += v;

@@ -125,6 +125,21 @@ inline void pose_from_locals(const Skeleton& skel, const Eigen::Vector3d& root_t
   }
 }
 
+/// The body standing still in its rest pose (every local rotation the
+/// identity), the root moved by `move` (metres): a static state, feet on
+/// the ground at move = 0.
+inline BodyState standing_state(const TestBody& t,
+                                const Eigen::Vector3d& move = Eigen::Vector3d::Zero()) {
+  const std::size_t n = t.model.joint_count();
+  std::vector<Eigen::Quaterniond> locals(n, Eigen::Quaterniond::Identity());
+  std::vector<Eigen::Vector3d> x;
+  std::vector<Eigen::Quaterniond> r;
+  pose_from_locals(t.skeleton, move, locals, x, r);
+  BodyState s;
+  static_state(t.model, PoseView{x.data(), r.data()}, s);
+  return s;
+}
+
 /// A random state on the model: random pose near the rest pose (root moved,
 /// joints bent by up to `bend` rad), random rates of the given scales.
 inline BodyState random_state(const TestBody& t, std::mt19937& rng, double bend = 0.8,

@@ -1,5 +1,7 @@
 #pragma once
-// Builds small RawClips in code for tests that must not depend on the BVH parser.
+// Builds small RawClips in code for tests that must not depend on the BVH parser,
+// and changes a clip's length unit (in_metres).
+#include <cstddef>
 #include <initializer_list>
 #include <string>
 #include <vector>
@@ -44,5 +46,21 @@ class RawClipBuilder {
  private:
   RawClip clip_;
 };
+
+/// A copy of a clip written in centimetres with every length in metres
+/// (offsets, end sites and position channels times 0.01): the same motion in
+/// another unit.
+inline RawClip in_metres(const RawClip& cm) {
+  RawClip m = cm;
+  for (RawJoint& j : m.joints) {
+    j.offset *= 0.01;
+    j.end_site *= 0.01;
+    for (std::size_t c = 0; c < j.channels.size(); ++c)
+      if (!channel_is_rotation(j.channels[c]))
+        for (std::size_t f = 0; f < m.frame_count; ++f)
+          m.values[f * m.channel_count + j.first_column + c] *= 0.01;
+  }
+  return m;
+}
 
 }  // namespace mocap::test

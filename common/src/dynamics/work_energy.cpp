@@ -21,9 +21,10 @@ namespace {
 // The joint torque's work over the joint's own rotation step (J): term
 // joints below a body root.
 void joint_work(const DynamicsModel& model, const StateView& a, const StateView& b,
-                const NewtonEulerData& da, const NewtonEulerData& db, std::vector<double>& out) {
+                const NewtonEulerData& da, const NewtonEulerData& db,
+                std::vector<Eigen::Vector3d>& steps, std::vector<double>& out) {
   const std::size_t n = model.joint_count();
-  std::vector<Eigen::Vector3d> steps(n);
+  steps.resize(n);
   for (std::size_t j = 0; j < n; ++j) steps[j] = rotation_step(a.rotations[j], b.rotations[j]);
   for (int jj : model.term_joints) {
     const auto j = static_cast<std::size_t>(jj);
@@ -46,17 +47,17 @@ double ground_work(const DynamicsModel& model, const StateView& a, const StateVi
                    model.params.friction_coefficient * std::hypot(slide.x(), slide.z()));
 }
 
-// The body roots' residual wrench: its work over the step (as g's) and the
-// mean magnitude of the whole-body residual force (N).
+// The body roots' residual wrench: its work over the step (as g's), through
+// each root's COM displacement and rotation step (steps[j], rad).
 double residual_work(const DynamicsModel& model, const StateView& a, const StateView& b,
-                     const NewtonEulerData& da, const NewtonEulerData& db) {
+                     const NewtonEulerData& da, const NewtonEulerData& db,
+                     const std::vector<Eigen::Vector3d>& steps) {
   double w = 0.0;
   for (int jj : model.body_roots) {
     const auto j = static_cast<std::size_t>(jj);
     const detail::MeanWrench r = detail::mean_residual_wrench(a, b, da, db, j);
     const Eigen::Vector3d dc = b.coms_m[j] - a.coms_m[j];
-    const Eigen::Vector3d dphi = rotation_step(a.rotations[j], b.rotations[j]);
-    w += std::abs(r.force_N.dot(dc) + r.moment_Nm.dot(dphi));
+    w += std::abs(r.force_N.dot(dc) + r.moment_Nm.dot(steps[j]));
   }
   return w;
 }
@@ -76,12 +77,12 @@ double work_energy(const DynamicsModel& model, const StateView& a, const StateVi
   WorkEnergyTerms& t = terms != nullptr ? *terms : local;
   t.joint_J.assign(n, 0.0);
   t.ground_J.assign(n, 0.0);
-  joint_work(model, a, b, da, db, t.joint_J);
+  joint_work(model, a, b, da, db, t.rotation_steps, t.joint_J);
   for (int jj : model.segments) {
     const auto j = static_cast<std::size_t>(jj);
     if (da.in_contact[j] || db.in_contact[j]) t.ground_J[j] = ground_work(model, a, b, da, db, j);
   }
-  t.residual_work_J = residual_work(model, a, b, da, db);
+  t.residual_work_J = residual_work(model, a, b, da, db, t.rotation_steps);
   t.unsupported_J = params.unsupported_speed_mps * transition_time_s * 0.5 *
                     (da.residual_force_N.norm() + db.residual_force_N.norm());
   return t.total();

@@ -89,12 +89,19 @@ SynthSkeleton make_synth_skeleton(const ClipSource& clips, std::uint32_t skeleto
   for (int j = sk.root_joint; j >= 0; j = sk.skeleton.parents[static_cast<std::size_t>(j)])
     sk.is_root_chain[static_cast<std::size_t>(j)] = 1;
   sk.classes = classify_joints(sk.skeleton);
-  for (std::size_t j = 0; j < n; ++j) {
-    const SegmentClass c = sk.classes[j].first;
-    if ((c == SegmentClass::foot || c == SegmentClass::toes) && sk.model.masses_kg[j] > 0.0)
-      sk.foot_joints.push_back(static_cast<int>(j));
-  }
+  sk.foot_joints = foot_joints(sk.classes, sk.model);
   return sk;
+}
+
+std::vector<int> foot_joints(const std::vector<std::pair<SegmentClass, Side>>& classes,
+                             const DynamicsModel& model) {
+  std::vector<int> out;
+  for (std::size_t j = 0; j < classes.size(); ++j) {
+    const SegmentClass c = classes[j].first;
+    if ((c == SegmentClass::foot || c == SegmentClass::toes) && model.masses_kg[j] > 0.0)
+      out.push_back(static_cast<int>(j));
+  }
+  return out;
 }
 
 RangeOfMotion range_of_motion(const Index& index, const SynthSkeleton& sk,

@@ -129,24 +129,50 @@ void check_work_params(const WorkEnergyParams& p) {
     throw InputError("--unsupported-speed", 0, "must be a finite speed >= 0 (m/s)");
 }
 
-// W's parts summed into a report's w_* fields (EnergyReport or MotionEnergyReport).
-template <typename Report>
-void add_work_parts(const WorkEnergyTerms& w, Report& r) {
-  for (const double v : w.joint_J) r.w_joint_J += v;
-  for (const double v : w.ground_J) r.w_ground_J += v;
-  r.w_residual_work_J += w.residual_work_J;
-  r.w_unsupported_J += w.unsupported_J;
+// "w_parts" of both reports' JSON.
+nlohmann::json work_parts_json(const WorkEnergySums& w) {
+  return {{"joint_J", w.joint_J},
+          {"ground_J", w.ground_J},
+          {"residual_work_J", w.residual_work_J},
+          {"unsupported_J", w.unsupported_J}};
 }
 
-template <typename Report>
-nlohmann::json work_parts_json(const Report& r) {
-  return {{"joint_J", r.w_joint_J},
-          {"ground_J", r.w_ground_J},
-          {"residual_work_J", r.w_residual_work_J},
-          {"unsupported_J", r.w_unsupported_J}};
+// "terms" of both reports' JSON.
+nlohmann::json terms_json(const std::vector<EnergyTermReport>& terms) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& t : terms)
+    out.push_back({{"name", t.name},
+                   {"kind", t.is_joint ? "joint" : "segment"},
+                   {"h_J", t.h_J},
+                   {"g_J", t.g_J}});
+  return out;
+}
+
+// The W line of both reports' text (no newline).
+std::string work_line(const WorkEnergySums& w) {
+  return fmt::format(
+      "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}",
+      w.total_J, w.joint_J, w.ground_J, w.residual_work_J, w.unsupported_J);
+}
+
+// The table of terms ending both reports' text.
+std::string terms_table(const std::vector<EnergyTermReport>& terms) {
+  std::string s = fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
+  for (const auto& t : terms)
+    s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",
+                     t.h_J, t.g_J);
+  return s;
 }
 
 }  // namespace
+
+void WorkEnergySums::add(const WorkEnergyTerms& step) {
+  total_J += step.total();
+  for (const double v : step.joint_J) joint_J += v;
+  for (const double v : step.ground_J) ground_J += v;
+  residual_work_J += step.residual_work_J;
+  unsupported_J += step.unsupported_J;
+}
 
 EnergyReport run_energy_command(const EnergyCommandOptions& o) {
   if (!(o.transition_time_s > 0.0) || !std::isfinite(o.transition_time_s))
@@ -214,8 +240,8 @@ EnergyReport run_energy_command(const EnergyCommandOptions& o) {
   r.residual_work_J = terms.residual_work_J;
   r.residual_impulse_J = terms.residual_impulse_J;
   WorkEnergyTerms w;
-  r.w_J = work_energy(model, sa, sb, o.transition_time_s, ws.a, ws.b, o.work, &w);
-  add_work_parts(w, r);
+  work_energy(model, sa, sb, o.transition_time_s, ws.a, ws.b, o.work, &w);
+  r.w.add(w);
   return r;
 }
 
@@ -223,13 +249,7 @@ std::string energy_report_json(const EnergyReport& r) {
   nlohmann::json j;
   j["h_J"] = r.h_J;
   j["g_J"] = r.g_J;
-  nlohmann::json terms = nlohmann::json::array();
-  for (const auto& t : r.terms)
-    terms.push_back({{"name", t.name},
-                     {"kind", t.is_joint ? "joint" : "segment"},
-                     {"h_J", t.h_J},
-                     {"g_J", t.g_J}});
-  j["terms"] = std::move(terms);
+  j["terms"] = terms_json(r.terms);
   j["from"] = {{"file", r.from.file.string()}, {"frame", r.from.frame}};
   j["to"] = {{"file", r.to.file.string()}, {"frame", r.to.frame}};
   j["transition_time_s"] = r.transition_time_s;
@@ -238,8 +258,8 @@ std::string energy_report_json(const EnergyReport& r) {
   j["unit"] = {{"from", r.from_unit}, {"to", r.to_unit}};
   j["contacts"] = {{"from", r.from_contacts}, {"to", r.to_contacts}};
   j["residual"] = {{"work_J", r.residual_work_J}, {"impulse_J", r.residual_impulse_J}};
-  j["w_J"] = r.w_J;
-  j["w_parts"] = work_parts_json(r);
+  j["w_J"] = r.w.total_J;
+  j["w_parts"] = work_parts_json(r.w);
   j["cross_rig"] = r.cross_rig;
   if (r.cross_rig) j["compared_classes"] = r.compared_classes;
   return json_text(j);
@@ -254,19 +274,13 @@ std::string energy_report_text(const EnergyReport& r) {
       "h = {:.6g} J   g = {:.6g} J   (contacts {} / {}, root residual work {:.4g} J, impulse "
       "{:.4g} J)\n\n",
       r.h_J, r.g_J, r.from_contacts, r.to_contacts, r.residual_work_J, r.residual_impulse_J);
-  s += fmt::format(
-      "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}\n\n",
-      r.w_J, r.w_joint_J, r.w_ground_J, r.w_residual_work_J, r.w_unsupported_J);
+  s += work_line(r.w) + "\n\n";
   if (r.cross_rig) {
     s += "across rigs: the --to frame retargeted onto the --from skeleton; compared:";
     for (const auto& c : r.compared_classes) s += " " + c;
     s += "\n\n";
   }
-  s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
-  for (const auto& t : r.terms)
-    s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",
-                     t.h_J, t.g_J);
-  return s;
+  return s + terms_table(r.terms);
 }
 
 namespace {
@@ -338,11 +352,9 @@ void sum_motion_steps(const LoadedClip& c, double dt, const WorkEnergyParams& wo
     r.step_g_J.push_back(g);
     r.g_J += g;
     add_step_terms(terms, names, r);
-    const double w = work_energy(c.model, c.dynamics.state(f), c.dynamics.state(f + 1), dt, a, b,
-                                 work, &w_terms);
-    r.step_w_J.push_back(w);
-    r.w_J += w;
-    add_work_parts(w_terms, r);
+    r.step_w_J.push_back(work_energy(c.model, c.dynamics.state(f), c.dynamics.state(f + 1), dt, a,
+                                     b, work, &w_terms));
+    r.w.add(w_terms);
   }
 }
 
@@ -369,20 +381,14 @@ void peak_joint_speed(const LoadedClip& c, double dt, MotionEnergyReport& r) {
 // kSkatingHeightM above the ground in both frames, moving horizontally
 // faster than kSkatingSpeedMps (the synthesis measures' rule).
 void skating_steps(const LoadedClip& c, double dt, MotionEnergyReport& r) {
-  std::vector<std::size_t> feet;
-  const auto classes = classify_joints(c.skeleton);
-  for (std::size_t j = 0; j < classes.size(); ++j)
-    if ((classes[j].first == SegmentClass::foot || classes[j].first == SegmentClass::toes) &&
-        c.model.masses_kg[j] > 0.0)
-      feet.push_back(j);
+  const std::vector<int> feet = foot_joints(classify_joints(c.skeleton), c.model);
   const double ground = c.model.params.ground_height_m;
   for (std::size_t f = r.first_frame; f < r.last_frame; ++f) {
     const StateView a = c.dynamics.state(f), b = c.dynamics.state(f + 1);
-    for (const std::size_t j : feet) {
-      const Eigen::Vector3d& pa = a.joint_positions_m[j];
-      const Eigen::Vector3d& pb = b.joint_positions_m[j];
-      if (pa.y() - ground < kSkatingHeightM && pb.y() - ground < kSkatingHeightM &&
-          std::hypot(pb.x() - pa.x(), pb.z() - pa.z()) > kSkatingSpeedMps * dt) {
+    for (const int jj : feet) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (low_foot_speed(a.joint_positions_m[j], b.joint_positions_m[j], dt, ground) >
+          kSkatingSpeedMps) {
         ++r.skating_steps;
         break;
       }
@@ -432,15 +438,9 @@ std::string motion_energy_report_json(const MotionEnergyReport& r) {
                 {"joint_work_J", r.joint_work_J},
                 {"residual_work_J", r.residual_work_J},
                 {"residual_impulse_J", r.residual_impulse_J}};
-  j["w_J"] = r.w_J;
-  j["w_parts"] = work_parts_json(r);
-  nlohmann::json terms = nlohmann::json::array();
-  for (const auto& t : r.terms)
-    terms.push_back({{"name", t.name},
-                     {"kind", t.is_joint ? "joint" : "segment"},
-                     {"h_J", t.h_J},
-                     {"g_J", t.g_J}});
-  j["terms"] = std::move(terms);
+  j["w_J"] = r.w.total_J;
+  j["w_parts"] = work_parts_json(r.w);
+  j["terms"] = terms_json(r.terms);
   j["step_g_J"] = r.step_g_J;
   j["step_w_J"] = r.step_w_J;
   j["no_contact_frames"] = r.no_contact_frames;
@@ -467,19 +467,13 @@ std::string motion_energy_report_text(const MotionEnergyReport& r) {
       "residual work {:.4g} + residual impulse {:.4g}\n",
       r.h_J, r.g_J, r.adjacent_work_J, r.contact_work_J, r.joint_work_J, r.residual_work_J,
       r.residual_impulse_J);
-  s += fmt::format(
-      "W = {:.6g} J = joint {:.4g} + ground {:.4g} + residual work {:.4g} + unsupported {:.4g}\n",
-      r.w_J, r.w_joint_J, r.w_ground_J, r.w_residual_work_J, r.w_unsupported_J);
+  s += work_line(r.w) + "\n";
   s += fmt::format(
       "frames without contact {} of {}   peak joint angular speed {:.3g} rad/s ({})   skating "
       "steps {} of {}\n\n",
       r.no_contact_frames, frames, r.peak_angular_speed_radps, r.peak_joint, r.skating_steps,
       r.step_g_J.size());
-  s += fmt::format("{:<20} {:<8} {:>12} {:>12}\n", "name", "kind", "h_J", "g_J");
-  for (const auto& t : r.terms)
-    s += fmt::format("{:<20} {:<8} {:>12.6g} {:>12.6g}\n", t.name, t.is_joint ? "joint" : "segment",
-                     t.h_J, t.g_J);
-  return s;
+  return s + terms_table(r.terms);
 }
 
 }  // namespace mocap

@@ -20,6 +20,7 @@
 #include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/common/io/bvh.hpp"
 #include "mocap/common/io/units.hpp"
+#include "raw_clip_builder.hpp"
 #include "test_support.hpp"
 
 namespace mocap {
@@ -284,26 +285,13 @@ TEST(EnergyProperties, HeavierArmCostsMoreForArmMotionOnly) {
 
 // ------------------------------------------------------------ 5. units
 
-RawClip in_metres(const RawClip& cm) {
-  RawClip m = cm;
-  for (RawJoint& j : m.joints) {
-    j.offset *= 0.01;
-    j.end_site *= 0.01;
-    for (std::size_t c = 0; c < j.channels.size(); ++c)
-      if (!channel_is_rotation(j.channels[c]))
-        for (std::size_t f = 0; f < m.frame_count; ++f)
-          m.values[f * m.channel_count + j.first_column + c] *= 0.01;
-  }
-  return m;
-}
-
 TEST(EnergyProperties, CentimetreAndMetreFilesGiveTheSameEnergies) {
   MOCAP_REQUIRE_DATA();
   const Clip& cm = bn_clips()[0];
   ASSERT_EQ(detect_unit(cm.raw), LengthUnit::cm);
   const auto dir = test::temp_dir("energy-units");
   const auto path = dir / "walk_m.bvh";
-  write_bvh_file(in_metres(cm.raw), path);
+  write_bvh_file(test::in_metres(cm.raw), path);
   const RawClip back = read_bvh_file(path);
   ASSERT_EQ(detect_unit(back), LengthUnit::m);
   const Clip m = prepare(back, 1.0, Character{}, "walk_m");

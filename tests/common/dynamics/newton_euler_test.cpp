@@ -192,20 +192,9 @@ TEST(NewtonEuler, RecursionEqualsDirectSubtreeSums) {
 // ---------------------------------------------------------------- contact
 
 // The test body's rest pose stands with both foot tips on the ground (y = 0).
-BodyState standing(const test::TestBody& t, const Eigen::Vector3d& lift = Eigen::Vector3d::Zero()) {
-  const std::size_t n = t.model.joint_count();
-  std::vector<Eigen::Quaterniond> locals(n, Eigen::Quaterniond::Identity());
-  std::vector<Eigen::Vector3d> x;
-  std::vector<Eigen::Quaterniond> r;
-  test::pose_from_locals(t.skeleton, lift, locals, x, r);
-  BodyState s;
-  static_state(t.model, PoseView{x.data(), r.data()}, s);
-  return s;
-}
-
 TEST(Contact, StaticStandingPoseIsFullySupported) {
   const auto t = test::make_test_body();
-  const BodyState s = standing(t);
+  const BodyState s = test::standing_state(t);
   NewtonEulerData data;
   inverse_dynamics(t.model, s.view(), data);
   EXPECT_EQ(data.contact_count, 2u);  // the two feet
@@ -224,7 +213,7 @@ TEST(Contact, StaticStandingPoseIsFullySupported) {
 
 TEST(Contact, UnsupportedBodyPaysForItsResidual) {
   const auto t = test::make_test_body();
-  const BodyState s = standing(t, Eigen::Vector3d(0, 1.0, 0));
+  const BodyState s = test::standing_state(t, Eigen::Vector3d(0, 1.0, 0));
   NewtonEulerData data;
   inverse_dynamics(t.model, s.view(), data);
   EXPECT_EQ(data.contact_count, 0u);
@@ -241,20 +230,20 @@ TEST(Contact, UnsupportedBodyPaysForItsResidual) {
 
 TEST(Contact, DetectionNeedsLowAndSlow) {
   const auto t = test::make_test_body();
-  BodyState s = standing(t);
+  BodyState s = test::standing_state(t);
   s.com_velocities_mps[10] = Eigen::Vector3d(2.0, 0, 0);  // left foot fast: not a contact
   NewtonEulerData data;
   inverse_dynamics(t.model, s.view(), data);
   EXPECT_FALSE(data.in_contact[10]);
   EXPECT_TRUE(data.in_contact[13]);
-  const BodyState high = standing(t, Eigen::Vector3d(0, 0.2, 0));
+  const BodyState high = test::standing_state(t, Eigen::Vector3d(0, 0.2, 0));
   inverse_dynamics(t.model, high.view(), data);
   EXPECT_EQ(data.contact_count, 0u);
 }
 
 TEST(Contact, SlidingFootCostsFriction) {
   const auto t = test::make_test_body();
-  const BodyState a = standing(t);
+  const BodyState a = test::standing_state(t);
   BodyState b = a;
   const Eigen::Vector3d slide(0.03, 0, 0);
   for (int j : {10}) {
@@ -278,7 +267,7 @@ TEST(Contact, ResidualImpulseCoefficientMatchesCompositeInertiaReference) {
   int with_torque = 0;
   for (int i = 0; i < 200; ++i) {
     BodyState s = test::random_state(t, rng);
-    if (i % 4 == 0) s = standing(t, Eigen::Vector3d(0.3 * i, 0.02 * (i % 7), -0.1 * i));
+    if (i % 4 == 0) s = test::standing_state(t, Eigen::Vector3d(0.3 * i, 0.02 * (i % 7), -0.1 * i));
     inverse_dynamics(t.model, s.view(), data);
     const double mass = t.model.total_mass_kg;
     double e = data.residual_force_N.squaredNorm() / mass;

@@ -19,23 +19,13 @@
 #include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/common/io/bvh.hpp"
 #include "mocap/common/io/units.hpp"
+#include "raw_clip_builder.hpp"
 #include "test_support.hpp"
 
 namespace mocap {
 namespace {
 
 constexpr double kG = 9.81;
-
-BodyState standing(const test::TestBody& t, const Eigen::Vector3d& move = Eigen::Vector3d::Zero()) {
-  const std::size_t n = t.model.joint_count();
-  std::vector<Eigen::Quaterniond> locals(n, Eigen::Quaterniond::Identity());
-  std::vector<Eigen::Vector3d> x;
-  std::vector<Eigen::Quaterniond> r;
-  test::pose_from_locals(t.skeleton, move, locals, x, r);
-  BodyState s;
-  static_state(t.model, PoseView{x.data(), r.data()}, s);
-  return s;
-}
 
 double work(const DynamicsModel& model, const StateView& a, const StateView& b, double t,
             WorkEnergyTerms* terms = nullptr, const WorkEnergyParams& params = {}) {
@@ -47,7 +37,7 @@ double work(const DynamicsModel& model, const StateView& a, const StateView& b, 
 
 TEST(WorkEnergy, RejectsInvalidInputs) {
   const auto t = test::make_test_body();
-  const BodyState s = standing(t);
+  const BodyState s = test::standing_state(t);
   NewtonEulerData d;
   inverse_dynamics(t.model, s.view(), d);
   for (const double bad : {0.0, -0.1, std::nan("")})
@@ -65,10 +55,10 @@ TEST(WorkEnergy, RejectsInvalidInputs) {
 // weight is unsupported: v_u T M g, and nothing else.
 TEST(WorkEnergy, StaticBodyCostsNothingOnTheGroundAndItsWeightInTheAir) {
   const auto t = test::make_test_body();
-  const BodyState ground = standing(t);
+  const BodyState ground = test::standing_state(t);
   WorkEnergyTerms terms;
   EXPECT_NEAR(work(t.model, ground.view(), ground.view(), 0.5, &terms), 0.0, 1e-12);
-  const BodyState air = standing(t, Eigen::Vector3d(0, 1.0, 0));
+  const BodyState air = test::standing_state(t, Eigen::Vector3d(0, 1.0, 0));
   const double mg = t.model.total_mass_kg * kG;
   WorkEnergyParams p;
   for (const double v : {5.0, 2.0, 0.0}) {
@@ -85,7 +75,8 @@ TEST(WorkEnergy, StaticBodyCostsNothingOnTheGroundAndItsWeightInTheAir) {
 TEST(WorkEnergy, SlidingOverPlantedFeetCostsFriction) {
   const auto t = test::make_test_body();
   const double d = 0.3;
-  const BodyState a = standing(t), b = standing(t, Eigen::Vector3d(d, 0, 0));
+  const BodyState a = test::standing_state(t),
+                  b = test::standing_state(t, Eigen::Vector3d(d, 0, 0));
   WorkEnergyTerms terms;
   const double w = work(t.model, a.view(), b.view(), 0.5, &terms);
   const double mg = t.model.total_mass_kg * kG;
@@ -171,16 +162,7 @@ TEST(WorkEnergy, CentimetresAndMetresGiveTheSameEnergy) {
   const RawClip cm =
       read_bvh_file(test::data_dir() / "bandai-namco-1" / "data" / "dataset-1_walk_normal_001.bvh");
   ASSERT_EQ(detect_unit(cm), LengthUnit::cm);
-  RawClip m = cm;
-  for (RawJoint& j : m.joints) {
-    j.offset *= 0.01;
-    j.end_site *= 0.01;
-    for (std::size_t c = 0; c < j.channels.size(); ++c)
-      if (!channel_is_rotation(j.channels[c]))
-        for (std::size_t f = 0; f < m.frame_count; ++f)
-          m.values[f * m.channel_count + j.first_column + c] *= 0.01;
-  }
-  const Clip a = load_raw(cm, 0.01), b = load_raw(m, 1.0);
+  const Clip a = load_raw(cm, 0.01), b = load_raw(test::in_metres(cm), 1.0);
   for (std::size_t f = 5; f < 60; f += 5) {
     const double wa = clip_work(a.model, a.dyn, f, f + 1);
     EXPECT_NEAR(clip_work(b.model, b.dyn, f, f + 1), wa, 1e-6 * (1.0 + wa)) << f;

@@ -47,6 +47,18 @@ struct EnergyCommandOptions {
   WorkEnergyParams work;
 };
 
+/// W (work_energy.hpp) and its parts, joules, summed over one step or many:
+/// joint + ground + residual work + unsupported = total.
+struct WorkEnergySums {
+  double total_J = 0.0;
+  double joint_J = 0.0;
+  double ground_J = 0.0;
+  double residual_work_J = 0.0;
+  double unsupported_J = 0.0;
+  /// Adds one step's terms (their total() to total_J).
+  void add(const WorkEnergyTerms& step);
+};
+
 struct EnergyTermReport {
   std::string name;
   bool is_joint = false;  // "joint" vs "segment"
@@ -70,13 +82,9 @@ struct EnergyReport {
   std::size_t to_contacts = 0;
   double residual_work_J = 0.0;
   double residual_impulse_J = 0.0;
-  /// W, the work energy (work_energy.hpp), and its parts, joules (the whole
-  /// body, also across rigs).
-  double w_J = 0.0;
-  double w_joint_J = 0.0;
-  double w_ground_J = 0.0;
-  double w_residual_work_J = 0.0;
-  double w_unsupported_J = 0.0;
+  /// W, the work energy (work_energy.hpp), and its parts (the whole body,
+  /// also across rigs).
+  WorkEnergySums w;
   /// The --to file is another rig, retargeted onto the --from skeleton: h_J,
   /// g_J and `terms` cover only the compared segments, whose classes
   /// compared_classes names (retarget.hpp class_key_name).
@@ -135,13 +143,8 @@ struct MotionEnergyReport {
   double residual_impulse_J = 0.0;
   /// Every segment's and joint's terms summed over the steps.
   std::vector<EnergyTermReport> terms;
-  /// W, the work energy (work_energy.hpp), summed over the steps, and its
-  /// parts (joint + ground + residual work + unsupported = W), joules.
-  double w_J = 0.0;
-  double w_joint_J = 0.0;
-  double w_ground_J = 0.0;
-  double w_residual_work_J = 0.0;
-  double w_unsupported_J = 0.0;
+  /// W, the work energy (work_energy.hpp), summed over the steps, and its parts.
+  WorkEnergySums w;
   /// g and W of each step, joules (E - S values each).
   std::vector<double> step_g_J;
   std::vector<double> step_w_J;

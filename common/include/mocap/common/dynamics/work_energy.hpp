@@ -35,6 +35,7 @@
 // (FullEnergyTerms::joint_work_J); the same in centimetres and metres.
 // W is not bounded below by h: h is no A* estimate of it (the search on W
 // costs its completions exactly).
+#include <Eigen/Core>
 #include <cstddef>
 #include <vector>
 
@@ -57,6 +58,9 @@ struct WorkEnergyTerms {
   std::vector<double> ground_J;  // F_n (|dp_y| + mu |dp_h|), 0 where no contact in A or B
   double residual_work_J = 0.0;  // |F_res . dc + M_res . dphi| summed over body roots
   double unsupported_J = 0.0;    // v_u T (|F_res(A)| + |F_res(B)|) / 2
+  /// dphi_j, each joint's world rotation step A -> B (rad; scratch of the
+  /// joint terms, kept so that a reused WorkEnergyTerms allocates nothing).
+  std::vector<Eigen::Vector3d> rotation_steps;
   double total() const;
 };
 

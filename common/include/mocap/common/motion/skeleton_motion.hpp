@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -121,6 +122,21 @@ double root_heading(const SynthSkeleton& sk, const SynthFrame& frame);
 /// horizontally faster than kSkatingSpeedMps there, it skates.
 inline constexpr double kSkatingHeightM = 0.05;
 inline constexpr double kSkatingSpeedMps = 0.5;
+
+/// The horizontal speed (m/s), over a step of dt seconds, of a foot joint
+/// origin that is below kSkatingHeightM above the ground (height ground_m)
+/// in both frames `a` and `b`; 0 when it is not. It skates when this exceeds
+/// kSkatingSpeedMps.
+inline double low_foot_speed(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double dt,
+                             double ground_m) {
+  if (a.y() - ground_m >= kSkatingHeightM || b.y() - ground_m >= kSkatingHeightM) return 0.0;
+  return std::hypot(b.x() - a.x(), b.z() - a.z()) / dt;
+}
+
+/// The joints whose contact counts as foot contact: foot and toe segments
+/// (classify_joints) that carry mass in `model` (SynthSkeleton::foot_joints).
+std::vector<int> foot_joints(const std::vector<std::pair<SegmentClass, Side>>& classes,
+                             const DynamicsModel& model);
 
 /// The BVH clip of `frames` on `sk` (a synthesised motion's: write_motion_bvh,
 /// mocap/synth/synth_job.hpp; or a clip's own: export.hpp): frame_count = frames.size(), the
