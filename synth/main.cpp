@@ -6,7 +6,7 @@
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
 //               [--refine-polish-window W] [--refine-polish-segments]
 //               [--refine-polish-smoothing J]
-//               [--no-step-feet] [--threads N]
+//               [--energy w|g] [--step-feet] [--threads N]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -37,13 +37,13 @@ namespace {
 // What the command line gives (add_synth_options); the job (run_synth) reads it.
 struct SynthArgs {
   std::string index_path, query_path, results_path, out_path, report_path, html_path,
-      method = "astar", energy = "g";
+      method = "astar", energy = "w";
   std::vector<std::string> picks;
   mocap::SynthOptions options;
   std::string query_id;
   bool force = false;
   double fps = 0.0;
-  bool no_step = false;
+  bool step = false, no_step = false;
   unsigned threads = 0;
   mocap::InputLimitFlags limits;
 };
@@ -89,11 +89,14 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
           },
           "", "not NaN"));
   app.add_option("--energy", a.energy,
-                 "the energy the A* search minimises: g (the paper's) or w (the work energy; "
-                 "docs/synthesis.md \"The search's energy\")")
+                 "the energy the A* search minimises: w (the work energy, default) or g (the "
+                 "paper's, g_paper; docs/synthesis.md \"The search's energy\")")
       ->capture_default_str();
-  app.add_flag("--no-step-feet", a.no_step,
-               "no stepping pass after the A* search (feet may glide; lowest g)");
+  auto* step = app.add_flag("--step-feet", a.step,
+                            "the stepping pass after the A* search: no skating, at the price of "
+                            "more work and faster joints (docs/synthesis.md \"Stepping\")");
+  app.add_flag("--no-step-feet", a.no_step, "no stepping pass after the A* search (the default)")
+      ->excludes(step);
   app.add_option("--threads", a.threads,
                  "worker threads: the gaps are supplemented in parallel (default: all cores); "
                  "the output does not depend on it");
@@ -207,7 +210,7 @@ void print_synth_summary(const SynthArgs& a, const mocap::SynthResult& result) {
 // The job: checks, the query and its ranked pairs (read or searched here),
 // the synthesis, its files. Returns the exit code.
 int run_synth(SynthArgs& a) {
-  a.options.params.step_feet = !a.no_step;
+  a.options.params.step_feet = a.step;
   if (a.fps > 0.0) a.options.fps = a.fps;
   const auto t0 = std::chrono::steady_clock::now();
   try {

@@ -42,7 +42,8 @@ struct QualityArgs {
   mocap::SupplementParams params;
   bool h_lookahead = false;
   bool no_plant = false, no_choose = false;
-  bool no_step = false;
+  bool step = false;
+  std::string energy = "w";
   bool refine_free = false;
 };
 
@@ -68,7 +69,11 @@ void add_quality_options(CLI::App& app, QualityArgs& q) {
   app.add_flag("--no-choose-length", q.no_choose,
                "plan with the length estimate instead of choosing the length");
   app.add_flag("--no-plant-feet", q.no_plant, "no contact-aware (foot planting) proposals");
-  app.add_flag("--no-step-feet", q.no_step, "no stepping pass after the search");
+  app.add_option("--energy", q.energy, "the energy the search minimises: w (default) or g")
+      ->check(CLI::IsMember({"w", "g"}))
+      ->capture_default_str();
+  app.add_flag("--step-feet", q.step,
+               "the stepping pass after the search (slerp and inertialization get it too)");
   mocap::add_refine_options(app, q.params);
   app.add_flag("--refine-free", q.refine_free,
                "let the refinement slide the feet, turn joints faster and leave the range of "
@@ -158,7 +163,9 @@ mocap::GapProblem place_gap(const mocap::Index& index, const mocap::SynthSkeleto
 // The measures of one gap's transitions: A*, slerp, inertialize, and slerp
 // with A*'s stepping pass (when it has one); A*'s statistics and times.
 struct MethodMeasures {
-  mocap::TransitionMeasures astar, slerp, inert, slerp_stepped;
+  // slerp, inert: the baselines as they are (gliding); *_stepped: after the
+  // same stepping pass as A*'s (the same as slerp / inert without one).
+  mocap::TransitionMeasures astar, slerp, inert, slerp_stepped, inert_stepped;
   mocap::SupplementStats stats;
   double ms = 0.0, cpu_ms = 0.0;
 };
@@ -179,10 +186,16 @@ MethodMeasures run_methods(const mocap::GapProblem& gap, const mocap::Supplement
   m.astar = mocap::measure_transition(gap, astar);
   m.slerp = mocap::measure_transition(gap, slerp);
   m.inert = mocap::measure_transition(gap, inert);
-  // Slerp with the same stepping pass as A*'s (when it has one).
+  // Slerp and inertialization with the same stepping pass as A*'s (when it
+  // has one): the like-for-like comparison.
   auto slerp_stepped = slerp;
-  if (params.step_feet) mocap::step_transition_feet(gap, slerp_stepped);
+  auto inert_stepped = inert;
+  if (params.step_feet) {
+    mocap::step_transition_feet(gap, slerp_stepped);
+    mocap::step_transition_feet(gap, inert_stepped);
+  }
   m.slerp_stepped = mocap::measure_transition(gap, slerp_stepped);
+  m.inert_stepped = mocap::measure_transition(gap, inert_stepped);
   return m;
 }
 
@@ -193,11 +206,33 @@ struct SourceMeasures {
   double airborne_ratio = 0.0;  // likewise
   double foot_sliding_m = 0.0;  // contact-based, the mean of the two windows
   double energy_J = 0.0;        // g, the mean of the two windows
+  // W, its unsupported part, the fraction of states without contact and the
+  // peak joint speed (measure_transition's), the mean of the two windows.
+  double w_J = 0.0, unsupported_J = 0.0, no_contact_ratio = 0.0, peak_angular_speed_radps = 0.0;
 };
 
+// measure_transition's measures of clip frames first..last (first < last) as
+// if they were a transition: S_0 = first, S_G = last, the clip's own
+// neighbours (where it has them) as S_-1 and S_G+1.
+mocap::TransitionMeasures window_measures(const mocap::Index& index, const mocap::SynthSkeleton& sk,
+                                          const mocap::RangeOfMotion& rom, std::size_t clip,
+                                          std::size_t first, std::size_t last, double dt) {
+  const std::size_t count = index.clips()[clip].frame_count;
+  mocap::GapProblem gap{&sk,
+                        &rom,
+                        mocap::clip_frame(index, clip, first > 0 ? first - 1 : 0),
+                        mocap::clip_frame(index, clip, first),
+                        mocap::clip_frame(index, clip, last),
+                        mocap::clip_frame(index, clip, std::min(last + 1, count - 1)),
+                        dt};
+  std::vector<mocap::SynthFrame> inner;
+  for (std::size_t k = first + 1; k < last; ++k) inner.push_back(mocap::clip_frame(index, clip, k));
+  return mocap::measure_transition(gap, inner);
+}
+
 SourceMeasures measure_source(const mocap::Index& index, const mocap::SynthSkeleton& sk,
-                              const GapSpec& spec, const GapFrames& f, std::size_t steps,
-                              double dt) {
+                              const mocap::RangeOfMotion& rom, const GapSpec& spec,
+                              const GapFrames& f, std::size_t steps, double dt) {
   const std::size_t y_frames = index.clips()[spec.y].frame_count;
   std::vector<mocap::SynthFrame> before_gap, after_gap;
   for (std::size_t k = f.a > steps ? f.a - steps : 0; k <= f.a; ++k)
@@ -218,12 +253,22 @@ SourceMeasures measure_source(const mocap::Index& index, const mocap::SynthSkele
   s.foot_sliding_m = 0.5 * (src_x.foot_sliding_m + src_y.foot_sliding_m);
   for (const auto* window : {&before_gap, &after_gap})
     for (double e : mocap::motion_step_energies(sk, *window, dt)) s.energy_J += 0.5 * e;
+  const std::size_t y_last = std::min(y_frames - 1, f.b + steps);
+  for (const mocap::TransitionMeasures& w :
+       {window_measures(index, sk, rom, spec.x, f.a > steps ? f.a - steps : 0, f.a, dt),
+        window_measures(index, sk, rom, spec.y, f.b, std::max(y_last, f.b + 1), dt)}) {
+    s.w_J += 0.5 * w.work_energy_J;
+    s.unsupported_J += 0.5 * w.unsupported_J;
+    s.no_contact_ratio += 0.5 * w.no_contact_ratio;
+    s.peak_angular_speed_radps += 0.5 * w.peak_angular_speed_radps;
+  }
   return s;
 }
 
 // One method's measures summed over the gaps, in gap order.
 struct MethodSums {
   double energy_J = 0.0, foot_sliding_m = 0.0, skating_ratio = 0.0, airborne_ratio = 0.0;
+  double w_J = 0.0, unsupported_J = 0.0, no_contact_ratio = 0.0, peak_angular_speed_radps = 0.0;
   std::size_t range_violations = 0;
   mocap::TransitionMeasures::EnergySplit split;
   void add(const mocap::TransitionMeasures& m) {
@@ -233,15 +278,23 @@ struct MethodSums {
     airborne_ratio += m.airborne_ratio;
     range_violations += m.range_violations;
     split += m.energy_split;
+    w_J += m.work_energy_J;
+    unsupported_J += m.unsupported_J;
+    no_contact_ratio += m.no_contact_ratio;
+    peak_angular_speed_radps += m.peak_angular_speed_radps;
   }
 };
 
 // Everything the summary reports, accumulated gap by gap (add_gap).
 struct QualityTotals {
   std::size_t gaps = 0;
-  MethodSums astar, slerp, inert, slerp_stepped;
+  MethodSums astar, slerp, inert, slerp_stepped, inert_stepped;
   SourceMeasures source;  // sums
   std::size_t lower = 0, lower_stepped = 0, slide_ok = 0, skate_ok = 0;
+  // Like for like: in the search's energy, against the baselines with the
+  // same stepping pass.
+  mocap::SearchEnergy energy = mocap::SearchEnergy::work;
+  std::size_t lower_like_slerp = 0, lower_like_inert = 0;
   std::vector<double> times_ms, cpu_times_ms;
 
   void add_gap(const MethodMeasures& m, const SourceMeasures& s) {
@@ -250,12 +303,22 @@ struct QualityTotals {
     cpu_times_ms.push_back(m.cpu_ms);
     if (m.astar.energy_J < m.slerp.energy_J) ++lower;
     if (m.astar.energy_J < m.slerp_stepped.energy_J) ++lower_stepped;
+    const auto searched = [this](const mocap::TransitionMeasures& x) {
+      return energy == mocap::SearchEnergy::work ? x.work_energy_J : x.energy_J;
+    };
+    if (searched(m.astar) < searched(m.slerp_stepped)) ++lower_like_slerp;
+    if (searched(m.astar) < searched(m.inert_stepped)) ++lower_like_inert;
     if (m.astar.foot_sliding_m <= m.slerp.foot_sliding_m + 1e-9) ++slide_ok;
     if (m.astar.skating_ratio <= m.slerp.skating_ratio + 1e-12) ++skate_ok;
     astar.add(m.astar);
     slerp.add(m.slerp);
     inert.add(m.inert);
     slerp_stepped.add(m.slerp_stepped);
+    inert_stepped.add(m.inert_stepped);
+    source.w_J += s.w_J;
+    source.unsupported_J += s.unsupported_J;
+    source.no_contact_ratio += s.no_contact_ratio;
+    source.peak_angular_speed_radps += s.peak_angular_speed_radps;
     source.skating_ratio += s.skating_ratio;
     source.airborne_ratio += s.airborne_ratio;
     source.foot_sliding_m += s.foot_sliding_m;
@@ -316,7 +379,8 @@ void run_gap(const mocap::Index& index, const QualityArgs& q, std::size_t gi, co
   const GapFrames f = gap_frames(cx, cy, q);
   const mocap::GapProblem gap = place_gap(index, sk, rom, spec, f, q.params);
   const MethodMeasures m = run_methods(gap, q.params);
-  const SourceMeasures s = measure_source(index, sk, spec, f, m.astar.frames + 1, gap.frame_time_s);
+  const SourceMeasures s =
+      measure_source(index, sk, rom, spec, f, m.astar.frames + 1, gap.frame_time_s);
   totals.add_gap(m, s);
   print_gap_row(gi, file_name(cx.path), file_name(cy.path), f, m, s);
   rows.push_back(gap_row_json(file_name(cx.path), file_name(cy.path), f, m, s));
@@ -363,6 +427,36 @@ void print_energy_split(const QualityTotals& t) {
       share(split_s.residual_impulse_J, ts));
 }
 
+// The comparison in the search's own energy against slerp and
+// inertialization with the same stepping treatment, and W with its
+// unsupported part, frames without contact and peak joint speed beside the
+// source clips' own over as many steps.
+void print_like_for_like(const QualityTotals& t, const mocap::SupplementParams& params) {
+  const double n = static_cast<double>(t.gaps);
+  const bool w = params.energy == mocap::SearchEnergy::work;
+  std::printf(
+      "Like for like (%s, the search's energy; slerp and inertialization %s): A* lower than "
+      "slerp in %zu of %zu gaps, than inertialization in %zu.\n",
+      w ? "W" : "g", params.step_feet ? "with the same stepping pass" : "as they are (no stepping)",
+      t.lower_like_slerp, t.gaps, t.lower_like_inert);
+  const auto row = [n](const char* name, double w_J, double unsupported_J, double no_contact,
+                       double peak) {
+    std::printf(
+        "  %-34s W %7.1f J, unsupported %7.1f J, no contact %.3f, peak joint speed %5.1f "
+        "rad/s\n",
+        name, w_J / n, unsupported_J / n, no_contact / n, peak / n);
+  };
+  std::printf("Mean per gap:\n");
+  const MethodSums &a = t.astar, &s = t.slerp_stepped, &i = t.inert_stepped;
+  row("A*", a.w_J, a.unsupported_J, a.no_contact_ratio, a.peak_angular_speed_radps);
+  row(params.step_feet ? "slerp, stepped" : "slerp", s.w_J, s.unsupported_J, s.no_contact_ratio,
+      s.peak_angular_speed_radps);
+  row(params.step_feet ? "inertialization, stepped" : "inertialization", i.w_J, i.unsupported_J,
+      i.no_contact_ratio, i.peak_angular_speed_radps);
+  row("source clips (as many steps)", t.source.w_J, t.source.unsupported_J,
+      t.source.no_contact_ratio, t.source.peak_angular_speed_radps);
+}
+
 // The summary lines after the table.
 void print_quality_summary(const QualityTotals& t, const TimeSummary& time,
                            const mocap::SupplementParams& params) {
@@ -379,6 +473,7 @@ void print_quality_summary(const QualityTotals& t, const TimeSummary& time,
         "Slerp with the same stepping pass: A* g lower in %zu gaps; its mean g %.1f J, "
         "foot-skating ratio %.3f.\n",
         t.lower_stepped, t.slerp_stepped.energy_J / n, t.slerp_stepped.skating_ratio / n);
+  print_like_for_like(t, params);
   std::printf(
       "Foot sliding (total): A* %.3f m, slerp %.3f m, inertialize %.3f m; A* <= slerp in %zu "
       "gaps. "
@@ -409,34 +504,47 @@ void write_quality_json(const QualityArgs& q, const nlohmann::json& rows, const 
                         const TimeSummary& time) {
   const double n = static_cast<double>(t.gaps);
   const MethodSums &a = t.astar, &s = t.slerp, &i = t.inert;
-  nlohmann::json out = {{"gaps", rows},
-                        {"summary",
-                         {{"gaps", t.gaps},
-                          {"astar_lower_g", t.lower},
-                          {"mean_g_astar_J", a.energy_J / n},
-                          {"mean_g_slerp_J", s.energy_J / n},
-                          {"mean_g_inertialize_J", i.energy_J / n},
-                          {"mean_g_source_J", t.source.energy_J / n},
-                          {"astar_lower_g_than_stepped_slerp", t.lower_stepped},
-                          {"mean_g_stepped_slerp_J", t.slerp_stepped.energy_J / n},
-                          {"skating_ratio_stepped_slerp", t.slerp_stepped.skating_ratio / n},
-                          {"ratio_mean_g", a.energy_J / s.energy_J},
-                          {"foot_sliding_astar_m", a.foot_sliding_m},
-                          {"foot_sliding_slerp_m", s.foot_sliding_m},
-                          {"foot_sliding_inertialize_m", i.foot_sliding_m},
-                          {"skating_ratio_astar", a.skating_ratio / n},
-                          {"skating_ratio_slerp", s.skating_ratio / n},
-                          {"skating_ratio_inertialize", i.skating_ratio / n},
-                          {"skating_ratio_source", t.source.skating_ratio / n},
-                          {"airborne_ratio_astar", a.airborne_ratio / n},
-                          {"airborne_ratio_slerp", s.airborne_ratio / n},
-                          {"airborne_ratio_inertialize", i.airborne_ratio / n},
-                          {"airborne_ratio_source", t.source.airborne_ratio / n},
-                          {"foot_sliding_source_m", t.source.foot_sliding_m},
-                          {"median_ms", time.median},
-                          {"median_cpu_ms", time.cpu_median},
-                          {"max_ms", time.max}}},
-                        {"params", mocap::supplement_params_json(q.params)}};
+  nlohmann::json out = {
+      {"gaps", rows},
+      {"summary",
+       {{"gaps", t.gaps},
+        {"astar_lower_g", t.lower},
+        {"mean_g_astar_J", a.energy_J / n},
+        {"mean_g_slerp_J", s.energy_J / n},
+        {"mean_g_inertialize_J", i.energy_J / n},
+        {"mean_g_source_J", t.source.energy_J / n},
+        {"astar_lower_g_than_stepped_slerp", t.lower_stepped},
+        {"mean_g_stepped_slerp_J", t.slerp_stepped.energy_J / n},
+        {"skating_ratio_stepped_slerp", t.slerp_stepped.skating_ratio / n},
+        {"ratio_mean_g", a.energy_J / s.energy_J},
+        {"astar_lower_like_for_like_slerp", t.lower_like_slerp},
+        {"astar_lower_like_for_like_inertialize", t.lower_like_inert},
+        {"mean_w_astar_J", a.w_J / n},
+        {"mean_w_slerp_like_J", t.slerp_stepped.w_J / n},
+        {"mean_w_inertialize_like_J", t.inert_stepped.w_J / n},
+        {"mean_w_source_J", t.source.w_J / n},
+        {"mean_unsupported_astar_J", a.unsupported_J / n},
+        {"mean_unsupported_source_J", t.source.unsupported_J / n},
+        {"no_contact_ratio_astar", a.no_contact_ratio / n},
+        {"no_contact_ratio_source", t.source.no_contact_ratio / n},
+        {"peak_angular_speed_astar_radps", a.peak_angular_speed_radps / n},
+        {"peak_angular_speed_source_radps", t.source.peak_angular_speed_radps / n},
+        {"foot_sliding_astar_m", a.foot_sliding_m},
+        {"foot_sliding_slerp_m", s.foot_sliding_m},
+        {"foot_sliding_inertialize_m", i.foot_sliding_m},
+        {"skating_ratio_astar", a.skating_ratio / n},
+        {"skating_ratio_slerp", s.skating_ratio / n},
+        {"skating_ratio_inertialize", i.skating_ratio / n},
+        {"skating_ratio_source", t.source.skating_ratio / n},
+        {"airborne_ratio_astar", a.airborne_ratio / n},
+        {"airborne_ratio_slerp", s.airborne_ratio / n},
+        {"airborne_ratio_inertialize", i.airborne_ratio / n},
+        {"airborne_ratio_source", t.source.airborne_ratio / n},
+        {"foot_sliding_source_m", t.source.foot_sliding_m},
+        {"median_ms", time.median},
+        {"median_cpu_ms", time.cpu_median},
+        {"max_ms", time.max}}},
+      {"params", mocap::supplement_params_json(q.params)}};
   out["params"]["exact_lookahead"] = q.params.exact_lookahead;
   out["params"]["from_fraction"] = q.from_fraction;
   out["params"]["to_fraction"] = q.to_fraction;
@@ -449,7 +557,8 @@ int run_quality(QualityArgs& q) {
   // gradient would otherwise use every core).
   const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   q.params.plant_feet = !q.no_plant;
-  q.params.step_feet = !q.no_step;
+  q.params.step_feet = q.step;
+  q.params.energy = q.energy == "g" ? mocap::SearchEnergy::g : mocap::SearchEnergy::work;
   q.params.exact_lookahead = !q.h_lookahead;
   q.params.choose_length = !q.no_choose;
   q.params.refine.keep_limits = !q.refine_free;
@@ -459,6 +568,7 @@ int run_quality(QualityArgs& q) {
     const std::vector<GapSpec> specs = pick_gaps(index, q);
     nlohmann::json rows = nlohmann::json::array();
     QualityTotals totals;
+    totals.energy = q.params.energy;
     print_table_header();
     for (std::size_t gi = 0; gi < specs.size(); ++gi)
       run_gap(index, q, gi, specs[gi], totals, rows);

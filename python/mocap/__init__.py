@@ -314,10 +314,10 @@ class Index:
         return out[0] if single else out
 
     def synthesize(self, query, *, results=None, picks=(), method="astar", max_states=60,
-                   cost_threshold_J=5.0, step_feet=True, fps=None, refine=0,
+                   cost_threshold_J=5.0, step_feet=False, fps=None, refine=0,
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
-                   base_dir=None, energy="g"):
+                   base_dir=None, energy="w"):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         `results`: the search's answer for this query (a dict from search(),
@@ -325,8 +325,9 @@ class Index:
         is searched here with the default options. `picks`: (pair, rank)
         tuples or "PAIR:RANK" strings (1-based; default rank 1). The other
         keywords are mocap-synth's flags (--transition, --max-states,
-        --cost-threshold, --no-step-feet, --fps, --refine..., --energy: "g"
-        or "w", the energy the A* search minimises). Returns a Synthesis.
+        --cost-threshold, --step-feet, --fps, --refine..., --energy: "w",
+        the work energy, or "g", the paper's: the energy the A* search
+        minimises). Returns a Synthesis.
         """
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]

@@ -52,8 +52,8 @@ struct SynthArgs {
   std::vector<std::string> picks;
   std::size_t max_states = SupplementParams{}.max_states;
   double cost_threshold_J = SupplementParams{}.cost_threshold_J;
-  bool step_feet = true;
-  std::string energy = "g";
+  bool step_feet = false;
+  std::string energy = "w";
   std::optional<double> fps;
   std::size_t refine = 0;
   double refine_smoothing_J = 0.0;
@@ -325,10 +325,10 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("method") = "astar", py::arg("picks") = std::vector<std::string>{},
       py::arg("max_states") = SupplementParams{}.max_states,
       py::arg("cost_threshold_J") = SupplementParams{}.cost_threshold_J,
-      py::arg("step_feet") = true, py::arg("fps") = std::nullopt, py::arg("refine") = 0,
+      py::arg("step_feet") = false, py::arg("fps") = std::nullopt, py::arg("refine") = 0,
       py::arg("refine_smoothing_J") = 0.0, py::arg("refine_polish") = 0,
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
-      py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "g",
+      py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

@@ -27,6 +27,41 @@ std::string fmt(int digits, double v) {
   return synth_detail::fixed(digits, v);
 }
 
+// Per step: W and its unsupported part over the steps of some transitions
+// or captured pieces, their frames without contact (over their states) and
+// the largest peak joint speed.
+struct PerStep {
+  double w_J = 0.0, unsupported_J = 0.0, no_contact_states = 0.0, peak_radps = 0.0;
+  double steps = 0.0, states = 0.0;
+  void add(const TransitionMeasures& m) {
+    const double n = static_cast<double>(m.frames + 1);
+    w_J += m.work_energy_J;
+    unsupported_J += m.unsupported_J;
+    no_contact_states += m.no_contact_ratio * (n + 1.0);
+    states += n + 1.0;
+    steps += n;
+    peak_radps = std::max(peak_radps, m.peak_angular_speed_radps);
+  }
+  nlohmann::json json() const {
+    if (steps == 0.0) return nullptr;
+    return {{"steps", steps},
+            {"w_J", w_J / steps},
+            {"unsupported_J", unsupported_J / steps},
+            {"no_contact_ratio", no_contact_states / states},
+            {"peak_angular_speed_radps", peak_radps}};
+  }
+};
+
+// motion.per_step: the transitions beside the captured partial motions they
+// join (docs/synthesis.md "Measures").
+nlohmann::json per_step_json(const SynthResult& result) {
+  PerStep transitions, captured;
+  for (const TransitionReport& t : result.transitions) transitions.add(t.measures);
+  for (const MotionSegment& s : result.segments)
+    if (s.measures) captured.add(*s.measures);
+  return {{"transitions", transitions.json()}, {"captured", captured.json()}};
+}
+
 }  // namespace
 
 std::string synth_report_json(const ClipSource& clips, const Query& query,
@@ -95,6 +130,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
       sj["foot_skating_ratio"] = m.skating_ratio;
       sj["airborne_ratio"] = m.airborne_ratio;
     }
+    if (s.measures) sj["measures"] = measures_json(*s.measures);
     segs.push_back(std::move(sj));
   }
   double total = 0.0;
@@ -105,11 +141,20 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                  {"skeleton", result.skeleton->index_skeleton},
                  {"segments", segs},
                  {"g_total_J", total},
+                 {"g_paper_total_J", total},
                  {"foot_sliding_m", result.motion_measures.foot_sliding_m},
                  {"foot_skating_ratio", result.motion_measures.skating_ratio},
                  {"skating_speed_mps", result.motion_measures.skating_speed_mps},
                  {"airborne_ratio", result.motion_measures.airborne_ratio},
-                 {"step_energies_J", result.step_energies_J}};
+                 {"step_energies_J", result.step_energies_J},
+                 {"per_step", per_step_json(result)}};
+  if (result.whole_measures) {
+    const TransitionMeasures& w = *result.whole_measures;
+    j["motion"]["w_J"] = w.work_energy_J;
+    j["motion"]["unsupported_J"] = w.unsupported_J;
+    j["motion"]["no_contact_ratio"] = w.no_contact_ratio;
+    j["motion"]["peak_angular_speed_radps"] = w.peak_angular_speed_radps;
+  }
   if (!result.timing.empty()) {
     nlohmann::json pairs = nlohmann::json::array();
     for (const PairTiming& t : result.timing)

@@ -314,7 +314,7 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
               std::vector<GapTask>& tasks) {
   auto add_segment = [&](const std::string& kind, std::size_t pair,
                          const std::vector<SynthFrame>& fs) {
-    res.segments.push_back({kind, pair, res.frames.size(), fs.size()});
+    res.segments.push_back({kind, pair, res.frames.size(), fs.size(), std::nullopt});
     res.frames.insert(res.frames.end(), fs.begin(), fs.end());
   };
   const std::size_t H = pieces.size() + 1;
@@ -338,6 +338,29 @@ void assemble(SynthResult& res, const std::vector<std::vector<SynthFrame>>& piec
     }
   }
   add_segment("query", H, {res.query_frames.back()});
+}
+
+// measure_transition over output frames first .. first + count - 1 (count >= 2),
+// the frames beside them (where there are any) as S_-1 and S_G+1.
+TransitionMeasures measure_span(const SynthResult& res, const RangeOfMotion& rom, std::size_t first,
+                                std::size_t count) {
+  const std::vector<SynthFrame>& f = res.frames;
+  const std::size_t last = first + count - 1;
+  const GapProblem gap{res.skeleton,    &rom,    f[first > 0 ? first - 1 : 0],
+                       f[first],        f[last], f[std::min(last + 1, f.size() - 1)],
+                       res.frame_time_s};
+  return measure_transition(
+      gap, std::vector<SynthFrame>(f.begin() + static_cast<std::ptrdiff_t>(first + 1),
+                                   f.begin() + static_cast<std::ptrdiff_t>(last)));
+}
+
+// The captured pieces' own measures and the whole motion's (the report's
+// reference for the transitions).
+void measure_pieces(SynthResult& res, const RangeOfMotion& rom) {
+  for (MotionSegment& s : res.segments)
+    if (s.kind == "partial" && s.frame_count >= 2)
+      s.measures = measure_span(res, rom, s.first_frame, s.frame_count);
+  if (res.frames.size() >= 2) res.whole_measures = measure_span(res, rom, 0, res.frames.size());
 }
 
 }  // namespace
@@ -497,6 +520,7 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   }
   res.step_energies_J = motion_step_energies(sk, res.frames, out_dt);
   res.motion_measures = measure_motion(sk, res.frames, out_dt);
+  measure_pieces(res, rom);
   res.synth_ms = ms_since(t0);
   return res;
 }

@@ -6,6 +6,7 @@ namespace mocap {
 nlohmann::json measures_json(const TransitionMeasures& m) {
   return {{"frames", m.frames},
           {"g_J", m.energy_J},
+          {"g_paper_J", m.energy_J},
           {"h_J", m.approximate_energy_J},
           {"foot_sliding_m", m.foot_sliding_m},
           {"foot_skating_ratio", m.skating_ratio},

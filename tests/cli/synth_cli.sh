@@ -38,6 +38,8 @@ expect_error "refine" "${base[@]}" --results "$tmp/results.jsonl" --refine -3
 expect_error "refine-smoothing" "${base[@]}" --results "$tmp/results.jsonl" --refine 8 --refine-smoothing -1
 expect_error "refine-polish-window" "${base[@]}" --results "$tmp/results.jsonl" --refine-polish 2 --refine-polish-window 0
 expect_error "refine-polish-smoothing" "${base[@]}" --results "$tmp/results.jsonl" --refine-polish 2 --refine-polish-smoothing -1
+expect_error "excludes" "${base[@]}" --results "$tmp/results.jsonl" --step-feet --no-step-feet
+expect_error "energy" "${base[@]}" --results "$tmp/results.jsonl" --energy x
 expect_error "unknown joint" --index "$tmp/index.h5" --query "$tmp/bad-joint.json" --results "$tmp/results.jsonl" --out "$tmp/m.bvh"
 [ ! -e "$tmp/m.bvh" ] || fail "an output was written by a failing run"
 
@@ -50,8 +52,11 @@ cmp -s "$tmp/m.bvh" "$tmp/m2.bvh" || fail "two runs gave different motions"
 cmp -s "$tmp/m.bvh" "$tmp/m1.bvh" || fail "--threads 1 gave a different motion"
 "$synth" "${base[@]/m.bvh/ms.bvh}" --results "$tmp/results.jsonl" --transition slerp --report "$tmp/rs.json" >/dev/null
 "$synth" "${base[@]/m.bvh/mp.bvh}" --results "$tmp/results.jsonl" --pick 1:2 --report "$tmp/rp.json" >/dev/null
-# --no-step-feet: the search's own legs everywhere.
-"$synth" "${base[@]/m.bvh/mn.bvh}" --results "$tmp/results.jsonl" --no-step-feet --report "$tmp/rn.json" >/dev/null
+# --step-feet: the stepping pass where the search's legs skate; --no-step-feet
+# is the default's own legs.
+"$synth" "${base[@]/m.bvh/mn.bvh}" --results "$tmp/results.jsonl" --step-feet --report "$tmp/rn.json" >/dev/null
+"$synth" "${base[@]/m.bvh/m3.bvh}" --results "$tmp/results.jsonl" --no-step-feet >/dev/null
+cmp -s "$tmp/m.bvh" "$tmp/m3.bvh" || fail "--no-step-feet is not the default"
 # --refine: the same transitions' lengths, g never above the unrefined run's.
 "$synth" "${base[@]/m.bvh/mr.bvh}" --results "$tmp/results.jsonl" --refine 5 --report "$tmp/rr.json" >/dev/null
 # --refine-smoothing: smoothed stages first, the same guarantees.
@@ -64,10 +69,12 @@ import json, sys
 t = sys.argv[1]
 def slide_limit(a, b):
     """The refinement slides the feet no more than the slerp of the same
-    length, or than the stepped path it starts from (docs/synthesis.md)."""
+    length or the path it starts from (the search on W has no sliding
+    limit of its own), or than the stepped path it starts from
+    (docs/synthesis.md)."""
     if b["search"]["stepped"]:
         return a["foot_sliding_m"]
-    return b["baselines_same_length"]["slerp"]["foot_sliding_m"]
+    return max(a["foot_sliding_m"], b["baselines_same_length"]["slerp"]["foot_sliding_m"])
 r = json.load(open(t + "/r.json"))
 rw = json.load(open(t + "/rw.json"))
 p = rw["parameters"]
@@ -120,14 +127,42 @@ for tr in r["transitions"]:
     assert 0 <= tr["airborne_ratio"] <= 1 and isinstance(tr["search"]["stepped"], bool), tr
     assert "slerp" in tr["baselines_same_length"] and "inertialize" in tr["baselines_same_length"]
     assert tr["search"]["stop_reason"] in ("threshold", "horizon", "max_states")
-assert r["parameters"]["step_feet"] is True and 0 <= r["motion"]["airborne_ratio"] <= 1
+# The defaults: the search on W, no stepping pass.
+assert r["parameters"]["energy"] == "w" and r["parameters"]["step_feet"] is False
+assert 0 <= r["motion"]["airborne_ratio"] <= 1
+assert not any(x["search"]["stepped"] for x in r["transitions"])
 rn = json.load(open(t + "/rn.json"))
-assert rn["parameters"]["step_feet"] is False
-assert not any(x["search"]["stepped"] for x in rn["transitions"])
+assert rn["parameters"]["step_feet"] is True
+assert any(x["search"]["stepped"] for x in rn["transitions"])
 # Stepped transitions skate less than the search's own legs did.
-for a, b in zip(r["transitions"], rn["transitions"]):
+for a, b in zip(rn["transitions"], r["transitions"]):
     if a["search"]["stepped"]:
         assert a["foot_skating_ratio"] < b["foot_skating_ratio"], (a["foot_skating_ratio"], b["foot_skating_ratio"])
+# g by its name, the capture beside the transitions.
+for tr in r["transitions"]:
+    assert tr["g_paper_J"] == tr["g_J"]
+    for m in tr["baselines_same_length"].values():
+        assert m["g_paper_J"] == m["g_J"]
+mo = r["motion"]
+assert mo["g_paper_total_J"] == mo["g_total_J"]
+assert mo["w_J"] > 0 and 0 <= mo["no_contact_ratio"] <= 1 and mo["peak_angular_speed_radps"] > 0
+for s in segs:
+    if s["kind"] == "partial":
+        m = s["measures"]
+        assert m["frames"] == s["frames"] - 2, (m["frames"], s["frames"])
+        assert m["w_J"] >= m["unsupported_J"] >= 0 and m["peak_angular_speed_radps"] > 0
+        # The same skating rule as the segment's own ratio.
+        assert abs(m["foot_skating_ratio"] - s["foot_skating_ratio"]) < 1e-12, (m, s)
+    else:
+        assert "measures" not in s
+ps = mo["per_step"]
+steps = sum(tr["frames"] + 1 for tr in r["transitions"])
+assert ps["transitions"]["steps"] == steps
+assert abs(ps["transitions"]["w_J"] * steps - sum(tr["w_J"] for tr in r["transitions"])) < 1e-6 * steps
+assert ps["transitions"]["peak_angular_speed_radps"] == max(tr["peak_angular_speed_radps"] for tr in r["transitions"])
+captured = [s["measures"] for s in segs if s["kind"] == "partial"]
+assert ps["captured"]["steps"] == sum(m["frames"] + 1 for m in captured)
+assert abs(ps["captured"]["unsupported_J"] * ps["captured"]["steps"] - sum(m["unsupported_J"] for m in captured)) < 1e-6 * ps["captured"]["steps"]
 rs = json.load(open(t + "/rs.json"))
 assert all(x["method"] == "slerp" for x in rs["transitions"])
 rp = json.load(open(t + "/rp.json"))

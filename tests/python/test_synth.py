@@ -108,14 +108,17 @@ def test_given_results_and_picks_as_mocap_synth(index, index_path, query_file, s
 
 
 def test_search_energy_as_mocap_synth(index, index_path, query_file, scratch):
-    out = os.path.join(scratch, "w.bvh")
-    theirs = mocap_synth(index_path, query_file, out, "--energy", "w")
+    out = os.path.join(scratch, "g.bvh")
+    theirs = mocap_synth(index_path, query_file, out, "--energy", "g", "--step-feet")
     with open(query_file) as f:
         query = json.load(f)
-    motion = index.synthesize(query, base_dir=scratch, energy="w")
+    motion = index.synthesize(query, base_dir=scratch, energy="g", step_feet=True)
     assert motion.bvh() == theirs
-    assert motion.report()["parameters"]["energy"] == "w"
-    assert index.synthesize(query, base_dir=scratch).report()["parameters"]["energy"] == "g"
+    params = motion.report()["parameters"]
+    assert params["energy"] == "g" and params["step_feet"] is True
+    # The defaults, as mocap-synth's: W, no stepping pass.
+    default = index.synthesize(query, base_dir=scratch).report()["parameters"]
+    assert default["energy"] == "w" and default["step_feet"] is False
 
 
 # The motion as arrays.

@@ -83,8 +83,8 @@ TEST(FootSteps, AGlidingWalkTransitionStepsAndEndsOnTheGoalsFeet) {
 
 namespace {
 
-// A* on a gap from frame a of clip x to frame b of clip y, with and without
-// the stepping pass.
+// A* on g (whose legs glide where the clips move) on a gap from frame a of
+// clip x to frame b of clip y, with and without the stepping pass.
 struct WithAndWithout {
   std::unique_ptr<test::RealGap> g;
   std::vector<SynthFrame> stepped, plain;
@@ -95,6 +95,8 @@ std::unique_ptr<WithAndWithout> astar_both_ways(const Index& index, const char* 
   auto w = std::make_unique<WithAndWithout>();
   w->g = test::make_gap(index, x, a, y, b);
   SupplementParams p;
+  p.energy = SearchEnergy::g;
+  p.step_feet = true;
   w->stepped = supplement_astar(w->g->gap, p, &w->stepped_stats);
   p.step_feet = false;
   w->plain = supplement_astar(w->g->gap, p, &w->plain_stats);

@@ -422,7 +422,8 @@ TEST(SynthSupplement, AStarNeverWorseThanSlerpOfTheSameLength) {
     for (bool exact : {false, true}) {
       mocap::SupplementParams p;
       p.exact_lookahead = exact;
-      p.step_feet = false;  // the search itself: the stepping pass trades g for steps
+      p.energy = mocap::SearchEnergy::g;  // the guarantee in g (in W: AStarOnW...)
+      p.step_feet = false;                // the search itself: the stepping pass trades g for steps
       mocap::SupplementStats st;
       const auto a = mocap::supplement_astar(g->gap, p, &st);
       ASSERT_EQ(st.stop_reason, "horizon") << xn;
@@ -709,6 +710,7 @@ TEST(SynthRefine, AStarWithRefinementReportsItsGain) {
   REQUIRE_INDEX();
   auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   mocap::SupplementParams p;
+  p.energy = mocap::SearchEnergy::g;  // the refinement lowers g, from the search on g's path
   p.step_feet = false;  // its bounds are the search's (the stepping pass: foot_steps_test)
   mocap::SupplementStats plain_stats, refined_stats;
   const auto plain = mocap::supplement_astar(g->gap, p, &plain_stats);

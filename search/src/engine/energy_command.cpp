@@ -249,6 +249,7 @@ std::string energy_report_json(const EnergyReport& r) {
   nlohmann::json j;
   j["h_J"] = r.h_J;
   j["g_J"] = r.g_J;
+  j["g_paper_J"] = r.g_J;  // the same value by the name that says whose it is
   j["terms"] = terms_json(r.terms);
   j["from"] = {{"file", r.from.file.string()}, {"frame", r.from.frame}};
   j["to"] = {{"file", r.to.file.string()}, {"frame", r.to.frame}};
@@ -271,7 +272,8 @@ std::string energy_report_text(const EnergyReport& r) {
                   r.from.file.string(), r.from.frame, r.to.file.string(), r.to.frame,
                   r.transition_time_s, r.character, r.total_mass_kg, r.from_unit, r.to_unit);
   s += fmt::format(
-      "h = {:.6g} J   g = {:.6g} J   (contacts {} / {}, root residual work {:.4g} J, impulse "
+      "h = {:.6g} J   g (g_paper) = {:.6g} J   (contacts {} / {}, root residual work {:.4g} J, "
+      "impulse "
       "{:.4g} J)\n\n",
       r.h_J, r.g_J, r.from_contacts, r.to_contacts, r.residual_work_J, r.residual_impulse_J);
   s += work_line(r.w) + "\n\n";
@@ -432,6 +434,7 @@ std::string motion_energy_report_json(const MotionEnergyReport& r) {
                  {"frame_time_s", r.frame_time_s}};
   j["h_J"] = r.h_J;
   j["g_J"] = r.g_J;
+  j["g_paper_J"] = r.g_J;  // the same value by the name that says whose it is
   j["parts"] = {{"h_J", r.h_J},
                 {"adjacent_work_J", r.adjacent_work_J},
                 {"contact_work_J", r.contact_work_J},
@@ -463,7 +466,8 @@ std::string motion_energy_report_text(const MotionEnergyReport& r) {
                   r.file.string(), r.first_frame, r.last_frame, r.step_g_J.size(), r.frame_time_s,
                   r.character, r.total_mass_kg, r.unit);
   s += fmt::format(
-      "h = {:.6g} J   g = {:.6g} J = h + adjacent {:.4g} + contact {:.4g} + joint {:.4g} + "
+      "h = {:.6g} J   g (g_paper) = {:.6g} J = h + adjacent {:.4g} + contact {:.4g} + joint {:.4g} "
+      "+ "
       "residual work {:.4g} + residual impulse {:.4g}\n",
       r.h_J, r.g_J, r.adjacent_work_J, r.contact_work_J, r.joint_work_J, r.residual_work_J,
       r.residual_impulse_J);

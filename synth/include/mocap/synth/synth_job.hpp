@@ -62,6 +62,11 @@ struct MotionSegment {
   std::size_t pair = 0;  // 1-based pair (query: the query frame number)
   std::size_t first_frame = 0;
   std::size_t frame_count = 0;
+  /// A partial motion's own measures, as the output holds it (2 frames or
+  /// more): measure_transition over its steps, its first and last frames as
+  /// S_0 and S_G, the output's frames beside it as S_-1 and S_G+1. The
+  /// capture beside which the transitions are judged.
+  std::optional<TransitionMeasures> measures;
 };
 
 struct TransitionReport {
@@ -85,6 +90,10 @@ struct SynthResult {
   std::vector<double> step_energies_J;
   /// Sliding over the whole motion (measure_motion).
   MotionMeasures motion_measures;
+  /// The whole motion measured as one transition from its first frame to
+  /// its last (measure_transition; W, unsupported force, frames without
+  /// contact, peak joint speed). Empty for a motion of one frame.
+  std::optional<TransitionMeasures> whole_measures;
   std::vector<SynthFrame> query_frames;  // completed Q^h, as placed
   /// Per pair, for a timed query (empty otherwise).
   std::vector<PairTiming> timing;
