@@ -92,6 +92,9 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                  "the energy the A* search minimises: w (the work energy, default) or g (the "
                  "paper's, g_paper; docs/synthesis.md \"The search's energy\")")
       ->capture_default_str();
+  app.add_flag("--warp", a.options.warp_fill,
+               "timed key poses: play the chosen partial motion's clip over the whole time "
+               "between them, bent onto both (docs/synthesis.md \"Warped fills\")");
   auto* step = app.add_flag("--step-feet", a.step,
                             "the stepping pass after the A* search: no skating, at the price of "
                             "more work and faster joints (docs/synthesis.md \"Stepping\")");
@@ -220,8 +223,9 @@ int run_synth(SynthArgs& a) {
 
     // One query, or the one of a batch that --id names (the batch reader
     // mocap-search uses).
-    const mocap::Query query =
-        mocap::select_query(mocap::read_query_file(a.query_path), a.query_id, a.query_path);
+    const mocap::Query query = mocap::query_for_fill(
+        mocap::select_query(mocap::read_query_file(a.query_path), a.query_id, a.query_path),
+        a.options);
     // An index file, or a collection manifest's shards numbered as one index
     // (a missing or changed shard is an error naming it, before any work).
     const mocap::ClipSource clips = mocap::ClipSource::open(a.index_path);

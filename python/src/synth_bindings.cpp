@@ -53,6 +53,7 @@ struct SynthArgs {
   std::size_t max_states = SupplementParams{}.max_states;
   double cost_threshold_J = SupplementParams{}.cost_threshold_J;
   bool step_feet = false;
+  bool warp = false;
   std::string energy = "w";
   std::optional<double> fps;
   std::size_t refine = 0;
@@ -87,6 +88,7 @@ SynthOptions synth_options(const SynthArgs& a) {
   o.params.max_states = a.max_states;
   o.params.cost_threshold_J = a.cost_threshold_J;
   o.params.step_feet = a.step_feet;
+  o.warp_fill = a.warp;
   if (a.energy != "g" && a.energy != "w")
     throw InputError("energy", 0, "expected g or w, got '" + a.energy + "'");
   o.params.energy = a.energy == "w" ? SearchEnergy::work : SearchEnergy::g;
@@ -115,7 +117,7 @@ std::shared_ptr<Synthesis> synthesize_query(const std::shared_ptr<OpenIndex>& se
     parallelism.emplace(tbb::global_control::max_allowed_parallelism,
                         static_cast<std::size_t>(threads));
   auto s = std::make_shared<Synthesis>(
-      self, parse_query_text(query_text, "<query>", 0, base_dir, "query"));
+      self, query_for_fill(parse_query_text(query_text, "<query>", 0, base_dir, "query"), options));
   s->options = options;
   if (results) {
     s->ranked = read_search_results(*results, s->query.id, s->clips);
@@ -304,7 +306,7 @@ void bind_index_synthesize(py::module_& m) {
          double cost_threshold_J, bool step_feet, std::optional<double> fps, std::size_t refine,
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
          bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
-         const std::string& energy) {
+         const std::string& energy, bool warp) {
         SynthArgs a;
         a.method = method;
         a.picks = picks;
@@ -312,6 +314,7 @@ void bind_index_synthesize(py::module_& m) {
         a.cost_threshold_J = cost_threshold_J;
         a.step_feet = step_feet;
         a.energy = energy;
+        a.warp = warp;
         a.fps = fps;
         a.refine = refine;
         a.refine_smoothing_J = refine_smoothing_J;
@@ -329,6 +332,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("refine_smoothing_J") = 0.0, py::arg("refine_polish") = 0,
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
+      py::arg("warp") = false,
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

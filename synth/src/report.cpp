@@ -164,7 +164,8 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                        {"partial_frames", t.piece_frames},
                        {"out_frames", t.out_frames},
                        {"warp", t.warp},
-                       {"direct", t.direct}});
+                       {"direct", t.direct},
+                       {"warped", t.warped}});
     j["timing"] = {{"fps", 1.0 / result.frame_time_s}, {"pairs", pairs}};
   }
   j["parameters"] = supplement_params_json(options.params);

@@ -26,6 +26,7 @@
 #include "mocap/search/query_pose.hpp"
 #include "mocap/search/timing.hpp"
 #include "motion_layout.hpp"
+#include "warp_fill.hpp"
 
 namespace mocap {
 namespace {
@@ -169,6 +170,7 @@ class TargetPieces {
     }
   }
 
+  std::size_t frame_count(std::size_t clip) const { return clips_.clip(clip).frame_count; }
   // Frame f of a chosen clip, on the target skeleton (joints without a
   // counterpart: identity).
   SynthFrame frame(std::size_t clip, std::size_t f) const {
@@ -363,6 +365,45 @@ void measure_pieces(SynthResult& res, const RangeOfMotion& rom) {
   if (res.frames.size() >= 2) res.whole_measures = measure_span(res, rom, 0, res.frames.size());
 }
 
+// SynthOptions::warp_fill: each timed pair with a partial motion is filled
+// by its clip played over the whole pair (the partial motion's time map
+// extended to both key poses) and bent onto them (warp_fill.hpp); the
+// transitions' measures are those of the frames now in their place.
+void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPieces& source,
+                      const std::vector<std::vector<SynthFrame>>& raw,
+                      const synth_detail::MotionLayout& layout) {
+  const SynthSkeleton& sk = *res.skeleton;
+  for (std::size_t h = 0; h < res.timing.size(); ++h) {
+    PairTiming& t = res.timing[h];
+    if (t.direct || t.piece_frames < 2) continue;
+    const std::size_t a = t.key_frame;
+    const std::size_t b =
+        h + 1 < res.timing.size() ? res.timing[h + 1].key_frame : res.frames.size() - 1;
+    const SearchResult& c = res.chosen[h];
+    synth_detail::WarpSource src;
+    src.frame = [&source, clip = c.clip_index](std::size_t f) { return source.frame(clip, f); };
+    src.frame_count = source.frame_count(c.clip_index);
+    src.step =
+        static_cast<double>(c.end_frame - c.start_frame) / static_cast<double>(t.piece_frames - 1);
+    src.start =
+        static_cast<double>(c.start_frame) - static_cast<double>(t.in_frames + 1) * src.step;
+    src.placement = synth_detail::placement_between(sk, raw[h].front(), layout.pieces[h].front());
+    const std::vector<SynthFrame> fill = synth_detail::warp_fill(
+        sk, &rom, src, res.frames[a], res.frames[b], b - a, res.frame_time_s);
+    std::copy(fill.begin() + 1, fill.end() - 1,
+              res.frames.begin() + static_cast<std::ptrdiff_t>(a + 1));
+    t.warped = true;
+  }
+  // The transitions' measures: of the frames now in their place.
+  std::size_t k = 0;
+  for (const MotionSegment& seg : res.segments) {
+    if (seg.kind != "transition") continue;
+    TransitionReport& tr = res.transitions[k++];
+    if (!res.timing[seg.pair - 1].warped) continue;
+    tr.measures = measure_span(res, rom, seg.first_frame - 1, seg.frame_count + 2);
+  }
+}
+
 }  // namespace
 
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
@@ -448,6 +489,15 @@ std::vector<synth_detail::TimedPair> time_pairs(const Query& query, double dt, d
   return out;
 }
 
+Query query_for_fill(const Query& query, const SynthOptions& options) {
+  if (!options.warp_fill) return query;
+  if (!query.timed())
+    throw InputError("--warp", 0, "needs a timed query (time_s on every query frame)");
+  Query q = query;
+  q.transition_time_s = std::min(q.transition_time_s, kWarpTransitionS);
+  return q;
+}
+
 SynthResult synthesize(const ClipSource& clips, const Query& query,
                        const std::vector<PairResults>& ranked, const SynthOptions& options,
                        std::optional<SynthSkeleton>& skeleton_out) {
@@ -497,6 +547,8 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
     timed = time_pairs(query, res.frame_time_s, dt, raw, res.timing);
   } else if (options.fps) {
     throw InputError("--fps", 0, "needs a timed query (time_s on every query frame)");
+  } else if (options.warp_fill) {
+    throw InputError("--warp", 0, "needs a timed query (time_s on every query frame)");
   }
   const double out_dt = res.frame_time_s;
   const synth_detail::MotionLayout layout =
@@ -510,6 +562,7 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   tbb::parallel_for(std::size_t{0}, tasks.size(),
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
   assemble(res, layout.pieces, tasks);
+  if (!timed.empty() && options.warp_fill) warp_timed_pairs(res, rom, source, raw, layout);
   if (!timed.empty()) {
     const std::size_t last = res.timing.empty() ? 0 : res.timing.back().key_frame;
     const std::size_t want =

@@ -156,3 +156,48 @@ TEST(TimedKeyPoses, FpsNeedsATimedQuery) {
                         R"(", "frame": 10}, {"bvh": ")" + file + R"(", "frame": 40}]})";
   EXPECT_THROW(synthesise(*index, q, at60), InputError);
 }
+
+TEST(TimedKeyPoses, WarpNeedsATimedQuery) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const std::string file = fs::absolute(test::data_dir() / kWalk).string();
+  SynthOptions warp;
+  warp.warp_fill = true;
+  const std::string text = R"({"top": 1, "frames": [{"bvh": ")" + file +
+                           R"(", "frame": 10}, {"bvh": ")" + file + R"(", "frame": 40}]})";
+  const Query q = parse_query_text(text, "<test>", 0, fs::current_path(), "q");
+  EXPECT_THROW(query_for_fill(q, warp), InputError);
+  EXPECT_THROW(synthesise(*index, text, warp), InputError);
+  EXPECT_EQ(query_for_fill(q, SynthOptions{}).transition_time_s, q.transition_time_s);
+}
+
+TEST(TimedKeyPoses, AWarpedFillPassesEachKeyPoseAtItsTime) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const double dt =
+      index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  SynthOptions warp;
+  warp.warp_fill = true;
+  // Pairs of 6 frames (direct: not warped) and 40 frames (warped); the
+  // search ranks partial motions spanning the pair (query_for_fill).
+  const Query q =
+      query_for_fill(parse_query_text(timed_walk({100, 106, 146}, {0.0, 6 * dt, 46 * dt}),
+                                      "<test>", 0, fs::current_path(), "q"),
+                     warp);
+  EXPECT_LE(q.transition_time_s, kWarpTransitionS);
+  const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
+  ASSERT_FALSE(found.error);
+  std::optional<SynthSkeleton> sk;
+  const SynthResult r = synthesize(*index, q, found.pairs, warp, sk);
+  ASSERT_EQ(r.frames.size(), 47u);
+  ASSERT_EQ(r.timing.size(), 2u);
+  EXPECT_TRUE(r.timing[0].direct);
+  EXPECT_FALSE(r.timing[0].warped);
+  EXPECT_TRUE(r.timing[1].warped);
+  expect_key_pose(r.frames[6], walk_frame(*index, 106), "middle key");
+  expect_key_pose(r.frames[46], walk_frame(*index, 146), "last key");
+  // The transitions' measures are those of the frames in their place.
+  for (const TransitionReport& t : r.transitions) EXPECT_GE(t.measures.work_energy_J, 0.0);
+}

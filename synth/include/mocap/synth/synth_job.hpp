@@ -41,7 +41,23 @@ struct SynthOptions {
   /// the first BVH query frame's file rate, else 30. Refused for an untimed
   /// query.
   std::optional<double> fps;
+  /// Timed key poses (docs/synthesis.md "Warped fills"): false, each pair
+  /// is transition, resampled partial motion, transition; true, the chosen
+  /// partial motion's clip plays over the whole time between the key poses
+  /// and is bent onto both (warp_fill), its contacts held.
+  bool warp_fill = false;
 };
+
+/// The transition time a warped fill searches with (SynthOptions::warp_fill),
+/// seconds: each pair's partial motion then spans the time between its key
+/// poses but one frame at each end.
+inline constexpr double kWarpTransitionS = 1.0 / 30.0;
+
+/// The query as synthesis searches it: with options.warp_fill, a timed
+/// query's transition time at most kWarpTransitionS (docs/synthesis.md
+/// "Warped fills"); otherwise the query itself. Throws InputError("--warp")
+/// for warp_fill with an untimed query.
+Query query_for_fill(const Query& query, const SynthOptions& options);
 
 /// A pair of timed key poses in the output (docs/queries.md "Timed key poses").
 struct PairTiming {
@@ -54,6 +70,10 @@ struct PairTiming {
   double warp = 1.0;
   /// No partial motion: one transition of in_frames from Q^h to Q^h+1.
   bool direct = false;
+  /// The pair was filled by its warped clip (SynthOptions::warp_fill): its
+  /// "transitions" hold the clip's own frames before and after the partial
+  /// motion, bent like it.
+  bool warped = false;
 };
 
 /// One piece of the output motion.

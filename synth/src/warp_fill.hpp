@@ -1,0 +1,72 @@
+// Warped fills of timed key poses (private to synth/src; docs/synthesis.md
+// "Warped fills"): the chosen partial motion's clip, played over the whole
+// time between two key poses, bent onto both by a displacement map (motion
+// warping, Witkin & Popovic 1995) with its foot contacts held in place.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "mocap/synth/synth.hpp"
+
+namespace mocap::synth_detail {
+
+/// Where the captured motion comes from and how it maps onto the output.
+struct WarpSource {
+  /// Frame f (0-based) of the clip, on the target skeleton, clip coordinates.
+  std::function<SynthFrame(std::size_t)> frame;
+  /// The clip's frame count (>= 2).
+  std::size_t frame_count = 0;
+  /// Output step i (0: key pose a) plays clip position start + i * step
+  /// (fractional clip frames; clamped to the clip).
+  double start = 0.0;
+  double step = 1.0;
+  /// Clip coordinates -> output coordinates.
+  Placement placement;
+};
+
+/// The clip's frames at output steps 0..steps, placed (root linear, joints
+/// slerp between captured frames).
+std::vector<SynthFrame> captured_span(const SynthSkeleton& sk, const WarpSource& src,
+                                      std::size_t steps);
+
+/// The displacement map: `frames` (at least 2) bent so that the first is
+/// `key_a` and the last `key_b`: the root moved by the offsets at both ends
+/// blended linearly in time, every joint's local rotation turned by the
+/// offset rotations at both ends slerped likewise.
+void displace_onto_keys(std::vector<SynthFrame>& frames, const SynthFrame& key_a,
+                        const SynthFrame& key_b);
+
+/// Foot heights kept: every leg's ankle (in frames 1 .. n-2) at the height
+/// it has in `captured`, plus the difference at the ends blended linearly
+/// (so that the key poses' own heights are met), its horizontal position
+/// and rotation as in `frames` (two-bone inverse kinematics): the joint
+/// rotations' displacement would otherwise lower a swinging foot to the
+/// ground or push a planted one into it.
+void keep_foot_heights(const SynthSkeleton& sk, const RangeOfMotion* rom,
+                       const std::vector<SynthFrame>& captured, std::vector<SynthFrame>& frames);
+
+/// Foot contacts held: a leg whose lowest foot joint is on the ground in
+/// `captured` (within 5 cm, slower than 0.5 m/s: the skating rule's
+/// thresholds) keeps its ankle, in `frames`, where it is at the contact's
+/// middle frame (at the first or last frame where the contact includes it,
+/// those being the key poses), by two-bone inverse kinematics, eased in and
+/// out over 3 frames. The first and last frames are not changed.
+void hold_contacts(const SynthSkeleton& sk, const RangeOfMotion* rom,
+                   const std::vector<SynthFrame>& captured, std::vector<SynthFrame>& frames,
+                   double dt);
+
+/// The three passes: steps + 1 frames from key_a to key_b (both included,
+/// exactly).
+std::vector<SynthFrame> warp_fill(const SynthSkeleton& sk, const RangeOfMotion* rom,
+                                  const WarpSource& src, const SynthFrame& key_a,
+                                  const SynthFrame& key_b, std::size_t steps, double dt);
+
+/// The placement (yaw, horizontal translation) that takes clip frame
+/// `clip` onto the placed frame `placed` (root heading and horizontal root
+/// position).
+Placement placement_between(const SynthSkeleton& sk, const SynthFrame& clip,
+                            const SynthFrame& placed);
+
+}  // namespace mocap::synth_detail
