@@ -42,7 +42,7 @@ struct QualityArgs {
   mocap::SupplementParams params;
   bool h_lookahead = false;
   bool no_plant = false, no_choose = false;
-  bool step = false;
+  bool step = false, no_step = false;
   std::string energy = "w";
   bool refine_free = false;
 };
@@ -72,8 +72,10 @@ void add_quality_options(CLI::App& app, QualityArgs& q) {
   app.add_option("--energy", q.energy, "the energy the search minimises: w (default) or g")
       ->check(CLI::IsMember({"w", "g"}))
       ->capture_default_str();
-  app.add_flag("--step-feet", q.step,
-               "the stepping pass after the search (slerp and inertialization get it too)");
+  auto* step = app.add_flag("--step-feet", q.step,
+                            "the stepping pass after the search (slerp and inertialization get "
+                            "it too)");
+  app.add_flag("--no-step-feet", q.no_step, "no stepping pass (the default)")->excludes(step);
   mocap::add_refine_options(app, q.params);
   app.add_flag("--refine-free", q.refine_free,
                "let the refinement slide the feet, turn joints faster and leave the range of "

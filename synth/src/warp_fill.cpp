@@ -172,8 +172,9 @@ void hold_contacts(const SynthSkeleton& sk, const RangeOfMotion* rom,
       const std::size_t to = std::min(n - 1, v + kEase);
       for (std::size_t i = std::max<std::size_t>(from, 1); i <= std::min(to, n - 2); ++i) {
         const AnkleHold h = hold_at(w, wc, legs[l].ankle, u, v, n - 1, std::clamp(i, u, v));
-        const double out = i < u ? static_cast<double>(u - i) : i > v ? static_cast<double>(i - v)
-                                                                         : 0.0;
+        const double out = i < u   ? static_cast<double>(u - i)
+                           : i > v ? static_cast<double>(i - v)
+                                   : 0.0;
         const double t = 1.0 - out / static_cast<double>(kEase + 1);
         synth_world_pose(sk, frames[i], scratch);
         const Eigen::Vector3d target = (1.0 - t) * scratch.positions_m[ankle] + t * h.position;

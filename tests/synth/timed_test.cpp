@@ -183,8 +183,8 @@ TEST(TimedKeyPoses, AWarpedFillPassesEachKeyPoseAtItsTime) {
   // Pairs of 6 frames (direct: not warped) and 40 frames (warped); the
   // search ranks partial motions spanning the pair (query_for_fill).
   const Query q =
-      query_for_fill(parse_query_text(timed_walk({100, 106, 146}, {0.0, 6 * dt, 46 * dt}),
-                                      "<test>", 0, fs::current_path(), "q"),
+      query_for_fill(parse_query_text(timed_walk({100, 106, 146}, {0.0, 6 * dt, 46 * dt}), "<test>",
+                                      0, fs::current_path(), "q"),
                      warp);
   EXPECT_LE(q.transition_time_s, kWarpTransitionS);
   const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
