@@ -44,6 +44,7 @@ struct SynthArgs {
   bool force = false;
   double fps = 0.0;
   bool step = false, no_step = false;
+  bool warp = false, no_warp = false;
   unsigned threads = 0;
   mocap::InputLimitFlags limits;
 };
@@ -92,9 +93,19 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                  "the energy the A* search minimises: w (the work energy, default) or g (the "
                  "paper's, g_paper; docs/synthesis.md \"The search's energy\")")
       ->capture_default_str();
-  app.add_flag("--warp", a.options.warp_fill,
-               "timed key poses: play the chosen partial motion's clip over the whole time "
-               "between them, bent onto both (docs/synthesis.md \"Warped fills\")");
+  auto* warp = app.add_flag("--warp", a.warp,
+                            "timed key poses: play a partial motion's clip over the whole time "
+                            "between them, bent onto both (the default for a timed query; with "
+                            "--warp an untimed query is an error; docs/synthesis.md \"Warped "
+                            "fills\")");
+  app.add_flag("--no-warp", a.no_warp,
+               "timed key poses: transition, resampled partial motion, transition")
+      ->excludes(warp);
+  app.add_option("--warp-candidates", a.options.warp_candidates,
+                 "warped fills: choose among this many of each pair's ranked partial motions the "
+                 "one with the smallest warp (1: the ranking's best)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   auto* step = app.add_flag("--step-feet", a.step,
                             "the stepping pass after the A* search: no skating, at the price of "
                             "more work and faster joints (docs/synthesis.md \"Stepping\")");
@@ -214,6 +225,8 @@ void print_synth_summary(const SynthArgs& a, const mocap::SynthResult& result) {
 // the synthesis, its files. Returns the exit code.
 int run_synth(SynthArgs& a) {
   a.options.params.step_feet = a.step;
+  a.options.warp_fill = !a.no_warp;
+  a.options.warp_required = a.warp;
   if (a.fps > 0.0) a.options.fps = a.fps;
   const auto t0 = std::chrono::steady_clock::now();
   try {

@@ -317,7 +317,7 @@ class Index:
                    cost_threshold_J=5.0, step_feet=False, fps=None, refine=0,
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
-                   base_dir=None, energy="w", warp=False):
+                   base_dir=None, energy="w", warp=None, warp_candidates=5):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         `results`: the search's answer for this query (a dict from search(),
@@ -327,7 +327,10 @@ class Index:
         keywords are mocap-synth's flags (--transition, --max-states,
         --cost-threshold, --step-feet, --fps, --refine..., --energy: "w",
         the work energy, or "g", the paper's: the energy the A* search
-        minimises; --warp: warp=True). Returns a Synthesis.
+        minimises; warp: None, the default, warps the pairs of a timed
+        query; True, --warp (an untimed query is then an error); False,
+        --no-warp; --warp-candidates: warp_candidates). Returns a
+        Synthesis.
         """
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
@@ -337,7 +340,7 @@ class Index:
                     refine_polish=refine_polish, refine_polish_window=refine_polish_window,
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
-                    energy=energy, warp=warp)
+                    energy=energy, warp=warp, warp_candidates=warp_candidates)
         if results is None or isinstance(results, (str, os.PathLike)):
             raw = self._raw.synthesize(text, _base_dir(base_dir), results=results, **args)
         else:

@@ -53,7 +53,8 @@ struct SynthArgs {
   std::size_t max_states = SupplementParams{}.max_states;
   double cost_threshold_J = SupplementParams{}.cost_threshold_J;
   bool step_feet = false;
-  bool warp = false;
+  std::optional<bool> warp;  // unset: the default (timed queries warped)
+  std::size_t warp_candidates = SynthOptions{}.warp_candidates;
   std::string energy = "w";
   std::optional<double> fps;
   std::size_t refine = 0;
@@ -88,7 +89,10 @@ SynthOptions synth_options(const SynthArgs& a) {
   o.params.max_states = a.max_states;
   o.params.cost_threshold_J = a.cost_threshold_J;
   o.params.step_feet = a.step_feet;
-  o.warp_fill = a.warp;
+  o.warp_fill = a.warp.value_or(true);
+  o.warp_required = a.warp.value_or(false);
+  if (a.warp_candidates < 1) throw InputError("warp_candidates", 0, "must be >= 1");
+  o.warp_candidates = a.warp_candidates;
   if (a.energy != "g" && a.energy != "w")
     throw InputError("energy", 0, "expected g or w, got '" + a.energy + "'");
   o.params.energy = a.energy == "w" ? SearchEnergy::work : SearchEnergy::g;
@@ -306,7 +310,7 @@ void bind_index_synthesize(py::module_& m) {
          double cost_threshold_J, bool step_feet, std::optional<double> fps, std::size_t refine,
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
          bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
-         const std::string& energy, bool warp) {
+         const std::string& energy, std::optional<bool> warp, std::size_t warp_candidates) {
         SynthArgs a;
         a.method = method;
         a.picks = picks;
@@ -315,6 +319,7 @@ void bind_index_synthesize(py::module_& m) {
         a.step_feet = step_feet;
         a.energy = energy;
         a.warp = warp;
+        a.warp_candidates = warp_candidates;
         a.fps = fps;
         a.refine = refine;
         a.refine_smoothing_J = refine_smoothing_J;
@@ -332,7 +337,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("refine_smoothing_J") = 0.0, py::arg("refine_polish") = 0,
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
-      py::arg("warp") = false,
+      py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

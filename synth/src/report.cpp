@@ -157,7 +157,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
   }
   if (!result.timing.empty()) {
     nlohmann::json pairs = nlohmann::json::array();
-    for (const PairTiming& t : result.timing)
+    for (const PairTiming& t : result.timing) {
       pairs.push_back({{"pair", t.pair},
                        {"key_frame", t.key_frame},
                        {"in_frames", t.in_frames},
@@ -166,10 +166,17 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                        {"warp", t.warp},
                        {"direct", t.direct},
                        {"warped", t.warped}});
+      if (t.warped) {
+        pairs.back()["warp_size_m"] = t.warp_size_m;
+        pairs.back()["warp_candidates"] = t.warp_candidates;
+      }
+    }
     j["timing"] = {{"fps", 1.0 / result.frame_time_s}, {"pairs", pairs}};
   }
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
+  j["parameters"]["warp"] = options.warp_fill;
+  j["parameters"]["warp_candidates"] = options.warp_candidates;
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return json_text(j, 2) + "\n";
 }

@@ -71,6 +71,15 @@ synth_detail::QueryFrameInput resolve_query_frame(const Query& q, std::size_t i,
   return out;
 }
 
+// Whether partial motion `m` lasts the query's minimum length (at least
+// one frame).
+bool long_enough(const ClipSource& clips, const Query& query, const SearchResult& m) {
+  const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
+  const double dt = clips.clip(m.clip_index).frame_time_s;
+  const auto frames = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
+  return m.end_frame - m.start_frame >= frames;
+}
+
 // The chosen result of each pair: its best-ranked partial motion at least
 // the query's minimum length long (min_length_s, else the search's default:
 // results files of other settings may hold shorter ones), unless picked.
@@ -83,12 +92,7 @@ std::vector<SearchResult> chosen_results(const ClipSource& clips, const Query& q
                                          const std::string& source) {
   const std::size_t pairs = ranked.size();
   const double min_s = query.min_length_s.value_or(SearchOptions{}.min_length_s);
-  auto long_enough = [&](const SearchResult& m) {
-    const double dt = clips.clip(m.clip_index).frame_time_s;
-    const auto frames =
-        std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(min_s / dt)));
-    return m.end_frame - m.start_frame >= frames;
-  };
+  auto long_enough = [&](const SearchResult& m) { return mocap::long_enough(clips, query, m); };
   std::vector<std::size_t> rank(pairs, 0);  // 0: the best long enough
   for (const Pick& p : picks) {
     if (p.pair > pairs)
@@ -171,6 +175,13 @@ class TargetPieces {
   }
 
   std::size_t frame_count(std::size_t clip) const { return clips_.clip(clip).frame_count; }
+  // Whether frame() gives the clip's frames on the target skeleton: a clip
+  // of the target's frame rate, of its skeleton or of one already mapped.
+  bool takes(std::size_t clip) const {
+    const std::uint32_t k = clips_.skeleton_of(clip);
+    return std::abs(clips_.clip(clip).frame_time_s - c0_.frame_time_s) <= 1e-9 &&
+           (k == k0_ || joint_maps_.count(k) > 0);
+  }
   // Frame f of a chosen clip, on the target skeleton (joints without a
   // counterpart: identity).
   SynthFrame frame(std::size_t clip, std::size_t f) const {
@@ -365,13 +376,48 @@ void measure_pieces(SynthResult& res, const RangeOfMotion& rom) {
   if (res.frames.size() >= 2) res.whole_measures = measure_span(res, rom, 0, res.frames.size());
 }
 
+// The partial motions a warped pair chooses among
+// (SynthOptions::warp_candidates): the chosen one first, then the
+// ranking's next results that are long enough and whose clips the target
+// skeleton takes, `k` in all; only the chosen one where the user picked
+// the pair's rank.
+std::vector<SearchResult> warp_candidates(const ClipSource& clips, const Query& query,
+                                          const PairResults& ranked, const SearchResult& chosen,
+                                          bool picked, const TargetPieces& source, std::size_t k) {
+  std::vector<SearchResult> out{chosen};
+  if (picked) return out;
+  for (const SearchResult& m : ranked.results) {
+    if (out.size() >= k) break;
+    if (m.rank == chosen.rank || !long_enough(clips, query, m) || !source.takes(m.clip_index))
+      continue;
+    out.push_back(m);
+  }
+  return out;
+}
+
+// The clip of partial motion `c` played over pair `t`'s whole time: its
+// time map (the partial motion over piece_frames output frames) extended to
+// both key poses; placed where placement_between puts it.
+synth_detail::WarpSource warp_source(const TargetPieces& source, const SearchResult& c,
+                                     const PairTiming& t) {
+  synth_detail::WarpSource src;
+  src.frame = [&source, clip = c.clip_index](std::size_t f) { return source.frame(clip, f); };
+  src.frame_count = source.frame_count(c.clip_index);
+  src.step =
+      static_cast<double>(c.end_frame - c.start_frame) / static_cast<double>(t.piece_frames - 1);
+  src.start = static_cast<double>(c.start_frame) - static_cast<double>(t.in_frames + 1) * src.step;
+  return src;
+}
+
 // SynthOptions::warp_fill: each timed pair with a partial motion is filled
-// by its clip played over the whole pair (the partial motion's time map
-// extended to both key poses) and bent onto them (warp_fill.hpp); the
-// transitions' measures are those of the frames now in their place.
+// by a clip played over the whole pair (warp_source) and bent onto both key
+// poses (warp_fill.hpp): of the pair's candidates (warp_candidates), the
+// one with the smallest warp (warp_size_m), placed by balanced_placement.
+// The pair's chosen partial motion becomes that one; the transitions'
+// measures are those of the frames now in their place.
 void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPieces& source,
-                      const std::vector<std::vector<SynthFrame>>& raw,
-                      const synth_detail::MotionLayout& layout) {
+                      const ClipSource& clips, const Query& query,
+                      const std::vector<PairResults>& ranked, const SynthOptions& options) {
   const SynthSkeleton& sk = *res.skeleton;
   for (std::size_t h = 0; h < res.timing.size(); ++h) {
     PairTiming& t = res.timing[h];
@@ -379,20 +425,34 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
     const std::size_t a = t.key_frame;
     const std::size_t b =
         h + 1 < res.timing.size() ? res.timing[h + 1].key_frame : res.frames.size() - 1;
-    const SearchResult& c = res.chosen[h];
-    synth_detail::WarpSource src;
-    src.frame = [&source, clip = c.clip_index](std::size_t f) { return source.frame(clip, f); };
-    src.frame_count = source.frame_count(c.clip_index);
-    src.step =
-        static_cast<double>(c.end_frame - c.start_frame) / static_cast<double>(t.piece_frames - 1);
-    src.start =
-        static_cast<double>(c.start_frame) - static_cast<double>(t.in_frames + 1) * src.step;
-    src.placement = synth_detail::placement_between(sk, raw[h].front(), layout.pieces[h].front());
+    const bool picked = std::any_of(options.picks.begin(), options.picks.end(),
+                                    [&](const Pick& p) { return p.pair == h + 1; });
+    const std::vector<SearchResult> candidates =
+        warp_candidates(clips, query, ranked[h], res.chosen[h], picked, source,
+                        std::max<std::size_t>(1, options.warp_candidates));
+    std::optional<synth_detail::WarpSource> best;
+    for (const SearchResult& c : candidates) {
+      synth_detail::WarpSource src = warp_source(source, c, t);
+      src.placement =
+          synth_detail::balanced_placement(sk, src, res.frames[a], res.frames[b], b - a);
+      const double size = synth_detail::warp_size_m(sk, synth_detail::captured_span(sk, src, b - a),
+                                                    res.frames[a], res.frames[b]);
+      if (best && size >= t.warp_size_m) continue;
+      best = std::move(src);
+      t.warp_size_m = size;
+      if (c.clip_index != res.chosen[h].clip_index || c.start_frame != res.chosen[h].start_frame ||
+          c.end_frame != res.chosen[h].end_frame) {
+        t.warp *= static_cast<double>(res.chosen[h].end_frame - res.chosen[h].start_frame) /
+                  static_cast<double>(c.end_frame - c.start_frame);
+        res.chosen[h] = c;
+      }
+    }
     const std::vector<SynthFrame> fill = synth_detail::warp_fill(
-        sk, &rom, src, res.frames[a], res.frames[b], b - a, res.frame_time_s);
+        sk, &rom, *best, res.frames[a], res.frames[b], b - a, res.frame_time_s);
     std::copy(fill.begin() + 1, fill.end() - 1,
               res.frames.begin() + static_cast<std::ptrdiff_t>(a + 1));
     t.warped = true;
+    t.warp_candidates = candidates.size();
   }
   // The transitions' measures: of the frames now in their place.
   std::size_t k = 0;
@@ -491,8 +551,11 @@ std::vector<synth_detail::TimedPair> time_pairs(const Query& query, double dt, d
 
 Query query_for_fill(const Query& query, const SynthOptions& options) {
   if (!options.warp_fill) return query;
-  if (!query.timed())
-    throw InputError("--warp", 0, "needs a timed query (time_s on every query frame)");
+  if (!query.timed()) {
+    if (options.warp_required)
+      throw InputError("--warp", 0, "needs a timed query (time_s on every query frame)");
+    return query;
+  }
   Query q = query;
   q.transition_time_s = std::min(q.transition_time_s, kWarpTransitionS);
   return q;
@@ -547,7 +610,7 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
     timed = time_pairs(query, res.frame_time_s, dt, raw, res.timing);
   } else if (options.fps) {
     throw InputError("--fps", 0, "needs a timed query (time_s on every query frame)");
-  } else if (options.warp_fill) {
+  } else if (options.warp_fill && options.warp_required) {
     throw InputError("--warp", 0, "needs a timed query (time_s on every query frame)");
   }
   const double out_dt = res.frame_time_s;
@@ -562,7 +625,8 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   tbb::parallel_for(std::size_t{0}, tasks.size(),
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
   assemble(res, layout.pieces, tasks);
-  if (!timed.empty() && options.warp_fill) warp_timed_pairs(res, rom, source, raw, layout);
+  if (!timed.empty() && options.warp_fill)
+    warp_timed_pairs(res, rom, source, clips, query, ranked, options);
   if (!timed.empty()) {
     const std::size_t last = res.timing.empty() ? 0 : res.timing.back().key_frame;
     const std::size_t want =

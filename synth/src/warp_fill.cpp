@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "foot_planting.hpp"
 
@@ -75,6 +76,37 @@ Placement placement_between(const SynthSkeleton& sk, const SynthFrame& clip,
   p.translation_m = placed.root_position_m - turned;
   p.translation_m.y() = 0.0;
   return p;
+}
+
+Placement balanced_placement(const SynthSkeleton& sk, const WarpSource& src,
+                             const SynthFrame& key_a, const SynthFrame& key_b, std::size_t steps) {
+  WarpSource own = src;
+  own.placement = Placement{};
+  const std::vector<SynthFrame> span = captured_span(sk, own, steps);
+  Placement p = placement_between(sk, span.front(), key_a);
+  Eigen::Vector3d miss = key_b.root_position_m - place_frame(sk, span.back(), p).root_position_m;
+  miss.y() = 0.0;
+  p.translation_m += 0.5 * miss;
+  return p;
+}
+
+double warp_size_m(const SynthSkeleton& sk, const std::vector<SynthFrame>& captured,
+                   const SynthFrame& key_a, const SynthFrame& key_b) {
+  if (captured.empty()) throw std::invalid_argument("warp_size_m: no frames");
+  WorldPose c, k;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (const auto& [frame, key] :
+       {std::pair{&captured.front(), &key_a}, std::pair{&captured.back(), &key_b}}) {
+    synth_world_pose(sk, *frame, c);
+    synth_world_pose(sk, *key, k);
+    for (std::size_t j = 0; j < c.positions_m.size(); ++j) {
+      if (sk.is_root_chain[j] && static_cast<int>(j) != sk.root_joint) continue;
+      sum += (c.positions_m[j] - k.positions_m[j]).norm();
+      ++count;
+    }
+  }
+  return count ? sum / static_cast<double>(count) : 0.0;
 }
 
 std::vector<SynthFrame> captured_span(const SynthSkeleton& sk, const WarpSource& src,

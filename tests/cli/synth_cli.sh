@@ -183,18 +183,23 @@ assert all(c["start_frame"] < c["end_frame"] for c in r["chosen"])
 PY
 # A timed in-between (docs/queries.md "Timed key poses"): frames 100 and 131
 # of a held-out walk at 0 and 31/30 s give 32 frames at the file's rate and
-# 63 at --fps 60; --fps is refused for an untimed query.
+# 63 at --fps 60, the pair warped by default (docs/synthesis.md "Warped
+# fills") and not with --no-warp; --fps and --warp are refused for an
+# untimed query, --warp with --no-warp, --warp-candidates 0.
 walk="$(cd "$data/bandai-namco-1/data" && pwd)/dataset-1_walk_normal_001.bvh"
 printf '{"id": "ib", "frames": [{"bvh": "%s", "frame": 100, "time_s": 0}, {"bvh": "%s", "frame": 131, "time_s": 1.0333333}], "filter": {"exclude": ["dataset-1_walk_normal_001*"]}}\n' \
   "$walk" "$walk" >"$tmp/timed.json"
 "$synth" --index "$tmp/index.h5" --query "$tmp/timed.json" --out "$tmp/t.bvh" --report "$tmp/t.json" >/dev/null
 "$synth" --index "$tmp/index.h5" --query "$tmp/timed.json" --out "$tmp/t60.bvh" --report "$tmp/t60.json" \
   --fps 60 >/dev/null
+"$synth" --index "$tmp/index.h5" --query "$tmp/timed.json" --out "$tmp/tn.bvh" --report "$tmp/tn.json" \
+  --no-warp >/dev/null
 grep -q "^Frames: 32$" "$tmp/t.bvh" || fail "the timed motion does not have 32 frames"
+grep -q "^Frames: 32$" "$tmp/tn.bvh" || fail "the unwarped timed motion does not have 32 frames"
 grep -q "^Frames: 63$" "$tmp/t60.bvh" || fail "the timed motion at 60 fps does not have 63 frames"
-python3 - "$tmp/t.json" "$tmp/t60.json" <<'PY'
+python3 - "$tmp/t.json" "$tmp/t60.json" "$tmp/tn.json" <<'PY'
 import json, sys
-for path, fps in zip(sys.argv[1:], (30.0, 60.0)):
+for path, fps, warped in zip(sys.argv[1:], (30.0, 60.0, 30.0), (True, True, False)):
     r = json.load(open(path))
     t = r["timing"]
     assert abs(t["fps"] - fps) < 1e-3, t
@@ -202,6 +207,16 @@ for path, fps in zip(sys.argv[1:], (30.0, 60.0)):
     assert p["key_frame"] == 0 and not p["direct"], p
     assert 1 + p["in_frames"] + p["partial_frames"] + p["out_frames"] + 1 == r["motion"]["frames"], p
     assert 0.7 < p["warp"] < 1.4, p
+    assert p["warped"] == warped, (path, p)
+    if warped:
+        assert p["in_frames"] == p["out_frames"] <= 1, p  # one 30-fps frame at most
+        assert 0 <= p["warp_size_m"] < 0.5 and 1 <= p["warp_candidates"] <= 5, p
+    else:
+        assert "warp_size_m" not in p and p["in_frames"] > 0, p
 PY
 expect_error "needs a timed query" "${base[@]/m.bvh/mf.bvh}" --results "$tmp/results.jsonl" --fps 60
+expect_error "needs a timed query" "${base[@]/m.bvh/mf.bvh}" --results "$tmp/results.jsonl" --warp
+expect_error "excludes" "${base[@]/m.bvh/mf.bvh}" --results "$tmp/results.jsonl" --warp --no-warp
+expect_error "warp-candidates" "${base[@]/m.bvh/mf.bvh}" --results "$tmp/results.jsonl" \
+  --warp-candidates 0
 echo "ok: mocap-synth CLI"

@@ -63,6 +63,10 @@ def test_invalid_options(index, data_dir):
     bad = dict(q, frames=q["frames"][:1] + [{"joints": {"NoSuchJoint": {"quat": [1, 0, 0, 0]}}}])
     with pytest.raises(mocap.InputError, match="unknown joint"):
         index.synthesize(bad)
+    with pytest.raises(mocap.InputError, match="needs a timed query"):
+        index.synthesize(q, warp=True)
+    with pytest.raises(mocap.InputError, match="warp_candidates"):
+        index.synthesize(q, warp_candidates=0)
     other = index.search(dict(q, id="another-query"))
     with pytest.raises(mocap.InputError, match="no results for query"):
         index.synthesize(q, results=other)
@@ -119,6 +123,28 @@ def test_search_energy_as_mocap_synth(index, index_path, query_file, scratch):
     # The defaults, as mocap-synth's: W, no stepping pass.
     default = index.synthesize(query, base_dir=scratch).report()["parameters"]
     assert default["energy"] == "w" and default["step_feet"] is False
+
+
+def test_timed_pairs_are_warped_by_default_as_mocap_synth(index, index_path, data_dir, scratch):
+    walk = os.path.join(data_dir, "bandai-namco-1", "data", "dataset-1_walk_normal_001.bvh")
+    query = {"id": "ib", "frames": [{"bvh": walk, "frame": 100, "time_s": 0},
+                                    {"bvh": walk, "frame": 131, "time_s": 31 / 30}],
+             "filter": {"exclude": ["dataset-1_walk_normal_001*"]}}
+    query_file = os.path.join(scratch, "timed.json")
+    with open(query_file, "w") as f:
+        json.dump(query, f)
+    for flags, kwargs, warped in (([], {}, True), (["--warp"], {"warp": True}, True),
+                                  (["--no-warp"], {"warp": False}, False),
+                                  (["--warp-candidates", "1"], {"warp_candidates": 1}, True)):
+        theirs = mocap_synth(index_path, query_file, os.path.join(scratch, "t.bvh"), *flags)
+        motion = index.synthesize(query, **kwargs)
+        assert motion.bvh() == theirs, flags
+        report = motion.report()
+        assert report["timing"]["pairs"][0]["warped"] is warped, flags
+        assert report["parameters"]["warp"] is warped, flags
+        if warped:
+            assert report["timing"]["pairs"][0]["warp_candidates"] == kwargs.get(
+                "warp_candidates", 5), flags
 
 
 # The motion as arrays.

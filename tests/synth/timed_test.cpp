@@ -3,11 +3,15 @@
 // in-between passes each key pose at its time, writes round(T / dt) + 1
 // frames at the clip's rate or at --fps, warps the partial motion within
 // its range, fills a pair too short for a partial motion directly; --fps is
-// refused for an untimed query.
+// refused for an untimed query, and so is the warp asked for by name (by
+// default an untimed query is not warped); a warped pair takes, of its
+// candidates, the one with the smallest warp (as each picked alone would
+// give).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -95,9 +99,12 @@ TEST(TimedKeyPoses, AHeldOutInBetweenPassesEachKeyPoseAtItsTime) {
   ASSERT_NE(index, nullptr);
   const double dt =
       index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
-  // A 30-frame gap (frames 100 and 131) at the file's rate, then at 60 fps.
+  // A 30-frame gap (frames 100 and 131) at the file's rate, then at 60 fps;
+  // transition, resampled partial motion, transition (not warped).
   const std::string q = timed_walk({100, 131}, {0.0, 31 * dt});
-  auto s = synthesise(*index, q);
+  SynthOptions unwarped;
+  unwarped.warp_fill = false;
+  auto s = synthesise(*index, q, unwarped);
   ASSERT_NE(s, nullptr);
   const SynthResult& r = s->result;
   ASSERT_EQ(r.frames.size(), 32u);
@@ -117,7 +124,7 @@ TEST(TimedKeyPoses, AHeldOutInBetweenPassesEachKeyPoseAtItsTime) {
       r.frames.back().root_position_m - r.frames.front().root_position_m;
   EXPECT_LT((moved - out_moved).norm(), 1e-3);
 
-  SynthOptions at60;
+  SynthOptions at60 = unwarped;
   at60.fps = 60.0;
   auto s60 = synthesise(*index, q, at60);
   ASSERT_NE(s60, nullptr);
@@ -157,19 +164,25 @@ TEST(TimedKeyPoses, FpsNeedsATimedQuery) {
   EXPECT_THROW(synthesise(*index, q, at60), InputError);
 }
 
-TEST(TimedKeyPoses, WarpNeedsATimedQuery) {
+TEST(TimedKeyPoses, WarpByNameNeedsATimedQuery) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
   const std::string file = fs::absolute(test::data_dir() / kWalk).string();
   SynthOptions warp;
-  warp.warp_fill = true;
+  warp.warp_required = true;
   const std::string text = R"({"top": 1, "frames": [{"bvh": ")" + file +
                            R"(", "frame": 10}, {"bvh": ")" + file + R"(", "frame": 40}]})";
   const Query q = parse_query_text(text, "<test>", 0, fs::current_path(), "q");
   EXPECT_THROW(query_for_fill(q, warp), InputError);
   EXPECT_THROW(synthesise(*index, text, warp), InputError);
+  // By default (warp_fill, not asked for by name) an untimed query is not
+  // warped: searched as given, synthesised without timing.
+  EXPECT_TRUE(SynthOptions{}.warp_fill);
   EXPECT_EQ(query_for_fill(q, SynthOptions{}).transition_time_s, q.transition_time_s);
+  auto s = synthesise(*index, text);
+  ASSERT_NE(s, nullptr);
+  EXPECT_TRUE(s->result.timing.empty());
 }
 
 TEST(TimedKeyPoses, AWarpedFillPassesEachKeyPoseAtItsTime) {
@@ -201,3 +214,72 @@ TEST(TimedKeyPoses, AWarpedFillPassesEachKeyPoseAtItsTime) {
   // The transitions' measures are those of the frames in their place.
   for (const TransitionReport& t : r.transitions) EXPECT_GE(t.measures.work_energy_J, 0.0);
 }
+
+namespace {
+
+// The choice among candidates against its brute reference: every candidate
+// picked by its rank alone (the pair then warps that one, placed the same
+// way); the chosen one has the smallest warp of the first five that can be
+// picked, and its motion is the picked run's, frame for frame (to 1e-5: the
+// target skeleton's root offset comes from the first chosen clip's frame 0,
+// the ranking's best before the choice, the picked one alone).
+TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const double dt =
+      index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  std::string text = timed_walk({100, 140}, {0.0, 40 * dt});
+  text.replace(text.find(R"("top": 1)"), 8, R"("top": 8)");
+  SynthOptions warp;
+  warp.warp_fill = true;
+  warp.warp_candidates = 5;
+  const Query q =
+      query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), warp);
+  const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
+  ASSERT_FALSE(found.error);
+  std::optional<SynthSkeleton> sk;
+  const SynthResult chosen = synthesize(*index, q, found.pairs, warp, sk);
+  ASSERT_EQ(chosen.timing.size(), 1u);
+  ASSERT_TRUE(chosen.timing[0].warped);
+  EXPECT_EQ(chosen.timing[0].warp_candidates, 5u);
+  double smallest = std::numeric_limits<double>::infinity();
+  std::size_t picked = 0;
+  for (const SearchResult& m : found.pairs[0].results) {
+    if (picked == 5) break;
+    SynthOptions one = warp;
+    one.picks = {Pick{1, m.rank}};
+    std::optional<SynthSkeleton> sk1;
+    SynthResult r;
+    try {
+      r = synthesize(*index, q, found.pairs, one, sk1);
+    } catch (const InputError&) {
+      continue;  // shorter than the minimum length: not a candidate
+    }
+    ++picked;
+    EXPECT_EQ(r.timing[0].warp_candidates, 1u);
+    smallest = std::min(smallest, r.timing[0].warp_size_m);
+    if (m.rank != chosen.chosen[0].rank) continue;
+    ASSERT_EQ(r.frames.size(), chosen.frames.size());
+    for (std::size_t i = 0; i < r.frames.size(); ++i) {
+      EXPECT_LT((r.frames[i].root_position_m - chosen.frames[i].root_position_m).norm(), 1e-5) << i;
+      for (std::size_t j = 0; j < r.frames[i].local_rotations.size(); ++j)
+        EXPECT_LT(
+            r.frames[i].local_rotations[j].angularDistance(chosen.frames[i].local_rotations[j]),
+            1e-5)
+            << i << " " << j;
+    }
+  }
+  EXPECT_EQ(picked, 5u);
+  EXPECT_NEAR(chosen.timing[0].warp_size_m, smallest, 1e-6);
+  // One candidate: the ranking's best.
+  warp.warp_candidates = 1;
+  const SynthResult first = synthesize(*index, q, found.pairs, warp, sk);
+  EXPECT_EQ(first.timing[0].warp_candidates, 1u);
+  EXPECT_GE(first.timing[0].warp_size_m, chosen.timing[0].warp_size_m);
+  // Here the choice matters: the ranking's best is not the smallest warp.
+  EXPECT_NE(first.chosen[0].rank, chosen.chosen[0].rank)
+      << first.timing[0].warp_size_m << " " << chosen.timing[0].warp_size_m;
+}
+
+}  // namespace

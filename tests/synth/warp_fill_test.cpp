@@ -1,7 +1,9 @@
 // synth/src/warp_fill.cpp: warped fills of timed key poses (docs/synthesis.md
 // "Warped fills"). Bad input is refused; the captured span is the clip where
 // its time map hits whole frames; the placement between a clip frame and its
-// placed copy is the one that placed it; the displacement map meets both key
+// placed copy is the one that placed it; the balanced placement shares the
+// miss of the last key pose between both ends; the warp size is the mean
+// joint distance at both ends; the displacement map meets both key
 // poses exactly and moves the middle by the mean of the two offsets; a real
 // walk bent onto key poses 40-57 cm away keeps its low feet as still as the
 // capture does, where the displacement alone drags them.
@@ -81,6 +83,7 @@ TEST(WarpFill, RejectsInvalidInputs) {
   WarpSource short_clip = w->src;
   short_clip.frame_count = 1;
   EXPECT_THROW(captured_span(w->sk, short_clip, 5), std::invalid_argument);
+  EXPECT_THROW(warp_size_m(w->sk, {}, a, b), std::invalid_argument);
 }
 
 TEST(WarpFill, CapturedSpanIsTheClipAtWholeFramesAndClampsAtItsEnds) {
@@ -112,6 +115,46 @@ TEST(WarpFill, PlacementBetweenIsTheOneThatPlacedTheFrame) {
   const Placement q = placement_between(w->sk, f, place_frame(w->sk, f, p));
   EXPECT_NEAR(std::remainder(q.yaw_rad - p.yaw_rad, 2.0 * M_PI), 0.0, 1e-9);
   EXPECT_LT((q.translation_m - p.translation_m).norm(), 1e-9);
+}
+
+TEST(WarpFill, BalancedPlacementSharesTheMissOfTheLastKeyBetweenBothEnds) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto w = walk(*index, 40.0);
+  const std::size_t steps = 20;
+  const auto span = captured_span(w->sk, w->src, steps);
+  // The span's own ends, turned and moved; the last 30 cm further on.
+  const Placement p{0.9, Eigen::Vector3d(2.0, 0.0, -1.0)};
+  const SynthFrame ka = place_frame(w->sk, span.front(), p);
+  SynthFrame kb = place_frame(w->sk, span.back(), p);
+  kb.root_position_m += Eigen::Vector3d(0.3, 0.0, 0.0);
+  WarpSource placed = w->src;
+  placed.placement = balanced_placement(w->sk, w->src, ka, kb, steps);
+  const auto at = captured_span(w->sk, placed, steps);
+  const Eigen::Vector3d half(0.15, 0.0, 0.0);
+  EXPECT_LT((at.front().root_position_m - half - ka.root_position_m).norm(), 1e-9);
+  EXPECT_LT((at.back().root_position_m + half - kb.root_position_m).norm(), 1e-9);
+  EXPECT_NEAR(std::remainder(root_heading(w->sk, at.front()) - root_heading(w->sk, ka), 2 * M_PI),
+              0.0, 1e-9);
+}
+
+TEST(WarpFill, WarpSizeIsTheMeanJointDistanceAtBothEnds) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto w = walk(*index, 40.0);
+  const auto span = captured_span(w->sk, w->src, 20);
+  EXPECT_LT(warp_size_m(w->sk, span, span.front(), span.back()), 1e-12);
+  // Every joint 30 cm off at the last key pose, none at the first: 15 cm.
+  const SynthFrame kb =
+      place_frame(w->sk, span.back(), Placement{0.0, Eigen::Vector3d(0.0, 0.0, 0.3)});
+  EXPECT_NEAR(warp_size_m(w->sk, span, span.front(), kb), 0.15, 1e-9);
+  // A posture change at the first key pose adds the joints' displacement.
+  SynthFrame ka = span.front();
+  ka.local_rotations[1] =
+      ka.local_rotations[1] * Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()));
+  EXPECT_GT(warp_size_m(w->sk, span, ka, kb), 0.15 + 1e-3);
 }
 
 TEST(WarpFill, DisplacementMeetsBothKeysAndMovesTheMiddleByTheMeanOffset) {

@@ -41,11 +41,20 @@ struct SynthOptions {
   /// the first BVH query frame's file rate, else 30. Refused for an untimed
   /// query.
   std::optional<double> fps;
-  /// Timed key poses (docs/synthesis.md "Warped fills"): false, each pair
-  /// is transition, resampled partial motion, transition; true, the chosen
-  /// partial motion's clip plays over the whole time between the key poses
-  /// and is bent onto both (warp_fill), its contacts held.
-  bool warp_fill = false;
+  /// Timed key poses (docs/synthesis.md "Warped fills"): true (the
+  /// default), each pair with a partial motion is filled by a partial
+  /// motion's clip played over the whole time between the key poses and
+  /// bent onto both (warp_fill), its contacts held; false, transition,
+  /// resampled partial motion, transition. An untimed query is not warped.
+  bool warp_fill = true;
+  /// The warp asked for by name (mocap-synth --warp, Python warp=True): an
+  /// untimed query is then an error.
+  bool warp_required = false;
+  /// With warp_fill: each warped pair chooses, among this many partial
+  /// motions of its ranking (the best long enough first), the one whose
+  /// warp is smallest (warp_size_m, docs/synthesis.md "Warped fills"); 1:
+  /// the ranking's best. A pair whose rank the user picked takes it.
+  std::size_t warp_candidates = 5;
 };
 
 /// The transition time a warped fill searches with (SynthOptions::warp_fill),
@@ -56,7 +65,7 @@ inline constexpr double kWarpTransitionS = 1.0 / 30.0;
 /// The query as synthesis searches it: with options.warp_fill, a timed
 /// query's transition time at most kWarpTransitionS (docs/synthesis.md
 /// "Warped fills"); otherwise the query itself. Throws InputError("--warp")
-/// for warp_fill with an untimed query.
+/// for warp_required with an untimed query.
 Query query_for_fill(const Query& query, const SynthOptions& options);
 
 /// A pair of timed key poses in the output (docs/queries.md "Timed key poses").
@@ -74,6 +83,11 @@ struct PairTiming {
   /// "transitions" hold the clip's own frames before and after the partial
   /// motion, bent like it.
   bool warped = false;
+  /// A warped pair: its warp's size (metres; the mean joint displacement at
+  /// both key poses before the displacement map) and how many partial
+  /// motions it chose among (SynthOptions::warp_candidates).
+  double warp_size_m = 0.0;
+  std::size_t warp_candidates = 0;
 };
 
 /// One piece of the output motion.
