@@ -7,6 +7,9 @@
 //               [--refine-polish-window W] [--refine-polish-segments]
 //               [--refine-polish-smoothing J]
 //               [--energy w|g] [--step-feet] [--threads N]
+//   mocap-synth --index INDEX.h5|COLLECTION.json --queries BATCH.jsonl --out-dir DIR
+//               [--results R.jsonl] [--reports] [--html-reports] [--summary PATH] [-q]
+//               [the synthesis options above but --pick]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -16,6 +19,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <optional>
 
 #include "mocap/common/motion/clip_source.hpp"
@@ -29,6 +33,8 @@
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_file.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/synth/synth_batch.hpp"
+#include "mocap/synth/synth_batch_folder.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "refine_options.hpp"
 
@@ -47,7 +53,36 @@ struct SynthArgs {
   bool warp = false, no_warp = false;
   unsigned threads = 0;
   mocap::InputLimitFlags limits;
+  // A batch (--queries): its folder, summary and reports.
+  std::string queries_path, out_dir, summary_path;
+  bool reports = false, html_reports = false, quiet = false;
 };
+
+// The exit statuses of a batch (docs/cli.md "Exit status").
+constexpr int kExitOk = 0;
+constexpr int kExitSomeFailed = 1;
+constexpr int kExitUsage = 2;
+
+// The options of a batch (--queries), each needing it.
+void add_batch_options(CLI::App& app, SynthArgs& a) {
+  auto* queries =
+      app.add_option("--queries", a.queries_path,
+                     "a JSONL batch of queries, each synthesised to --out-dir (excludes "
+                     "--query, --id, --out, --report, --html, --pick)");
+  app.add_option("--out-dir", a.out_dir,
+                 "with --queries: the folder of the motions (NAME.bvh per query: its id, "
+                 "characters outside [A-Za-z0-9._-] as '_') and summary.jsonl")
+      ->needs(queries);
+  app.add_flag("--reports", a.reports, "with --queries: a REPORT.json per query (NAME.json)")
+      ->needs(queries);
+  app.add_flag("--html-reports", a.html_reports,
+               "with --queries: an HTML report per query (NAME.html)")
+      ->needs(queries);
+  app.add_option("--summary", a.summary_path,
+                 "with --queries: the summary's path (default: DIR/summary.jsonl)")
+      ->needs(queries);
+  app.add_flag("-q,--quiet", a.quiet, "with --queries: no progress on stderr")->needs(queries);
+}
 
 // The CLI11 declaration of mocap-synth's options (in the order --help lists them).
 void add_synth_options(CLI::App& app, SynthArgs& a) {
@@ -55,15 +90,14 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                  "index file or collection manifest (mocap-index build [--shards N])")
       ->required();
   app.add_option("--query", a.query_path,
-                 "query file: one JSON query, or a JSONL batch (pick one with --id)")
-      ->required();
+                 "query file: one JSON query, or a JSONL batch (pick one with --id)");
   app.add_option("--id", a.query_id,
                  "the id of the query to run in --query (required when it holds several)");
   app.add_option("--results", a.results_path,
                  "search results (mocap-search JSONL); without it the search runs here");
   app.add_option("--pick", a.picks,
                  "PAIR:RANK: take rank RANK for pair PAIR (1-based; default rank 1)");
-  app.add_option("--out", a.out_path, "output BVH")->required();
+  app.add_option("--out", a.out_path, "output BVH");
   app.add_option("--report", a.report_path, "REPORT.json");
   app.add_option("--html", a.html_path, "REPORT.html (self-contained)");
   app.add_flag("--force", a.force,
@@ -112,15 +146,20 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
   app.add_flag("--no-step-feet", a.no_step, "no stepping pass after the A* search (the default)")
       ->excludes(step);
   app.add_option("--threads", a.threads,
-                 "worker threads: the gaps are supplemented in parallel (default: all cores); "
-                 "the output does not depend on it");
+                 "worker threads: the gaps (with --queries, the queries too) are made in "
+                 "parallel (default: all cores); the output does not depend on it");
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
   mocap::add_input_limit_options(app, a.limits);
+  add_batch_options(app, a);
 }
 
-// --transition, --max-states, the supplementation values and --pick, checked
-// into a.options.
+// --transition, --max-states, the supplementation values, --pick and the
+// flags, checked into a.options.
 void check_synth_options(SynthArgs& a) {
+  a.options.params.step_feet = a.step;
+  a.options.warp_fill = !a.no_warp;
+  a.options.warp_required = a.warp;
+  if (a.fps > 0.0) a.options.fps = a.fps;
   static const std::map<std::string, mocap::TransitionMethod> methods = {
       {"astar", mocap::TransitionMethod::astar},
       {"slerp", mocap::TransitionMethod::slerp},
@@ -224,10 +263,6 @@ void print_synth_summary(const SynthArgs& a, const mocap::SynthResult& result) {
 // The job: checks, the query and its ranked pairs (read or searched here),
 // the synthesis, its files. Returns the exit code.
 int run_synth(SynthArgs& a) {
-  a.options.params.step_feet = a.step;
-  a.options.warp_fill = !a.no_warp;
-  a.options.warp_required = a.warp;
-  if (a.fps > 0.0) a.options.fps = a.fps;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     mocap::apply_input_limits(a.limits);
@@ -267,6 +302,95 @@ int run_synth(SynthArgs& a) {
   }
 }
 
+// --queries refuses the flags of one query, and needs --out-dir.
+void check_batch_flags(const SynthArgs& a) {
+  const std::pair<const char*, bool> single[] = {
+      {"--query", !a.query_path.empty()}, {"--id", !a.query_id.empty()},
+      {"--out", !a.out_path.empty()},     {"--report", !a.report_path.empty()},
+      {"--html", !a.html_path.empty()},   {"--pick", !a.picks.empty()}};
+  for (const auto& [flag, given] : single)
+    if (given)
+      throw mocap::InputError(
+          "--queries", 0,
+          std::string("excludes ") + flag + " (a batch writes each query's files to --out-dir)");
+  if (a.out_dir.empty()) throw mocap::InputError("--queries", 0, "needs --out-dir DIR");
+}
+
+// "mocap-synth: N/M queries" on stderr, at most about once a second and
+// once at the end (not with -q); called from worker threads.
+class BatchProgress {
+ public:
+  BatchProgress(std::size_t total, bool quiet) : total_(total), quiet_(quiet) {}
+  void tick() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    ++done_;
+    const auto now = std::chrono::steady_clock::now();
+    if (quiet_ || (done_ < total_ && now - last_ < std::chrono::seconds(1))) return;
+    last_ = now;
+    std::cerr << "mocap-synth: " << done_ << "/" << total_ << " queries\n";
+  }
+
+ private:
+  std::mutex mutex_;
+  std::size_t done_ = 0, total_;
+  bool quiet_;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// The batch's queries, their ranked pairs (one search, or the results file
+// read once), their synthesis and files; the errors in batch order. Returns
+// the exit status.
+int run_batch(SynthArgs& a) {
+  mocap::apply_input_limits(a.limits);
+  check_synth_options(a);
+  check_batch_flags(a);
+  std::vector<mocap::SynthBatchQuery> queries =
+      mocap::synth_batch_queries(mocap::read_query_batch(a.queries_path), a.options);
+  const mocap::ClipSource clips = mocap::ClipSource::open(a.index_path);
+  mocap::SynthBatchFolder folder(
+      clips, a.options,
+      {a.out_dir,
+       a.summary_path,
+       a.reports,
+       a.html_reports,
+       a.force,
+       a.queries_path,
+       {{"--index", a.index_path}, {"--queries", a.queries_path}, {"--results", a.results_path}}});
+  if (!a.results_path.empty())
+    mocap::synth_batch_results_file(a.results_path, clips, queries);
+  else
+    mocap::search_synth_batch(clips, queries);
+  folder.name(queries);
+  BatchProgress progress(queries.size(), a.quiet);
+  mocap::run_synth_batch(clips, queries, a.options, [&](mocap::SynthBatchDone& done) {
+    folder.write(done);
+    progress.tick();
+  });
+  folder.finish();
+  std::size_t failed = 0;
+  for (std::size_t i = 0; i < queries.size(); ++i) {
+    const auto& error = folder.errors()[i];
+    if (!error) continue;
+    ++failed;
+    std::cerr << "mocap-synth: query " << queries[i].id << " (line " << queries[i].line
+              << "): " << error->what() << "\n";
+  }
+  std::cout << "summary: " << std::filesystem::absolute(folder.summary_path()).string() << " ("
+            << queries.size() - failed << " of " << queries.size() << " queries made)\n";
+  return failed > 0 ? kExitSomeFailed : kExitOk;
+}
+
+// A batch that could not be done at all (usage, an unreadable batch, index
+// or results file, a folder refused) exits 2.
+int run_synth_batch_command(SynthArgs& a) {
+  try {
+    return run_batch(a);
+  } catch (const std::exception& e) {
+    std::cerr << "mocap-synth: " << e.what() << "\n";
+    return kExitUsage;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -275,8 +399,12 @@ int main(int argc, char** argv) {
   SynthArgs args;
   add_synth_options(app, args);
   CLI11_PARSE(app, argc, argv);
+  if (args.queries_path.empty())
+    for (const auto& [flag, value] :
+         {std::pair{"--query", &args.query_path}, std::pair{"--out", &args.out_path}})
+      if (value->empty()) return app.exit(CLI::RequiredError(flag));
   std::optional<tbb::global_control> parallelism;
   if (args.threads > 0)
     parallelism.emplace(tbb::global_control::max_allowed_parallelism, args.threads);
-  return run_synth(args);
+  return args.queries_path.empty() ? run_synth(args) : run_synth_batch_command(args);
 }

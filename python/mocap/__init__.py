@@ -60,6 +60,29 @@ def _query_text(query):
     return json.dumps(query, default=_json_default)
 
 
+def _with_results_file(results, run):
+    """run(path) with the search results as a JSONL file: None or a path as
+    given, dicts (search()'s lines) written to a temporary file."""
+    if results is None or isinstance(results, (str, os.PathLike)):
+        return run(results)
+    lines = results if isinstance(results, (list, tuple)) else [results]
+    with tempfile.TemporaryDirectory(prefix="mocap-") as tmp:
+        path = os.path.join(tmp, "results.jsonl")
+        with open(path, "w", encoding="utf-8") as f:
+            for line in lines:
+                f.write(json.dumps(line) + "\n")
+        return run(path)
+
+
+def _input_error(failure):
+    """A mocap.InputError from a failed batch item's fields."""
+    error = InputError(failure["message"])
+    error.source = failure["source"]
+    error.line = failure["line"]
+    error.detail = failure["detail"]
+    return error
+
+
 def _base_dir(base_dir):
     return os.fspath(base_dir) if base_dir is not None else os.getcwd()
 
@@ -341,17 +364,41 @@ class Index:
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
                     energy=energy, warp=warp, warp_candidates=warp_candidates)
-        if results is None or isinstance(results, (str, os.PathLike)):
-            raw = self._raw.synthesize(text, _base_dir(base_dir), results=results, **args)
-        else:
-            lines = results if isinstance(results, (list, tuple)) else [results]
-            with tempfile.TemporaryDirectory(prefix="mocap-") as tmp:
-                path = os.path.join(tmp, "results.jsonl")
-                with open(path, "w", encoding="utf-8") as f:
-                    for line in lines:
-                        f.write(json.dumps(line) + "\n")
-                raw = self._raw.synthesize(text, _base_dir(base_dir), results=path, **args)
-        return Synthesis(raw)
+        return Synthesis(_with_results_file(
+            results, lambda path: self._raw.synthesize(text, _base_dir(base_dir), results=path,
+                                                       **args)))
+
+    def synthesize_batch(self, queries, *, results=None, threads=0, base_dir=None,
+                         method="astar", max_states=60, cost_threshold_J=5.0, step_feet=False,
+                         fps=None, refine=0, refine_smoothing_J=0.0, refine_polish=0,
+                         refine_polish_window=1, refine_polish_segments=False,
+                         refine_polish_smoothing_J=0.0, energy="w", warp=None,
+                         warp_candidates=5):
+        """Synthesises a batch of queries, as mocap-synth --queries does.
+
+        `queries`: a list of queries (dicts or JSON texts). They are searched
+        together (or their lines read from `results`: dicts from search(), or
+        a mocap-search JSONL file) and synthesised in parallel (threads=0: all
+        cores; the motions do not depend on it). Returns a list in input
+        order: per query a Synthesis, equal to synthesize() of that query
+        with the same keywords, or, for a query that failed, its
+        mocap.InputError (returned, not raised). The keywords are
+        synthesize()'s but picks (a batch has none).
+        """
+        if isinstance(queries, (dict, str)):
+            raise TypeError("synthesize_batch takes a list of queries (synthesize: one query)")
+        texts = [_query_text(q) for q in queries]
+        args = dict(method=method, max_states=max_states, cost_threshold_J=cost_threshold_J,
+                    step_feet=step_feet, fps=fps, refine=refine,
+                    refine_smoothing_J=refine_smoothing_J, refine_polish=refine_polish,
+                    refine_polish_window=refine_polish_window,
+                    refine_polish_segments=refine_polish_segments,
+                    refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
+                    energy=energy, warp=warp, warp_candidates=warp_candidates)
+        items = _with_results_file(
+            results, lambda path: self._raw.synthesize_batch(texts, _base_dir(base_dir),
+                                                             results=path, **args))
+        return [_input_error(i) if isinstance(i, dict) else Synthesis(i) for i in items]
 
     def __repr__(self):
         return (f"<mocap.Index {self.path}: {len(self.clips)} clips, "

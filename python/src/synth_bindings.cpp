@@ -18,7 +18,9 @@
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/motion/clip_source.hpp"
 #include "mocap/common/util/error.hpp"
+#include "mocap/search/batch_entry.hpp"
 #include "mocap/search/query.hpp"
+#include "mocap/synth/synth_batch.hpp"
 #include "mocap/synth/synth_job.hpp"
 
 namespace mocap::python {
@@ -138,6 +140,75 @@ std::shared_ptr<Synthesis> synthesize_query(const std::shared_ptr<OpenIndex>& se
   s->total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return s;
+}
+
+// A query of the batch made: its Synthesis, holding the motion the batch
+// handed over (the skeleton moved with it, the result pointed at it again).
+std::shared_ptr<Synthesis> batch_synthesis(const std::shared_ptr<OpenIndex>& self,
+                                           SynthBatchDone& done, const SynthOptions& options) {
+  auto s = std::make_shared<Synthesis>(self, *done.query->query);
+  s->ranked = done.query->ranked;
+  s->options = options;
+  s->skeleton = std::move(done.motion->skeleton);
+  s->result = std::move(done.motion->result);
+  s->result.skeleton = &*s->skeleton;
+  s->search_ms = done.query->search_ms;
+  s->total_ms = done.query->search_ms + done.synth_ms;
+  return s;
+}
+
+// Index.synthesize_batch: per query (JSON texts) a Synthesis or, for a
+// query that failed, a dict {"message", "source", "line", "detail"} (the
+// Python layer makes it a mocap.InputError). Without the GIL while the
+// batch runs.
+py::list synthesize_batch(const std::shared_ptr<OpenIndex>& self,
+                          const std::vector<std::string>& texts,
+                          const std::filesystem::path& base_dir,
+                          const std::optional<std::filesystem::path>& results,
+                          const SynthArgs& args, int threads) {
+  if (threads < 0) throw InputError("threads", 0, "must be >= 0 (0: all cores)");
+  const SynthOptions options = synth_options(args);
+  std::vector<std::shared_ptr<Synthesis>> made(texts.size());
+  std::vector<std::optional<InputError>> errors(texts.size());
+  {
+    py::gil_scoped_release release;
+    std::optional<tbb::global_control> parallelism;
+    if (threads > 0)
+      parallelism.emplace(tbb::global_control::max_allowed_parallelism,
+                          static_cast<std::size_t>(threads));
+    std::vector<BatchEntry> entries;
+    for (std::size_t i = 0; i < texts.size(); ++i) {
+      const std::string n = std::to_string(i + 1);
+      entries.push_back(
+          parse_batch_entry(texts[i], "<query " + n + ">", 0, base_dir, "query " + n));
+    }
+    std::vector<SynthBatchQuery> queries = synth_batch_queries(entries, options);
+    const ClipSource clips(self->index());
+    if (results)
+      synth_batch_results_file(*results, clips, queries);
+    else
+      search_synth_batch(clips, queries, &self->engine());
+    run_synth_batch(clips, queries, options, [&](SynthBatchDone& done) {
+      if (done.error)
+        errors[done.index] = done.error;
+      else
+        made[done.index] = batch_synthesis(self, done, options);
+    });
+  }
+  py::list out;
+  for (std::size_t i = 0; i < texts.size(); ++i) {
+    if (made[i]) {
+      out.append(py::cast(made[i]));
+      continue;
+    }
+    py::dict e;
+    e["message"] = std::string(errors[i]->what());
+    e["source"] = errors[i]->source();
+    e["line"] = errors[i]->line();
+    e["detail"] = errors[i]->detail();
+    out.append(e);
+  }
+  return out;
 }
 
 py::dict result_dict(const SearchResult& r) {
@@ -298,6 +369,47 @@ void bind_synthesis_outputs(SynthesisClass& c) {
           "REPORT.html text (mocap-synth --html).");
 }
 
+// Index.synthesize_batch: a batch's synthesis (synthesize_batch).
+void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex>>& index) {
+  index.def(
+      "synthesize_batch",
+      [](const std::shared_ptr<OpenIndex>& self, const std::vector<std::string>& queries,
+         const std::filesystem::path& base_dir, const std::optional<std::filesystem::path>& results,
+         const std::string& method, std::size_t max_states, double cost_threshold_J, bool step_feet,
+         std::optional<double> fps, std::size_t refine, double refine_smoothing_J,
+         std::size_t refine_polish, std::size_t refine_polish_window, bool refine_polish_segments,
+         double refine_polish_smoothing_J, int threads, const std::string& energy,
+         std::optional<bool> warp, std::size_t warp_candidates) {
+        SynthArgs a;
+        a.method = method;
+        a.max_states = max_states;
+        a.cost_threshold_J = cost_threshold_J;
+        a.step_feet = step_feet;
+        a.energy = energy;
+        a.warp = warp;
+        a.warp_candidates = warp_candidates;
+        a.fps = fps;
+        a.refine = refine;
+        a.refine_smoothing_J = refine_smoothing_J;
+        a.refine_polish = refine_polish;
+        a.refine_polish_window = refine_polish_window;
+        a.refine_polish_segments = refine_polish_segments;
+        a.refine_polish_smoothing_J = refine_polish_smoothing_J;
+        return synthesize_batch(self, queries, base_dir, results, a, threads);
+      },
+      py::arg("queries"), py::arg("base_dir"), py::arg("results") = std::nullopt,
+      py::arg("method") = "astar", py::arg("max_states") = SupplementParams{}.max_states,
+      py::arg("cost_threshold_J") = SupplementParams{}.cost_threshold_J,
+      py::arg("step_feet") = false, py::arg("fps") = std::nullopt, py::arg("refine") = 0,
+      py::arg("refine_smoothing_J") = 0.0, py::arg("refine_polish") = 0,
+      py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
+      py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
+      py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
+      "Synthesises a batch of queries (JSON texts) as mocap-synth --queries does: one search "
+      "(or `results`, a mocap-search JSONL file), the queries in parallel. Per query, in input "
+      "order, a Synthesis or, for a query that failed, a dict {message, source, line, detail}.");
+}
+
 // Index.synthesize: one query's synthesis (synthesize_query).
 void bind_index_synthesize(py::module_& m) {
   auto index =
@@ -341,6 +453,7 @@ void bind_index_synthesize(py::module_& m) {
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");
+  bind_index_synthesize_batch(index);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@ BatchEntry parse_batch_entry(const std::string& text, const std::string& source,
                              const std::filesystem::path& base_dir, const std::string& default_id) {
   BatchEntry e;
   e.id = default_id;
+  e.line = line;
   try {
     e.query = parse_query_text(text, source, line, base_dir, default_id);
     e.id = e.query->id;

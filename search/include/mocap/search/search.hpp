@@ -237,6 +237,8 @@ struct BatchEntry {
   /// error itself (rethrown where one query was asked for: read_query_file).
   std::string error;
   std::optional<InputError> failure = std::nullopt;
+  /// The 1-based line of the batch file that holds it (0: not a file's line).
+  std::size_t line = 0;
 };
 
 /// Reads a JSONL batch: one query per non-blank line (default id "line N",
