@@ -431,22 +431,23 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
         warp_candidates(clips, query, ranked[h], res.chosen[h], picked, source,
                         std::max<std::size_t>(1, options.warp_candidates));
     std::optional<synth_detail::WarpSource> best;
+    const SearchResult* taken = nullptr;
     for (const SearchResult& c : candidates) {
       synth_detail::WarpSource src = warp_source(source, c, t);
-      src.placement =
-          synth_detail::balanced_placement(sk, src, res.frames[a], res.frames[b], b - a);
-      const double size = synth_detail::warp_size_m(sk, synth_detail::captured_span(sk, src, b - a),
-                                                    res.frames[a], res.frames[b]);
+      const std::vector<SynthFrame> unplaced = synth_detail::captured_span(sk, src, b - a);
+      src.placement = synth_detail::balanced_placement(sk, unplaced, res.frames[a], res.frames[b]);
+      const double size = synth_detail::warp_size_m(
+          sk, place_frame(sk, unplaced.front(), src.placement),
+          place_frame(sk, unplaced.back(), src.placement), res.frames[a], res.frames[b]);
       if (best && size >= t.warp_size_m) continue;
       best = std::move(src);
+      taken = &c;
       t.warp_size_m = size;
-      if (c.clip_index != res.chosen[h].clip_index || c.start_frame != res.chosen[h].start_frame ||
-          c.end_frame != res.chosen[h].end_frame) {
-        t.warp *= static_cast<double>(res.chosen[h].end_frame - res.chosen[h].start_frame) /
-                  static_cast<double>(c.end_frame - c.start_frame);
-        res.chosen[h] = c;
-      }
     }
+    // The played-over-captured factor of the partial motion taken.
+    t.warp *= static_cast<double>(res.chosen[h].end_frame - res.chosen[h].start_frame) /
+              static_cast<double>(taken->end_frame - taken->start_frame);
+    res.chosen[h] = *taken;
     const std::vector<SynthFrame> fill = synth_detail::warp_fill(
         sk, &rom, *best, res.frames[a], res.frames[b], b - a, res.frame_time_s);
     std::copy(fill.begin() + 1, fill.end() - 1,

@@ -78,26 +78,23 @@ Placement placement_between(const SynthSkeleton& sk, const SynthFrame& clip,
   return p;
 }
 
-Placement balanced_placement(const SynthSkeleton& sk, const WarpSource& src,
-                             const SynthFrame& key_a, const SynthFrame& key_b, std::size_t steps) {
-  WarpSource own = src;
-  own.placement = Placement{};
-  const std::vector<SynthFrame> span = captured_span(sk, own, steps);
-  Placement p = placement_between(sk, span.front(), key_a);
-  Eigen::Vector3d miss = key_b.root_position_m - place_frame(sk, span.back(), p).root_position_m;
+Placement balanced_placement(const SynthSkeleton& sk, const std::vector<SynthFrame>& unplaced,
+                             const SynthFrame& key_a, const SynthFrame& key_b) {
+  if (unplaced.empty()) throw std::invalid_argument("balanced_placement: no frames");
+  Placement p = placement_between(sk, unplaced.front(), key_a);
+  Eigen::Vector3d miss =
+      key_b.root_position_m - place_frame(sk, unplaced.back(), p).root_position_m;
   miss.y() = 0.0;
   p.translation_m += 0.5 * miss;
   return p;
 }
 
-double warp_size_m(const SynthSkeleton& sk, const std::vector<SynthFrame>& captured,
+double warp_size_m(const SynthSkeleton& sk, const SynthFrame& first, const SynthFrame& last,
                    const SynthFrame& key_a, const SynthFrame& key_b) {
-  if (captured.empty()) throw std::invalid_argument("warp_size_m: no frames");
   WorldPose c, k;
   double sum = 0.0;
   std::size_t count = 0;
-  for (const auto& [frame, key] :
-       {std::pair{&captured.front(), &key_a}, std::pair{&captured.back(), &key_b}}) {
+  for (const auto& [frame, key] : {std::pair{&first, &key_a}, std::pair{&last, &key_b}}) {
     synth_world_pose(sk, *frame, c);
     synth_world_pose(sk, *key, k);
     for (std::size_t j = 0; j < c.positions_m.size(); ++j) {

@@ -70,20 +70,22 @@ Placement placement_between(const SynthSkeleton& sk, const SynthFrame& clip,
                             const SynthFrame& placed);
 
 /// The placement a candidate is judged and warped with (docs/synthesis.md
-/// "Warped fills", choice among candidates): the clip's frame at output
-/// step 0 turned to key_a's root heading and put on its horizontal root
-/// position, then moved horizontally by half of what its frame at step
-/// `steps` misses of key_b's root position (the mismatch shared by both
-/// ends). src.placement is not read.
-Placement balanced_placement(const SynthSkeleton& sk, const WarpSource& src,
-                             const SynthFrame& key_a, const SynthFrame& key_b, std::size_t steps);
+/// "Warped fills", choice among candidates), from its captured span
+/// unplaced (captured_span with an identity placement): the span's first
+/// frame turned to key_a's root heading and put on its horizontal root
+/// position, then moved horizontally by half of what its last frame misses
+/// of key_b's root position (the mismatch shared by both ends). Throws
+/// std::invalid_argument for an empty span.
+Placement balanced_placement(const SynthSkeleton& sk, const std::vector<SynthFrame>& unplaced,
+                             const SynthFrame& key_a, const SynthFrame& key_b);
 
 /// The warp's size, metres: the mean distance between the joints' world
-/// positions in the captured span's first and last frames and in key_a and
-/// key_b, over both ends and over the root joint and the joints below it
-/// (the root's ancestors do not move with the body) (what the displacement map moves the joints by
-/// at the ends; 0 for a span that meets both key poses). `captured` holds at least 1 frame.
-double warp_size_m(const SynthSkeleton& sk, const std::vector<SynthFrame>& captured,
+/// positions in a captured span's first and last frames (`first`, `last`,
+/// placed) and in key_a and key_b, over both ends and over the root joint
+/// and the joints below it (the root's ancestors do not move with the
+/// body); what the displacement map moves the joints by at the ends, 0 for
+/// a span that meets both key poses.
+double warp_size_m(const SynthSkeleton& sk, const SynthFrame& first, const SynthFrame& last,
                    const SynthFrame& key_a, const SynthFrame& key_b);
 
 }  // namespace mocap::synth_detail

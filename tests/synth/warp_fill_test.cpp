@@ -83,7 +83,7 @@ TEST(WarpFill, RejectsInvalidInputs) {
   WarpSource short_clip = w->src;
   short_clip.frame_count = 1;
   EXPECT_THROW(captured_span(w->sk, short_clip, 5), std::invalid_argument);
-  EXPECT_THROW(warp_size_m(w->sk, {}, a, b), std::invalid_argument);
+  EXPECT_THROW(balanced_placement(w->sk, {}, a, b), std::invalid_argument);
 }
 
 TEST(WarpFill, CapturedSpanIsTheClipAtWholeFramesAndClampsAtItsEnds) {
@@ -130,7 +130,7 @@ TEST(WarpFill, BalancedPlacementSharesTheMissOfTheLastKeyBetweenBothEnds) {
   SynthFrame kb = place_frame(w->sk, span.back(), p);
   kb.root_position_m += Eigen::Vector3d(0.3, 0.0, 0.0);
   WarpSource placed = w->src;
-  placed.placement = balanced_placement(w->sk, w->src, ka, kb, steps);
+  placed.placement = balanced_placement(w->sk, span, ka, kb);
   const auto at = captured_span(w->sk, placed, steps);
   const Eigen::Vector3d half(0.15, 0.0, 0.0);
   EXPECT_LT((at.front().root_position_m - half - ka.root_position_m).norm(), 1e-9);
@@ -145,16 +145,16 @@ TEST(WarpFill, WarpSizeIsTheMeanJointDistanceAtBothEnds) {
   ASSERT_NE(index, nullptr);
   auto w = walk(*index, 40.0);
   const auto span = captured_span(w->sk, w->src, 20);
-  EXPECT_LT(warp_size_m(w->sk, span, span.front(), span.back()), 1e-12);
+  EXPECT_LT(warp_size_m(w->sk, span.front(), span.back(), span.front(), span.back()), 1e-12);
   // Every joint 30 cm off at the last key pose, none at the first: 15 cm.
   const SynthFrame kb =
       place_frame(w->sk, span.back(), Placement{0.0, Eigen::Vector3d(0.0, 0.0, 0.3)});
-  EXPECT_NEAR(warp_size_m(w->sk, span, span.front(), kb), 0.15, 1e-9);
+  EXPECT_NEAR(warp_size_m(w->sk, span.front(), span.back(), span.front(), kb), 0.15, 1e-9);
   // A posture change at the first key pose adds the joints' displacement.
   SynthFrame ka = span.front();
   ka.local_rotations[1] =
       ka.local_rotations[1] * Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()));
-  EXPECT_GT(warp_size_m(w->sk, span, ka, kb), 0.15 + 1e-3);
+  EXPECT_GT(warp_size_m(w->sk, span.front(), span.back(), ka, kb), 0.15 + 1e-3);
 }
 
 TEST(WarpFill, DisplacementMeetsBothKeysAndMovesTheMiddleByTheMeanOffset) {
