@@ -29,7 +29,6 @@
 #include "mocap/common/util/input_limits_cli.hpp"
 #include "mocap/common/util/output_path.hpp"
 #include "mocap/player/player.hpp"
-#include "mocap/search/collection_search.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_file.hpp"
 #include "mocap/search/search.hpp"
@@ -209,15 +208,8 @@ std::vector<mocap::PairResults> search_here(const mocap::ClipSource& clips,
   if (clips.is_collection()) {
     // The collection search (each shard in turn, merged as one index)
     // over the shards the clip source has already checked and opened.
-    std::vector<mocap::ShardSource> shards;
-    std::size_t offset = 0;
-    for (std::size_t k = 0; k < clips.index_count(); ++k) {
-      shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
-      offset += clips.index(k).clips().size();
-    }
-    std::vector<mocap::QueryOutcome> outcomes = mocap::search_shards(
-        shards, {mocap::BatchEntry{query.id, query, ""}}, mocap::SearchOptions{});
-    outcome = std::move(outcomes.front());
+    outcome = std::move(
+        mocap::search_collection(clips, {mocap::BatchEntry{query.id, query, ""}}).front());
   } else {
     const mocap::SearchEngine engine(clips.index(0));
     outcome = engine.run(query, mocap::SearchOptions{});

@@ -38,19 +38,6 @@ PendingBatch pending_batch(const std::vector<SynthBatchQuery>& queries) {
   return p;
 }
 
-// A collection: the shards the clip source has opened, searched as
-// mocap-synth searches one query (search_here in synth/main.cpp).
-std::vector<QueryOutcome> search_collection(const ClipSource& clips,
-                                            const std::vector<BatchEntry>& entries) {
-  std::vector<ShardSource> shards;
-  std::size_t offset = 0;
-  for (std::size_t k = 0; k < clips.index_count(); ++k) {
-    shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
-    offset += clips.index(k).clips().size();
-  }
-  return search_shards(shards, entries, SearchOptions{});
-}
-
 // An index file: one engine for the batch, each query's own search time
 // measured from its start to its answer.
 std::vector<QueryOutcome> search_index(const ClipSource& clips,
@@ -72,6 +59,17 @@ std::vector<QueryOutcome> search_index(const ClipSource& clips,
 }
 
 }  // namespace
+
+std::vector<QueryOutcome> search_collection(const ClipSource& clips,
+                                            const std::vector<BatchEntry>& entries) {
+  std::vector<ShardSource> shards;
+  std::size_t offset = 0;
+  for (std::size_t k = 0; k < clips.index_count(); ++k) {
+    shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
+    offset += clips.index(k).clips().size();
+  }
+  return search_shards(shards, entries, SearchOptions{});
+}
 
 std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& entries,
                                                  const SynthOptions& options) {

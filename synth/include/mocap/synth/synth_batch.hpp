@@ -56,6 +56,13 @@ struct SynthBatchQuery {
 std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& entries,
                                                  const SynthOptions& options);
 
+/// The collection search of `entries` over the shards `clips` (a
+/// collection) has already checked and opened, numbered as one index
+/// (search_shards with the default SearchOptions): what mocap-synth runs
+/// for a collection without --results, one query or a batch.
+std::vector<QueryOutcome> search_collection(const ClipSource& clips,
+                                            const std::vector<BatchEntry>& entries);
+
 /// Searches every query that has not failed, in one batch, with the default
 /// SearchOptions (what mocap-synth runs without --results): run_query_batch
 /// on `engine` (or an engine built here on `clips`' index when null) for an
