@@ -42,9 +42,9 @@ CLI::App* add_export_command(CLI::App& app, ExportArgs& a) {
       "a results file (--results R.jsonl --id Q --pair P --rank K).");
   cmd->add_option("--index", a.index,
                   "Index file (mocap-index build), or a collection manifest (build --shards)");
-  cmd->add_option(
-      "--clip", a.clip,
-      "The clip: its path as indexed (mocap-search results' \"clip\") or its file name");
+  cmd->add_option("--clip", a.clip,
+                  "The clip: its path as indexed (mocap-search results' \"clip\"), any other path "
+                  "to the same file, or its file name");
   cmd->add_option("--frames", a.frames, "S-E: frames S to E of the clip, 0-based, inclusive");
   cmd->add_option("--results", a.results,
                   "Search results (mocap-search --out, JSON lines) over the same index");

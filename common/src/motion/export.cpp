@@ -63,6 +63,23 @@ std::string close_names(const ClipSource& clips, const std::string& name) {
   return out;
 }
 
+// Clips whose stored file is the file `name` names (compared by identity,
+// so any route to it counts), among those with `name`'s file name: a stat
+// per candidate, not per clip. None when `name` names no existing file.
+std::vector<std::size_t> same_files(const ClipSource& clips, const std::string& name) {
+  std::vector<std::size_t> found;
+  std::error_code ec;
+  if (!std::filesystem::exists(name, ec)) return found;
+  const std::string want = file_name(name);
+  for (std::size_t c = 0; c < clips.clip_count(); ++c) {
+    const std::string& p = clips.clip(c).path;
+    if (file_name(p) != want) continue;
+    ec.clear();
+    if (std::filesystem::equivalent(p, name, ec) && !ec) found.push_back(c);
+  }
+  return found;
+}
+
 }  // namespace
 
 FrameRange parse_frame_range(const std::string& text, const std::string& option) {
@@ -98,6 +115,10 @@ std::size_t find_clip(const ClipSource& clips, const std::string& name) {
     if (std::find(paths.begin(), paths.end(), p) != paths.end()) by_path.push_back(c);
     if (file_name(p) == name) by_name.push_back(c);
   }
+  // The same file reached by another route (a symbolic link in the stored
+  // path or in `name`, ".."): the clips of that file name whose stored file
+  // is the one `name` names.
+  if (by_path.empty() && name.find('/') != std::string::npos) by_path = same_files(clips, name);
   const std::vector<std::size_t>& found = by_path.empty() ? by_name : by_path;
   if (found.size() == 1) return found.front();
   if (found.empty()) {

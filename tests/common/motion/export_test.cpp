@@ -172,6 +172,39 @@ TEST(FindClipTest, TakesTheStoredPathARelativePathOrTheFileName) {
     }
 }
 
+// The same file by another route: its real path (the data folder may be
+// reached through a symbolic link), a symbolic link to its folder, a path
+// through "..": found, and among two clips of one file name the one whose
+// file it is. The stored path stays what the index holds.
+TEST(FindClipTest, TakesAnyPathToTheSameFile) {
+  REQUIRE_BUILT(b);
+  const fs::path scratch = test::temp_dir("find-clip-routes");
+  const ClipSource& s = *b->one;
+  for (std::size_t c = 0; c < s.clip_count(); ++c) {
+    const fs::path p = s.clip(c).path;
+    EXPECT_EQ(find_clip(s, fs::canonical(p).string()), c) << fs::canonical(p);
+    const fs::path link = scratch / ("link" + std::to_string(c));
+    fs::create_directory_symlink(fs::canonical(p.parent_path()), link);
+    EXPECT_EQ(find_clip(s, (link / p.filename()).string()), c) << link;
+    fs::create_directories(scratch / "sub");
+    const fs::path up = scratch / "sub" / ".." / link.filename() / p.filename();
+    EXPECT_EQ(find_clip(s, up.string()), c) << up;
+  }
+  const ClipSource& t = *b->twins;
+  for (std::size_t c = 0; c < t.clip_count(); ++c) {
+    const fs::path p = t.clip(c).path;
+    const fs::path link = scratch / ("twin" + std::to_string(c));
+    fs::create_directory_symlink(p.parent_path(), link);
+    EXPECT_EQ(find_clip(t, (link / p.filename()).string()), c) << link;
+  }
+  // A path to a file that is not indexed, of an indexed file's name.
+  fs::create_directories(scratch / "other");
+  fs::copy_file(t.clip(0).path, scratch / "other" / fs::path(t.clip(0).path).filename());
+  const std::string e = message(
+      [&] { (void)find_clip(t, (scratch / "other" / "golden_walk_normal_001.bvh").string()); });
+  EXPECT_NE(e.find("no clip \""), std::string::npos) << e;
+}
+
 // World positions of every joint of the exported file's frames (its own
 // reader and forward kinematics) against the index's joint_positions_m.
 void expect_index_positions(const ClipSource& s, std::size_t c, FrameRange r) {

@@ -32,8 +32,10 @@ FrameRange parse_frame_range(const std::string& text, const std::string& option)
 
 /// The clip (number in `clips`) named `name`: its path as the index stores
 /// it (absolute, as built), that path given relative to the working folder,
-/// or its file name alone. InputError(clips.path(), 0, ...) when no clip has
-/// that name (the message lists up to five close names: file names within a
+/// any other path to the same file (through a symbolic link, "..", another
+/// mount: compared by file identity, among clips of that file name), or its
+/// file name alone. The stored path stays what results and errors show. InputError(clips.path(), 0,
+/// ...) when no clip has that name (the message lists up to five close names: file names within a
 /// small edit distance, or containing `name`), or when several clips have
 /// that file name (it lists their paths: give the full path).
 std::size_t find_clip(const ClipSource& clips, const std::string& name);
