@@ -179,9 +179,8 @@ void add_energy_command(CLI::App& app, EnergyArgs& args) {
                   "With --motion: only the steps of frames S-E (0-based, inclusive)");
   args.transition_time_option =
       cmd->add_option("--transition-time", args.transition_time_s,
-                      "Transition time T in seconds (> 0; --from/--to only)")
-          ->default_val(0.5)
-          ->check(CLI::PositiveNumber);
+                      "Transition time T in seconds (0.001 to 60; --from/--to only)")
+          ->default_val(0.5);
   cmd->add_option("--character", args.character,
                   "Character JSON file (docs/character.md); default body otherwise");
   cmd->add_option("--unit", args.unit,

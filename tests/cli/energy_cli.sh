@@ -50,6 +50,10 @@ expect_fail energy --from "$walk:1" --to "$tmp/odd.bvh:1" --json
 grep -q "pelvis" "$tmp/err"
 expect_fail energy --from /nonexistent.bvh:0 --to "$walk:1" --json
 expect_fail energy --from "$walk:1" --to "$walk:2" --transition-time 0 --json
+for t in 1e-300 0.0009 61 inf nan; do
+  expect_fail energy --from "$walk:1" --to "$walk:2" --transition-time "$t" --json
+  grep -q -- "--transition-time: must be 0.001 to 60 seconds" "$tmp/err" || { cat "$tmp/err"; exit 1; }
+done
 expect_fail energy --from "$walk:1" --to "$walk:2" --unit furlong --json
 expect_fail energy --from "$walk:1"
 expect_fail

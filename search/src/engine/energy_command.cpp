@@ -175,8 +175,11 @@ void WorkEnergySums::add(const WorkEnergyTerms& step) {
 }
 
 EnergyReport run_energy_command(const EnergyCommandOptions& o) {
-  if (!(o.transition_time_s > 0.0) || !std::isfinite(o.transition_time_s))
-    throw InputError("--transition-time", 0, "must be a positive number of seconds");
+  // The query's range (query.cpp "transition_time"): below a millisecond the
+  // velocities overflow to an infinite h and g.
+  if (!(o.transition_time_s >= 1e-3 && o.transition_time_s <= 60.0))
+    throw InputError("--transition-time", 0,
+                     fmt::format("must be 0.001 to 60 seconds (got {})", o.transition_time_s));
   check_work_params(o.work);
   Character character;
   if (!o.character.empty()) character = read_character_file(o.character);
