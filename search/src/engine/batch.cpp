@@ -15,16 +15,67 @@
 
 namespace mocap {
 
+namespace {
+
+// How many lines and bytes a query spread over lines may take for the hint
+// below (it tries each start once: a bad batch costs at most that much more).
+constexpr std::size_t kSpreadQueryLines = 400;
+constexpr std::size_t kSpreadQueryBytes = 64 * 1024;
+
+// A query written over several lines (as docs show them) and pasted into a
+// batch: each of its lines is invalid JSON alone. Where the lines from an
+// entry that is not JSON on to a later one make one JSON object together,
+// each of those entries' errors says so and how to fix it.
+void hint_spread_queries(std::vector<BatchEntry>& entries,
+                         const std::vector<std::string_view>& lines,
+                         const std::filesystem::path& path) {
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const std::size_t first = lines[i].find_first_not_of(" \t");
+    if (entries[i].error.empty() || lines[i][first] != '{' || nlohmann::json::accept(lines[i]))
+      continue;
+    std::string joined(lines[i]);
+    std::size_t end = i;
+    while (end + 1 < entries.size() && end - i < kSpreadQueryLines &&
+           joined.size() < kSpreadQueryBytes && entries[end + 1].error.size()) {
+      joined += '\n';
+      joined += lines[++end];
+      if (!nlohmann::json::accept(joined)) continue;
+      if (!nlohmann::json::parse(joined).is_object()) end = i;
+      break;
+    }
+    if (end == i || !nlohmann::json::accept(joined)) continue;
+    const std::string hint = fmt::format(
+        " (lines {}-{} are one query spread over several lines: a batch holds one query per "
+        "line; join each onto one line, e.g. `jq -c . FILE`, or give a single query with "
+        "--query)",
+        entries[i].line, entries[end].line);
+    for (std::size_t k = i; k <= end; ++k) {
+      const InputError with(
+          path.string(), entries[k].line,
+          (entries[k].failure ? entries[k].failure->detail() : "invalid JSON") + hint);
+      entries[k].error = with.what();
+      entries[k].failure = with;
+    }
+    i = end;
+  }
+}
+
+}  // namespace
+
 std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
   const FileBytes text = read_input_file(path, input_limits().batch_bytes);
   std::vector<BatchEntry> out;
+  std::vector<std::string_view> lines;  // of each entry, for the hint
   const std::filesystem::path base = path.parent_path();
   for_each_line(text.view(), [&](std::string_view line, std::size_t n) {
-    if (line.find_first_not_of(" \t\r") != std::string_view::npos)
+    if (line.find_first_not_of(" \t\r") != std::string_view::npos) {
       out.push_back(
           parse_batch_entry(std::string(line), path.string(), n, base, fmt::format("line {}", n)));
+      lines.push_back(line);
+    }
     return true;
   });
+  hint_spread_queries(out, lines, path);
   return out;
 }
 

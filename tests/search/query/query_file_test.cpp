@@ -122,5 +122,33 @@ TEST(QueryFile, BatchesAndSingleQueries) {
             rel.parent_path() / "x.bvh");
 }
 
+// Queries written over several lines in a batch (as the docs show them):
+// each line's error names the lines that make one query and the fix; a valid
+// line between them is untouched, and lines that make no query together get
+// no hint.
+TEST(QueryFile, QueriesSpreadOverLinesInABatchAreNamed) {
+  const auto path = write("multi-line.jsonl", "{\"id\": \"a\",\n  " + kFrames + "}\n" + line("ok") +
+                                                  "{\"id\": \"b\",\n  " + kFrames +
+                                                  ",\n \"top\": 2\n}\n{\"id\": \"c\",\nnot json\n");
+  const std::vector<BatchEntry> batch = read_query_batch(path);
+  ASSERT_EQ(batch.size(), 9u);
+  for (std::size_t i : {0u, 1u})
+    EXPECT_TRUE(has(batch[i].error, "lines 1-2 are one query spread over several lines"))
+        << batch[i].error;
+  EXPECT_TRUE(batch[2].error.empty()) << batch[2].error;
+  EXPECT_EQ(batch[2].id, "ok");
+  for (std::size_t i : {3u, 4u, 5u, 6u}) {
+    EXPECT_TRUE(has(batch[i].error, "lines 4-7 are one query")) << batch[i].error;
+    EXPECT_TRUE(has(batch[i].error, "one query per line")) << batch[i].error;
+    EXPECT_TRUE(has(batch[i].error, "--query")) << batch[i].error;
+    ASSERT_TRUE(batch[i].failure.has_value());
+    EXPECT_EQ(batch[i].failure->line(), batch[i].line);
+  }
+  for (std::size_t i : {7u, 8u}) {
+    EXPECT_FALSE(batch[i].error.empty());
+    EXPECT_FALSE(has(batch[i].error, "spread")) << batch[i].error;
+  }
+}
+
 }  // namespace
 }  // namespace mocap

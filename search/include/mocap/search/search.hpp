@@ -242,7 +242,10 @@ struct BatchEntry {
 };
 
 /// Reads a JSONL batch: one query per non-blank line (default id "line N",
-/// N 1-based); lines that fail to parse become entries with `error`.
+/// N 1-based); lines that fail to parse become entries with `error`. Lines
+/// that are invalid JSON alone but make one JSON object together (a query
+/// written over several lines) each get an error naming those lines and the
+/// fix (one query per line, or --query).
 /// Throws InputError when the file cannot be read at all.
 std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path);
 /// Reads one query from a JSON file (default id: the file stem).
