@@ -4,9 +4,11 @@
 
 #include <fnmatch.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/util/error.hpp"
@@ -61,6 +63,37 @@ std::vector<std::string> string_list(const Ctx& c, const json& v, const std::str
   return out;
 }
 
+// Edit distance (insertions, deletions, substitutions; letters compared
+// without case) between two short names.
+std::size_t name_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t k = 0; k <= b.size(); ++k) row[k] = k;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t k = 1; k <= b.size(); ++k) {
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[k - 1]));
+      const std::size_t next = std::min({row[k] + 1, row[k - 1] + 1, diagonal + (same ? 0 : 1)});
+      diagonal = row[k];
+      row[k] = next;
+    }
+  }
+  return row[b.size()];
+}
+
+// "did you mean X? " for the allowed name nearest `key` within an edit
+// distance of 2 (the first of equals), else "".
+std::string did_you_mean(const std::string& key, std::initializer_list<const char*> allowed) {
+  const char* best = nullptr;
+  std::size_t best_distance = 3;
+  for (const char* a : allowed) {
+    const std::size_t d = name_distance(key, a);
+    if (d < best_distance) best = a, best_distance = d;
+  }
+  return best ? std::string("did you mean \"") + best + "\"? " : "";
+}
+
 void check_keys(const Ctx& c, const json& obj, const std::string& path,
                 std::initializer_list<const char*> allowed) {
   for (auto it = obj.begin(); it != obj.end(); ++it) {
@@ -69,8 +102,9 @@ void check_keys(const Ctx& c, const json& obj, const std::string& path,
     if (!ok) {
       std::string list;
       for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-      c.fail(path.empty() ? it.key() : path + "." + it.key(),
-             "unknown field (expected one of: " + list + ")");
+      c.fail(
+          path.empty() ? it.key() : path + "." + it.key(),
+          "unknown field (" + did_you_mean(it.key(), allowed) + "expected one of: " + list + ")");
     }
   }
 }
@@ -449,7 +483,10 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   }
   if (j.contains("top")) {
     const json& t = j["top"];
-    if (!t.is_number_integer() || t.get<long long>() < 1) c.fail("top", "expected an integer >= 1");
+    if (!t.is_number_integer())
+      c.fail("top", "expected an integer >= 1, got " +
+                        (t.is_number() ? "the number " + json_text(t) : type_name(t)));
+    if (t.get<long long>() < 1) c.fail("top", "expected an integer >= 1, got " + json_text(t));
     q.top = static_cast<std::size_t>(t.get<long long>());
   }
   if (j.contains("path_weight")) {

@@ -182,7 +182,15 @@ TEST(QueryValidityTest, Options) {
   expect_error(R"({"frames": [{"root_heading_deg": 1e308}, {"root_heading_deg": 0}]})",
                "frames[0].root_heading_deg: out of range");
   expect_error(pre + R"(, "top": 0})", "top: expected an integer >= 1");
-  expect_error(pre + R"(, "top": 2.5})", "top: expected an integer");
+  expect_error(pre + R"(, "top": 2.5})", "top: expected an integer >= 1, got the number 2.5");
+  expect_error(pre + R"(, "top": "5"})", "top: expected an integer >= 1, got string");
+  expect_error(pre + R"(, "top": -3})", "top: expected an integer >= 1, got -3");
+  // A misspelt field: the nearest valid name within 2 edits, any case.
+  expect_error(pre + R"(, "Top": 5})", "Top: unknown field (did you mean \"top\"? expected one of");
+  expect_error(pre + R"(, "relatve": true})", "relatve: unknown field (did you mean \"relative\"?");
+  expect_error(pre + R"(, "filter": {"styel": ["x"]}})",
+               "filter.styel: unknown field (did you mean \"style\"?");
+  expect_error(pre + R"(, "zzzzzz": 1})", "zzzzzz: unknown field (expected one of");
   expect_error(pre + R"(, "path_weight": -1})", "path_weight: must be >= 0");
   expect_error(pre + R"(, "relative": "yes"})", "relative: expected true, false or \"position\"");
   expect_error(pre + R"(, "filter": {"genre": ["x"]}})", "filter.genre: unknown field");
