@@ -98,6 +98,7 @@ struct SearchArgs {
   bool force = false;
   std::string distribute = "auto";
   std::string html;
+  bool allow_empty = false;
 };
 
 struct ViewArgs {
@@ -126,6 +127,9 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
                             "Query batch: one JSON query per line (docs/queries.md)");
   auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");
   qs->excludes(q1);
+  app.add_flag("--allow-empty", a.allow_empty,
+               "Accept a --queries batch with no query (exit 0, nothing answered); without it "
+               "an empty batch is an error (exit 2)");
   app.add_option("--out", a.out,
                  "Write the results here (JSON lines) instead of stdout; replaced atomically "
                  "once every query is answered");
@@ -326,6 +330,10 @@ void prepare_search(const SearchArgs& a, bool rank0, SearchInputs& in) {
   }
   in.batch =
       a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
+  if (in.batch.empty() && !a.allow_empty)
+    throw mocap::InputError(a.queries, 0,
+                            "holds no query (one JSON query per line, docs/queries.md; "
+                            "--allow-empty accepts an empty batch)");
   if (in.out_file) {
     // Checked here, created when the results are written: a run that ends
     // before (a rank killed under MPI) leaves no empty temporary file.

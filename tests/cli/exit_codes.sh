@@ -17,4 +17,14 @@ if [ -w /dev/full ]; then
   "$indexer" info --json "$tmp/i.h5" >/dev/full 2>/dev/null || s=$?
   [ "$s" = 2 ] || fail "info writing to /dev/full exited $s (expected 2)"
 fi
+# An empty batch (nothing, or blank lines) is an error naming the file, unless
+# --allow-empty; nothing is written.
+printf '\n  \n' >"$tmp/empty.jsonl"
+s=0
+"$search" --index "$tmp/i.h5" --queries "$tmp/empty.jsonl" --out "$tmp/e.jsonl" 2>"$tmp/err" || s=$?
+[ "$s" = 2 ] || fail "an empty batch exited $s (expected 2)"
+grep -q "empty.jsonl: holds no query" "$tmp/err" || fail "unclear empty-batch error: $(cat "$tmp/err")"
+[ ! -e "$tmp/e.jsonl" ] || fail "an empty batch wrote its results file"
+[ "$(status "$search" --index "$tmp/i.h5" --queries "$tmp/empty.jsonl" --allow-empty)" = 0 ] ||
+  fail "--allow-empty refused an empty batch"
 echo "PASS"
