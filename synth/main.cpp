@@ -54,7 +54,7 @@ struct SynthArgs {
   mocap::InputLimitFlags limits;
   // A batch (--queries): its folder, summary and reports.
   std::string queries_path, out_dir, summary_path;
-  bool reports = false, html_reports = false, quiet = false;
+  bool reports = false, html_reports = false, quiet = false, allow_empty = false;
 };
 
 // The exit statuses of a batch (docs/cli.md "Exit status").
@@ -81,6 +81,10 @@ void add_batch_options(CLI::App& app, SynthArgs& a) {
                  "with --queries: the summary's path (default: DIR/summary.jsonl)")
       ->needs(queries);
   app.add_flag("-q,--quiet", a.quiet, "with --queries: no progress on stderr")->needs(queries);
+  app.add_flag("--allow-empty", a.allow_empty,
+               "with --queries: accept a batch with no query (exit 0, an empty summary); "
+               "without it an empty batch is an error (exit 2)")
+      ->needs(queries);
 }
 
 // The CLI11 declaration of mocap-synth's options (in the order --help lists them).
@@ -338,6 +342,10 @@ int run_batch(SynthArgs& a) {
   check_batch_flags(a);
   std::vector<mocap::SynthBatchQuery> queries =
       mocap::synth_batch_queries(mocap::read_query_batch(a.queries_path), a.options);
+  if (queries.empty() && !a.allow_empty)
+    throw mocap::InputError(a.queries_path, 0,
+                            "holds no query (one JSON query per line, docs/queries.md; "
+                            "--allow-empty accepts an empty batch)");
   const mocap::ClipSource clips = mocap::ClipSource::open(a.index_path);
   mocap::SynthBatchFolder folder(
       clips, a.options,

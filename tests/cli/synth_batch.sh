@@ -161,4 +161,16 @@ for id in "${good[@]}"; do
   n="$(name "$id")"
   cmp -s "$tmp/bc/$n.bvh" "$tmp/b2/$n.bvh" || fail "$id: the collection's motion is not the index's"
 done
+# An empty batch: exit 2 naming the file, no folder made; --allow-empty: an
+# empty summary, exit 0.
+printf '\n\n' >"$tmp/empty.jsonl"
+rc=0
+"$synth" --index "$tmp/index.h5" --queries "$tmp/empty.jsonl" --out-dir "$tmp/be" 2>"$tmp/err.txt" ||
+  rc=$?
+[ "$rc" = 2 ] || fail "an empty batch exited $rc (expected 2)"
+grep -q "empty.jsonl: holds no query" "$tmp/err.txt" || fail "unclear: $(cat "$tmp/err.txt")"
+[ ! -e "$tmp/be" ] || fail "an empty batch made its folder"
+"$synth" --index "$tmp/index.h5" --queries "$tmp/empty.jsonl" --out-dir "$tmp/be" --allow-empty \
+  -q >/dev/null || fail "--allow-empty refused an empty batch"
+[ -f "$tmp/be/summary.jsonl" ] && [ ! -s "$tmp/be/summary.jsonl" ] || fail "no empty summary"
 echo "OK"
