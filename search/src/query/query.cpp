@@ -57,7 +57,8 @@ std::vector<std::string> string_list(const Ctx& c, const json& v, const std::str
   }
   if (!v.is_array()) c.fail(path, "expected a string or a list of strings, got " + type_name(v));
   for (std::size_t i = 0; i < v.size(); ++i) {
-    if (!v[i].is_string()) c.fail(path + "[" + std::to_string(i) + "]", "expected a string");
+    if (!v[i].is_string())
+      c.fail(path + "[" + std::to_string(i) + "]", "expected a string, got " + type_name(v[i]));
     out.push_back(v[i].get<std::string>());
   }
   return out;
@@ -430,7 +431,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     else if (j["id"].is_number_integer())
       q.id = std::to_string(j["id"].get<long long>());
     else
-      c.fail("id", "expected a string");
+      c.fail("id", "expected a string or an integer, got " + type_name(j["id"]));
   }
   if (!j.contains("frames")) c.fail("frames", "required: a list of at least 2 query frames");
   const json& frames = j["frames"];
@@ -495,7 +496,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   }
   if (j.contains("filter")) {
     const json& f = j["filter"];
-    if (!f.is_object()) c.fail("filter", "expected an object");
+    if (!f.is_object()) c.fail("filter", "expected an object, got " + type_name(f));
     check_keys(c, f, "filter", {"content", "style", "clips", "exclude"});
     if (f.contains("content")) q.filter.content = string_list(c, f["content"], "filter.content");
     if (f.contains("style")) q.filter.style = string_list(c, f["style"], "filter.style");

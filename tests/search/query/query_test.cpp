@@ -191,11 +191,15 @@ TEST(QueryValidityTest, Options) {
   expect_error(pre + R"(, "filter": {"styel": ["x"]}})",
                "filter.styel: unknown field (did you mean \"style\"?");
   expect_error(pre + R"(, "zzzzzz": 1})", "zzzzzz: unknown field (expected one of");
+  // What was given, named.
+  expect_error(pre + R"(, "filter": [1]})", "filter: expected an object, got array");
+  expect_error(pre + R"(, "filter": {"style": ["a", 3]}})",
+               "filter.style[1]: expected a string, got number");
   expect_error(pre + R"(, "path_weight": -1})", "path_weight: must be >= 0");
   expect_error(pre + R"(, "relative": "yes"})", "relative: expected true, false or \"position\"");
   expect_error(pre + R"(, "filter": {"genre": ["x"]}})", "filter.genre: unknown field");
   expect_error(pre + R"(, "filter": {"content": [1]}})", "filter.content[0]: expected a string");
-  expect_error(pre + R"(, "id": [1]})", "id: expected a string");
+  expect_error(pre + R"(, "id": [1]})", "id: expected a string or an integer, got array");
   expect_error(pre + R"(, "character": ""})", "character: expected");
 }
 
