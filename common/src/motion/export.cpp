@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "mocap/common/motion/skeleton_motion.hpp"
+#include "mocap/common/util/edit_distance.hpp"
 #include "mocap/common/util/error.hpp"
 
 namespace mocap {
@@ -24,33 +25,14 @@ std::string file_name(const std::string& path) {
   return s == std::string::npos ? path : path.substr(s + 1);
 }
 
-std::string lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
-
-// Levenshtein distance (insertions, deletions, substitutions), two rows.
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j)
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
-
 // "a, b, c" of at most five close file names (distinct, closest first).
 std::string close_names(const ClipSource& clips, const std::string& name) {
-  const std::string want = lower(file_name(name));
+  const std::string want = ascii_lower(file_name(name));
   const std::size_t limit = std::max<std::size_t>(3, want.size() / 3);
   std::vector<std::pair<std::size_t, std::string>> near;
   for (std::size_t c = 0; c < clips.clip_count(); ++c) {
     const std::string have = file_name(clips.clip(c).path);
-    const std::string key = lower(have);
+    const std::string key = ascii_lower(have);
     const std::size_t d = key.find(want) != std::string::npos || want.find(key) != std::string::npos
                               ? 0
                               : edit_distance(want, key);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/util/edit_distance.hpp"
 #include "mocap/common/util/error.hpp"
 
 namespace mocap {
@@ -64,32 +65,14 @@ std::vector<std::string> string_list(const Ctx& c, const json& v, const std::str
   return out;
 }
 
-// Edit distance (insertions, deletions, substitutions; letters compared
-// without case) between two short names.
-std::size_t name_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t k = 0; k <= b.size(); ++k) row[k] = k;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t k = 1; k <= b.size(); ++k) {
-      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
-                        std::tolower(static_cast<unsigned char>(b[k - 1]));
-      const std::size_t next = std::min({row[k] + 1, row[k - 1] + 1, diagonal + (same ? 0 : 1)});
-      diagonal = row[k];
-      row[k] = next;
-    }
-  }
-  return row[b.size()];
-}
-
 // "did you mean X? " for the allowed name nearest `key` within an edit
-// distance of 2 (the first of equals), else "".
+// distance of 2, letters compared without case (the first of equals), else "".
 std::string did_you_mean(const std::string& key, std::initializer_list<const char*> allowed) {
   const char* best = nullptr;
   std::size_t best_distance = 3;
+  const std::string lower_key = ascii_lower(key);
   for (const char* a : allowed) {
-    const std::size_t d = name_distance(key, a);
+    const std::size_t d = edit_distance(lower_key, ascii_lower(a));
     if (d < best_distance) best = a, best_distance = d;
   }
   return best ? std::string("did you mean \"") + best + "\"? " : "";
