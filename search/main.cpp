@@ -328,12 +328,9 @@ void prepare_search(const SearchArgs& a, bool rank0, SearchInputs& in) {
       in.player = mocap::load_player_library(mocap::player_dir());
     }
   }
-  in.batch =
-      a.queries.empty() ? mocap::read_single_query(a.query) : mocap::read_query_batch(a.queries);
-  if (in.batch.empty() && !a.allow_empty)
-    throw mocap::InputError(a.queries, 0,
-                            "holds no query (one JSON query per line, docs/queries.md; "
-                            "--allow-empty accepts an empty batch)");
+  in.batch = a.queries.empty() ? mocap::read_single_query(a.query)
+                               : mocap::require_queries(mocap::read_query_batch(a.queries),
+                                                        a.queries, a.allow_empty);
   if (in.out_file) {
     // Checked here, created when the results are written: a run that ends
     // before (a rank killed under MPI) leaves no empty temporary file.

@@ -341,11 +341,9 @@ int run_batch(SynthArgs& a) {
   check_synth_options(a);
   check_batch_flags(a);
   std::vector<mocap::SynthBatchQuery> queries =
-      mocap::synth_batch_queries(mocap::read_query_batch(a.queries_path), a.options);
-  if (queries.empty() && !a.allow_empty)
-    throw mocap::InputError(a.queries_path, 0,
-                            "holds no query (one JSON query per line, docs/queries.md; "
-                            "--allow-empty accepts an empty batch)");
+      mocap::synth_batch_queries(mocap::require_queries(mocap::read_query_batch(a.queries_path),
+                                                        a.queries_path, a.allow_empty),
+                                 a.options);
   const mocap::ClipSource clips = mocap::ClipSource::open(a.index_path);
   mocap::SynthBatchFolder folder(
       clips, a.options,

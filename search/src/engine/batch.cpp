@@ -35,15 +35,17 @@ void hint_spread_queries(std::vector<BatchEntry>& entries,
       continue;
     std::string joined(lines[i]);
     std::size_t end = i;
-    while (end + 1 < entries.size() && end - i < kSpreadQueryLines &&
+    bool one_object = false;
+    while (!one_object && end + 1 < entries.size() && end - i < kSpreadQueryLines &&
            joined.size() < kSpreadQueryBytes && entries[end + 1].error.size()) {
       joined += '\n';
       joined += lines[++end];
-      if (!nlohmann::json::accept(joined)) continue;
-      if (!nlohmann::json::parse(joined).is_object()) end = i;
-      break;
+      const auto j = nlohmann::json::parse(joined, nullptr, false);
+      if (j.is_discarded()) continue;
+      if (!j.is_object()) break;
+      one_object = true;
     }
-    if (end == i || !nlohmann::json::accept(joined)) continue;
+    if (!one_object) continue;
     const std::string hint = fmt::format(
         " (lines {}-{} are one query spread over several lines: a batch holds one query per "
         "line; join each onto one line, e.g. `jq -c . FILE`, or give a single query with "
@@ -77,6 +79,15 @@ std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path) {
   });
   hint_spread_queries(out, lines, path);
   return out;
+}
+
+std::vector<BatchEntry> require_queries(std::vector<BatchEntry> entries,
+                                        const std::filesystem::path& path, bool allow_empty) {
+  if (entries.empty() && !allow_empty)
+    throw InputError(path.string(), 0,
+                     "holds no query (one JSON query per line, docs/queries.md; "
+                     "--allow-empty accepts an empty batch)");
+  return entries;
 }
 
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path) {

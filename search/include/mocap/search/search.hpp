@@ -248,6 +248,12 @@ struct BatchEntry {
 /// fix (one query per line, or --query).
 /// Throws InputError when the file cannot be read at all.
 std::vector<BatchEntry> read_query_batch(const std::filesystem::path& path);
+/// The --queries batch `entries` read from `path`, refused when it holds no
+/// query (an empty file, or blank lines only): InputError(path, 0, ...)
+/// naming the fix, unless `allow_empty` (mocap-search and mocap-synth
+/// --allow-empty).
+std::vector<BatchEntry> require_queries(std::vector<BatchEntry> entries,
+                                        const std::filesystem::path& path, bool allow_empty);
 /// Reads one query from a JSON file (default id: the file stem).
 std::vector<BatchEntry> read_single_query(const std::filesystem::path& path);
 

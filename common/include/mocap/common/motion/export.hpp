@@ -34,10 +34,11 @@ FrameRange parse_frame_range(const std::string& text, const std::string& option)
 /// it (absolute, as built), that path given relative to the working folder,
 /// any other path to the same file (through a symbolic link, "..", another
 /// mount: compared by file identity, among clips of that file name), or its
-/// file name alone. The stored path stays what results and errors show. InputError(clips.path(), 0,
-/// ...) when no clip has that name (the message lists up to five close names: file names within a
-/// small edit distance, or containing `name`), or when several clips have
-/// that file name (it lists their paths: give the full path).
+/// file name alone. The stored path stays what results and errors show.
+/// InputError(clips.path(), 0, ...) when no clip has that name (the message
+/// lists up to five close names: file names within a small edit distance,
+/// or containing `name`), or when several clips have that file name (it
+/// lists their paths: give the full path).
 std::size_t find_clip(const ClipSource& clips, const std::string& name);
 
 /// The BVH clip of frames `range` of clip `clip` (a number in `clips`;
