@@ -24,6 +24,10 @@ const char* output_kind_name(OutputKind kind) {
       return "JSON lines";
     case OutputKind::html:
       return "HTML";
+    case OutputKind::glb:
+      return "glTF binary";
+    case OutputKind::npz:
+      return "NumPy .npz";
   }
   return "?";
 }
@@ -38,6 +42,10 @@ bool looks_like(OutputKind kind, const std::string& head) {
       if (head.compare(at, sig.size(), sig) == 0) return true;
     return false;
   }
+  if (kind == OutputKind::glb) return head.rfind("glTF", 0) == 0;
+  if (kind == OutputKind::npz)
+    return head.rfind(std::string("PK\3\4", 4), 0) == 0 ||
+           head.rfind(std::string("PK\5\6", 4), 0) == 0;
   std::size_t i = 0;
   if (head.rfind("\xEF\xBB\xBF", 0) == 0) i = 3;  // a UTF-8 byte order mark
   while (i < head.size() && std::isspace(static_cast<unsigned char>(head[i]))) ++i;
@@ -55,6 +63,8 @@ bool looks_like(OutputKind kind, const std::string& head) {
       return rest.rfind("<!doctype html", 0) == 0 || rest.rfind("<html", 0) == 0;
     }
     case OutputKind::index:
+    case OutputKind::glb:
+    case OutputKind::npz:
       break;
   }
   return false;

@@ -24,12 +24,14 @@ enum class OutputKind {
   json,   // text starting with { or [
   jsonl,  // text starting with {
   html,   // text starting with <!DOCTYPE html or <html (any case)
+  glb,    // glTF 2.0 binary: bytes starting with "glTF"
+  npz,    // NumPy .npz, a zip archive: bytes starting with "PK\3\4" (or "PK\5\6", empty)
 };
-/// "index (HDF5)", "BVH", "JSON", "JSON lines", "HTML".
+/// "index (HDF5)", "BVH", "JSON", "JSON lines", "HTML", "glTF binary", "NumPy .npz".
 const char* output_kind_name(OutputKind kind);
 
 /// True when the first bytes `head` of a file look like `kind` (leading
-/// white space skipped for the text kinds).
+/// white space skipped for the text kinds, not for glb and npz).
 bool looks_like(OutputKind kind, const std::string& head);
 
 /// The path to replace for output `path` given as `option` (e.g. "--out"):
