@@ -88,7 +88,7 @@ void add_nodes(const Skeleton& s, json& doc) {
   doc["scene"] = 0;
 }
 
-// The skin over every joint: inverse bind matrices of the rest pose (each
+// The skin over every joint (one tree): inverse bind matrices of the rest pose (each
 // joint at the sum of the OFFSETs above it, unrotated), column-major.
 void add_skin(const Skeleton& s, GltfBuffer& buffer, json& doc) {
   const std::size_t n = s.joint_count();
@@ -178,7 +178,10 @@ std::string motion_glb(const RawClip& clip, double scale_m) {
   json doc = {{"asset", {{"version", "2.0"}, {"generator", "mocap (motion_glb)"}}}};
   GltfBuffer buffer;
   add_nodes(m.skeleton, doc);
-  add_skin(m.skeleton, buffer, doc);
+  // A skin's joints must share one root (glTF 2.0, "Skins"): a clip of
+  // several trees gets none (importers then make plain nodes of it).
+  if (std::count(m.skeleton.parents.begin(), m.skeleton.parents.end(), -1) == 1)
+    add_skin(m.skeleton, buffer, doc);
   add_animation(m, buffer, doc);
   doc["accessors"] = std::move(buffer.accessors());
   doc["bufferViews"] = std::move(buffer.views());

@@ -268,3 +268,37 @@ TEST(MotionFile, WritesTheFormatItsPathNames) {
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
   EXPECT_EQ(files, 3U);  // sub/, m.NPZ and m.bvh: no temporary file
 }
+
+TEST(MotionFile, GlbOfSeveralTreesHasNoSkin) {
+  const mocap::RawClip clip = mocap::parse_bvh(R"(HIERARCHY
+ROOT A
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+}
+ROOT B
+{
+  OFFSET 1 0 0
+  CHANNELS 3 Zrotation Xrotation Yrotation
+  JOINT C
+  {
+    OFFSET 0 1 0
+    CHANNELS 0
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.5
+0 1 0 0 0 0 10 20 30
+1 1 0 90 0 0 -10 -20 -30
+)",
+                                               "two.bvh");
+  const mocap::ClipMotion m = mocap::clip_motion_from_raw(clip, 1.0);
+  const Glb g = split_glb(mocap::motion_glb(clip, 1.0));
+  EXPECT_FALSE(g.doc.contains("skins"));
+  EXPECT_EQ(g.doc["scenes"][0]["nodes"], json::array({0, 1}));
+  for (std::size_t f = 0; f < 2; ++f) {
+    const std::vector<Eigen::Vector3d> p = glb_world_positions(g, f);
+    for (std::size_t j = 0; j < 3; ++j) EXPECT_LT((p[j] - m.position(f, j)).norm(), 1e-6);
+  }
+}

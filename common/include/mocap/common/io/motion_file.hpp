@@ -6,7 +6,8 @@
 //    joint, named after it, the tree as children; each node's translation is
 //    the joint's rest OFFSET and its rotation the identity. One skin lists
 //    every joint (inverse bind matrices of that rest pose) and no mesh uses
-//    it: Blender makes an armature of it, three.js Bones. One animation,
+//    it: Blender makes an armature of it, three.js Bones (a clip of several
+//    ROOTs gets no skin: a skin's joints share one root). One animation,
 //    "motion": per joint a rotation channel (local unit quaternions x, y, z,
 //    w, signs made continuous), and per joint with position channels (the
 //    root) a translation channel; one LINEAR sampler per channel, keyframe
