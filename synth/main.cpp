@@ -242,7 +242,7 @@ void write_synth_html(const std::filesystem::path& html_file, const mocap::ClipS
                                                         player ? &*player : nullptr, missing));
 }
 
-// The lines naming what was written.
+// The lines naming what was written, then the feet and range notes.
 void print_synth_summary(const SynthArgs& a, const mocap::SynthResult& result) {
   std::size_t inserted = 0;
   for (const auto& t : result.transitions) inserted += t.measures.frames;
@@ -254,6 +254,7 @@ void print_synth_summary(const SynthArgs& a, const mocap::SynthResult& result) {
     std::cout << "report: " << std::filesystem::absolute(a.report_path).string() << "\n";
   if (!a.html_path.empty())
     std::cout << "html:   " << std::filesystem::absolute(a.html_path).string() << "\n";
+  std::cout << mocap::synth_report_text(result);
 }
 
 // The job: checks, the query and its ranked pairs (read or searched here),

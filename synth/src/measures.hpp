@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "mocap/synth/synth.hpp"
@@ -40,7 +41,7 @@ StepSkating step_skating(const SynthSkeleton& sk, const WorldPose& a, const Worl
 /// speeds, and the contact-based sliding (step_foot_sliding) summed.
 struct SkatingTally {
   std::size_t skating_steps = 0, steps = 0, joints = 0, airborne_steps = 0;
-  double speed_sum = 0.0, sliding_m = 0.0;
+  double speed_sum = 0.0, sliding_m = 0.0, slow_sliding_m = 0.0;
   void add(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b, double dt);
   double ratio() const { return steps ? static_cast<double>(skating_steps) / steps : 0.0; }
   double mean_speed() const { return joints ? speed_sum / static_cast<double>(joints) : 0.0; }
@@ -49,8 +50,47 @@ struct SkatingTally {
   }
 };
 
+/// The contact-based sliding of one step (step_foot_sliding), metres, and
+/// the part of it at contact speed: joints whose contact point moves
+/// horizontally at most EnergyParams::contact_speed_mps (the energy model's
+/// contacts slide that slowly; the rest is a foot swinging low).
+struct StepSliding {
+  double total_m = 0.0, slow_m = 0.0;
+};
+StepSliding step_foot_sliding_split(const SynthSkeleton& sk, const WorldPose& a, const WorldPose& b,
+                                    double dt);
+
 /// Steps of S_0 -> frames... -> S_G in which a foot skates (step_skating).
 std::size_t skating_steps(const GapProblem& gap, const std::vector<SynthFrame>& frames);
+
+/// The (frame, joint) pairs of `frames` outside the gap's range of motion,
+/// named (RangeViolation; empty without a range): the pairs
+/// frame_range_violations counts, in frame then joint order.
+std::vector<RangeViolation> range_violation_list(const GapProblem& gap,
+                                                 const std::vector<SynthFrame>& frames);
+
+/// A foot segment's ground contact along a motion as the energy model sees
+/// it (newton_euler.hpp: its lower contact point within contact_height_m of
+/// the ground and moving slower than contact_speed_mps). The foot's contact
+/// point is its joint origin (the ankle: the heel's contact), the toes'
+/// their origin (the ball) or their bone tip (the toe tip), the lower.
+struct FootContactRow {
+  int joint = -1;
+  std::string name;    // the skeleton's joint name
+  std::string points;  // "joint origin" or "joint origin or bone tip"
+  /// Per frame: 'c' in contact, 's' within contact height but faster than
+  /// contact_speed_mps (sliding: no support), '.' higher.
+  std::string states;
+  /// The lowest height of its contact point above the ground over the
+  /// frames, metres (above contact_height_m: never a contact).
+  double lowest_m = 0.0;
+  std::size_t contact_frames() const;
+};
+/// One row per SynthSkeleton::foot_joints entry, in that order; none for
+/// fewer than two frames (rates need a neighbour). frame_time_s > 0.
+std::vector<FootContactRow> foot_contact_rows(const SynthSkeleton& sk,
+                                              const std::vector<SynthFrame>& frames,
+                                              double frame_time_s);
 
 /// Joints of frame `f` outside the gap's range of motion (0 without a range).
 std::size_t frame_range_violations(const GapProblem& gap, const SynthFrame& f);

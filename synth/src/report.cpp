@@ -10,6 +10,7 @@
 #include "mocap/synth/player_scene.hpp"
 #include "mocap/synth/synth_job.hpp"
 #include "mocap/synth/synth_json.hpp"
+#include "report_notes.hpp"
 #include "report_views.hpp"
 
 namespace mocap {
@@ -60,6 +61,84 @@ nlohmann::json per_step_json(const SynthResult& result) {
   for (const MotionSegment& s : result.segments)
     if (s.measures) captured.add(*s.measures);
   return {{"transitions", transitions.json()}, {"captured", captured.json()}};
+}
+
+// The transitions table: per transition its method, length, g, the slerp
+// baseline's g and the foot and range measures; the whole motion's last.
+void transitions_table(std::ostringstream& o, const SynthResult& result) {
+  o << "<figure "
+       "data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</"
+       "th><th>side</th>"
+       "<th>method</th><th>frames</th><th>g (J)</th><th>slerp g (J)</th><th>foot sliding (m)</th>"
+       "<th>skating ratio</th><th>skating speed (m/s)</th><th>airborne ratio</th>"
+       "<th>range violations</th><th>peak ang. speed (rad/s)</th></tr>";
+  for (const TransitionReport& t : result.transitions) {
+    double slerp_g = std::nan("");
+    for (const auto& [m, ms] : t.baselines)
+      if (m == TransitionMethod::slerp) slerp_g = ms.energy_J;
+    o << "<tr><td>" << t.pair << "</td><td>" << t.side << "</td><td>"
+      << transition_method_name(t.method) << "</td><td>" << t.measures.frames << "</td><td>"
+      << fmt(1, t.measures.energy_J) << "</td><td>"
+      << (std::isnan(slerp_g) ? std::string("-") : fmt(1, slerp_g)) << "</td><td>"
+      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << fmt(2, t.measures.skating_ratio)
+      << "</td><td>" << fmt(2, t.measures.skating_speed_mps) << "</td><td>"
+      << fmt(2, t.measures.airborne_ratio) << "</td><td title=\""
+      << esc(synth_detail::range_violation_summary(t.measures.range_violation_list)) << "\">"
+      << t.measures.range_violations << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps)
+      << "</td></tr>";
+  }
+  const MotionMeasures& mm = result.motion_measures;
+  o << "<tr><td colspan=\"6\">whole motion (" << result.frames.size() << " frames)</td><td>"
+    << fmt(3, mm.foot_sliding_m) << "</td><td>" << fmt(2, mm.skating_ratio) << "</td><td>"
+    << fmt(2, mm.skating_speed_mps) << "</td><td>" << fmt(2, mm.airborne_ratio)
+    << "</td><td></td><td></td></tr>";
+  o << "</table></figure>\n";
+}
+
+// Under the transitions table: what the foot sliding and the skating ratio
+// count (and why both can hold), and each transition's range violations
+// named by joint and channel (report_notes.hpp).
+void measure_notes(std::ostringstream& o, const SynthResult& result) {
+  o << "<div data-figure=\"measure-notes\"><p data-note=\"sliding-skating\">"
+    << esc(synth_detail::sliding_skating_note(result.skeleton->model.params,
+                                              result.motion_measures))
+    << "</p>";
+  bool any = false;
+  for (const TransitionReport& t : result.transitions) {
+    if (t.measures.range_violations == 0) continue;
+    if (!any)
+      o << "<p>Range violations: (inserted frame, joint) pairs outside the range of motion (the "
+           "union of the captured channel ranges of the skeleton's clips, 0.5 deg slack), by "
+           "joint and channel, the furthest outside first:</p><ul data-note=\"range\">";
+    any = true;
+    o << "<li>pair " << t.pair << " " << esc(t.side) << ": " << t.measures.range_violations << ": "
+      << esc(synth_detail::range_violation_summary(t.measures.range_violation_list)) << "</li>";
+  }
+  o << (any ? "</ul>" : "") << "</div>\n";
+}
+
+// motion.segments: kind, pair, frames, and for a partial motion of 2 frames
+// or more its captured frames' skating and airborne ratios and measures.
+nlohmann::json segments_json(const SynthResult& result) {
+  nlohmann::json segs = nlohmann::json::array();
+  for (const MotionSegment& s : result.segments) {
+    nlohmann::json sj = {{"kind", s.kind},
+                         {"pair", s.pair},
+                         {"first_frame", s.first_frame},
+                         {"frames", s.frame_count}};
+    if (s.kind == "partial" && s.frame_count >= 2) {  // the captured frames' own measures
+      const auto first = result.frames.begin() + static_cast<std::ptrdiff_t>(s.first_frame);
+      const MotionMeasures m = measure_motion(
+          *result.skeleton,
+          std::vector<SynthFrame>(first, first + static_cast<std::ptrdiff_t>(s.frame_count)),
+          result.frame_time_s);
+      sj["foot_skating_ratio"] = m.skating_ratio;
+      sj["airborne_ratio"] = m.airborne_ratio;
+    }
+    if (s.measures) sj["measures"] = measures_json(*s.measures);
+    segs.push_back(std::move(sj));
+  }
+  return segs;
 }
 
 }  // namespace
@@ -115,24 +194,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
     trs.push_back(tj);
   }
   j["transitions"] = trs;
-  nlohmann::json segs = nlohmann::json::array();
-  for (const MotionSegment& s : result.segments) {
-    nlohmann::json sj = {{"kind", s.kind},
-                         {"pair", s.pair},
-                         {"first_frame", s.first_frame},
-                         {"frames", s.frame_count}};
-    if (s.kind == "partial" && s.frame_count >= 2) {  // the captured frames' own measures
-      const auto first = result.frames.begin() + static_cast<std::ptrdiff_t>(s.first_frame);
-      const MotionMeasures m = measure_motion(
-          *result.skeleton,
-          std::vector<SynthFrame>(first, first + static_cast<std::ptrdiff_t>(s.frame_count)),
-          result.frame_time_s);
-      sj["foot_skating_ratio"] = m.skating_ratio;
-      sj["airborne_ratio"] = m.airborne_ratio;
-    }
-    if (s.measures) sj["measures"] = measures_json(*s.measures);
-    segs.push_back(std::move(sj));
-  }
+  const nlohmann::json segs = segments_json(result);
   double total = 0.0;
   for (double e : result.step_energies_J) total += e;
   j["motion"] = {{"bvh", bvh_path},
@@ -143,11 +205,14 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                  {"g_total_J", total},
                  {"g_paper_total_J", total},
                  {"foot_sliding_m", result.motion_measures.foot_sliding_m},
+                 {"foot_sliding_slow_m", result.motion_measures.foot_sliding_slow_m},
                  {"foot_skating_ratio", result.motion_measures.skating_ratio},
                  {"skating_speed_mps", result.motion_measures.skating_speed_mps},
                  {"airborne_ratio", result.motion_measures.airborne_ratio},
                  {"step_energies_J", result.step_energies_J},
-                 {"per_step", per_step_json(result)}};
+                 {"per_step", per_step_json(result)},
+                 {"foot_contacts", synth_detail::foot_contacts_json(synth_detail::foot_contact_rows(
+                                       *result.skeleton, result.frames, result.frame_time_s))}};
   if (result.whole_measures) {
     const TransitionMeasures& w = *result.whole_measures;
     j["motion"]["w_J"] = w.work_energy_J;
@@ -173,6 +238,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
     }
     j["timing"] = {{"fps", 1.0 / result.frame_time_s}, {"pairs", pairs}};
   }
+  j["about_measures"] = synth_detail::about_measures_json(result);
   j["parameters"] = supplement_params_json(options.params);
   j["parameters"]["transition"] = transition_method_name(options.method);
   j["parameters"]["warp"] = options.warp_fill;
@@ -248,32 +314,8 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
         << m.start_frame << "-" << m.end_frame << "</td><td>" << fmt(1, m.score_J) << "</td><td>"
         << fmt(1, m.h_in_J) << "</td><td>" << fmt(1, m.h_out_J) << "</td></tr>";
   o << "</table></figure>\n";
-  // Transitions table.
-  o << "<figure "
-       "data-figure=\"transitions\"><figcaption>Transitions</figcaption><table><tr><th>pair</"
-       "th><th>side</th>"
-       "<th>method</th><th>frames</th><th>g (J)</th><th>slerp g (J)</th><th>foot sliding (m)</th>"
-       "<th>skating ratio</th><th>skating speed (m/s)</th><th>airborne ratio</th>"
-       "<th>range violations</th><th>peak ang. speed (rad/s)</th></tr>";
-  for (const TransitionReport& t : result.transitions) {
-    double slerp_g = std::nan("");
-    for (const auto& [m, ms] : t.baselines)
-      if (m == TransitionMethod::slerp) slerp_g = ms.energy_J;
-    o << "<tr><td>" << t.pair << "</td><td>" << t.side << "</td><td>"
-      << transition_method_name(t.method) << "</td><td>" << t.measures.frames << "</td><td>"
-      << fmt(1, t.measures.energy_J) << "</td><td>"
-      << (std::isnan(slerp_g) ? std::string("-") : fmt(1, slerp_g)) << "</td><td>"
-      << fmt(3, t.measures.foot_sliding_m) << "</td><td>" << fmt(2, t.measures.skating_ratio)
-      << "</td><td>" << fmt(2, t.measures.skating_speed_mps) << "</td><td>"
-      << fmt(2, t.measures.airborne_ratio) << "</td><td>" << t.measures.range_violations
-      << "</td><td>" << fmt(1, t.measures.peak_angular_speed_radps) << "</td></tr>";
-  }
-  const MotionMeasures& mm = result.motion_measures;
-  o << "<tr><td colspan=\"6\">whole motion (" << result.frames.size() << " frames)</td><td>"
-    << fmt(3, mm.foot_sliding_m) << "</td><td>" << fmt(2, mm.skating_ratio) << "</td><td>"
-    << fmt(2, mm.skating_speed_mps) << "</td><td>" << fmt(2, mm.airborne_ratio)
-    << "</td><td></td><td></td></tr>";
-  o << "</table></figure>\n";
+  transitions_table(o, result);
+  measure_notes(o, result);
   synth_detail::energy_plot(o, result);
   o << "</body></html>\n";
   return o.str();

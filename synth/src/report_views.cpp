@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "measures.hpp"
+#include "report_notes.hpp"
 
 namespace mocap::synth_detail {
 
@@ -190,49 +191,79 @@ void energy_plot(std::ostringstream& o, const SynthResult& r) {
   o << "\"/></svg></figure>\n";
 }
 
-void contact_timeline(std::ostringstream& o, const SynthResult& r) {
+namespace {
+
+// One row of the contact timeline: its label, and a cell per frame coloured
+// by the energy model's contact state (FootContactRow::states).
+void contact_row(std::ostringstream& o, const std::string& label, const std::string& states,
+                 const std::string& note, double y, double left, double cw, double row_h) {
+  o << "<text x=\"" << left - 6 << "\" y=\"" << fixed(1, y + row_h - 4)
+    << "\" font-size=\"11\" text-anchor=\"end\">" << html_escape(label) << "</text>";
+  if (!note.empty())
+    o << "<text x=\"" << left + 4 << "\" y=\"" << fixed(1, y + row_h - 4)
+      << "\" font-size=\"11\" fill=\"#777\" data-note=\"never-in-reach\">" << html_escape(note)
+      << "</text>";
+  for (std::size_t f = 0; f < states.size(); ++f) {
+    if (states[f] == '.') continue;
+    o << "<rect x=\"" << fixed(2, left + cw * static_cast<double>(f)) << "\" y=\""
+      << fixed(1, y + 2) << "\" width=\"" << fixed(2, cw) << "\" height=\"" << row_h - 4
+      << "\" fill=\"" << (states[f] == 'c' ? "#2ca02c" : "#ff9f1c") << "\" data-state=\""
+      << states[f] << "\"/>";
+  }
+}
+
+// The skating row: a red mark on each step (between frames f - 1 and f) in
+// which a foot joint skates (measures.hpp step_skating).
+void skating_row(std::ostringstream& o, const SynthResult& r, double y, double left, double cw,
+                 double row_h) {
   const SynthSkeleton& sk = *r.skeleton;
-  const auto& fr = r.frames;
-  const std::size_t rows = sk.foot_joints.size();
-  if (fr.size() < 2 || rows == 0) return;
+  o << "<text x=\"" << left - 6 << "\" y=\"" << fixed(1, y + row_h - 4)
+    << "\" font-size=\"11\" text-anchor=\"end\">skating</text>";
+  WorldPose a, b;
+  synth_world_pose(sk, r.frames[0], a);
+  for (std::size_t f = 1; f < r.frames.size(); ++f) {
+    synth_world_pose(sk, r.frames[f], b);
+    if (step_skating(sk, a, b, r.frame_time_s).joints > 0)
+      o << "<rect x=\"" << fixed(2, left + cw * (static_cast<double>(f) - 0.5)) << "\" y=\""
+        << fixed(1, y + 2) << "\" width=\"" << fixed(2, cw) << "\" height=\"" << row_h - 4
+        << "\" fill=\"#d62728\" data-state=\"skating\"/>";
+    std::swap(a, b);
+  }
+}
+
+}  // namespace
+
+void contact_timeline(std::ostringstream& o, const SynthResult& r) {
+  const std::vector<FootContactRow> rows = foot_contact_rows(*r.skeleton, r.frames, r.frame_time_s);
+  if (rows.empty()) return;
+  const EnergyParams& ep = r.skeleton->model.params;
   const double W = 1100, row_h = 16, left = 110, top = 4;
-  const double H = top + row_h * static_cast<double>(rows) + 22;
-  const double steps = static_cast<double>(fr.size() - 1);
-  const double cw = (W - left - 10) / steps;
-  const double ground = sk.model.params.ground_height_m;
-  o << "<figure data-figure=\"contacts\"><figcaption>Foot contact per step: green on the ground "
-       "(below "
-    << fixed(0, 100 * kSkatingHeightM) << " cm), red skating (on the ground and faster than "
-    << fixed(1, kSkatingSpeedMps)
-    << " m/s), blank off the ground; shaded: transitions</figcaption><svg "
-       "xmlns=\"http://www.w3.org/2000/svg\" width=\""
+  const double H = top + row_h * static_cast<double>(rows.size() + 1) + 22;
+  const double cw = (W - left - 10) / static_cast<double>(r.frames.size());
+  o << "<figure data-figure=\"contacts\"><figcaption>Foot contact per frame as the energy "
+       "model sees it: green in contact (the segment's contact point, its joint origin for the "
+       "foot (the heel: the ankle) and its joint or bone tip for the toes, within "
+    << fixed(0, 100 * ep.contact_height_m) << " cm of the ground and slower than "
+    << fixed(1, ep.contact_speed_mps) << " m/s), orange within "
+    << fixed(0, 100 * ep.contact_height_m)
+    << " cm but faster (sliding: no support), blank higher; last row, red: the steps that "
+       "skate (a foot joint below "
+    << fixed(0, 100 * kSkatingHeightM) << " cm moving faster than " << fixed(1, kSkatingSpeedMps)
+    << " m/s); shaded: transitions</figcaption><svg xmlns=\"http://www.w3.org/2000/svg\" "
+       "width=\""
     << W << "\" height=\"" << H << "\"><rect width=\"100%\" height=\"100%\" fill=\"#fbfbfb\"/>";
   for (const MotionSegment& s : r.segments)
     if (s.kind == "transition" && s.frame_count > 0)
       o << "<rect x=\"" << fixed(1, left + cw * static_cast<double>(s.first_frame)) << "\" y=\"0\" "
         << "width=\"" << fixed(1, cw * static_cast<double>(s.frame_count)) << "\" height=\""
         << H - 20 << "\" fill=\"#ffe0d0\"/>";
-  std::vector<WorldPose> world(fr.size());
-  for (std::size_t f = 0; f < fr.size(); ++f) synth_world_pose(sk, fr[f], world[f]);
-  for (std::size_t i = 0; i < rows; ++i) {
-    const auto j = static_cast<std::size_t>(sk.foot_joints[i]);
-    const double y = top + row_h * static_cast<double>(i);
-    o << "<text x=\"" << left - 6 << "\" y=\"" << fixed(1, y + row_h - 4)
-      << "\" font-size=\"11\" text-anchor=\"end\">" << html_escape(sk.skeleton.names[j])
-      << "</text>";
-    for (std::size_t f = 1; f < fr.size(); ++f) {
-      const Eigen::Vector3d& a = world[f - 1].positions_m[j];
-      const Eigen::Vector3d& b = world[f].positions_m[j];
-      if (a.y() - ground >= kSkatingHeightM || b.y() - ground >= kSkatingHeightM) continue;
-      const double v = std::hypot(b.x() - a.x(), b.z() - a.z()) / r.frame_time_s;
-      o << "<rect x=\"" << fixed(2, left + cw * static_cast<double>(f - 1)) << "\" y=\""
-        << fixed(1, y + 2) << "\" width=\"" << fixed(2, cw) << "\" height=\"" << row_h - 4
-        << "\" fill=\"" << (v > kSkatingSpeedMps ? "#d62728" : "#2ca02c") << "\"/>";
-    }
-  }
-  o << "<text x=\"" << left << "\" y=\"" << H - 6 << "\" font-size=\"11\">step 0</text><text x=\""
-    << W - 10 << "\" y=\"" << H - 6 << "\" font-size=\"11\" text-anchor=\"end\">step "
-    << fr.size() - 1 << "</text></svg></figure>\n";
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    contact_row(o, rows[i].name, rows[i].states, never_in_reach_note(ep, rows[i]),
+                top + row_h * static_cast<double>(i), left, cw, row_h);
+  skating_row(o, r, top + row_h * static_cast<double>(rows.size()), left, cw, row_h);
+  o << "<text x=\"" << left << "\" y=\"" << H - 6 << "\" font-size=\"11\">frame 0</text><text x=\""
+    << W - 10 << "\" y=\"" << H - 6 << "\" font-size=\"11\" text-anchor=\"end\">frame "
+    << r.frames.size() - 1 << "</text></svg></figure>\n";
 }
 
 }  // namespace mocap::synth_detail

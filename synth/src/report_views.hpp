@@ -38,9 +38,11 @@ void top_view(std::ostringstream& o, const SynthResult& result);
 /// g per step with labelled axes (frame, J) and the transitions shaded.
 void energy_plot(std::ostringstream& o, const SynthResult& result);
 
-/// Per foot and toe joint, per step: in contact (below 5 cm, slow), skating
-/// (below 5 cm, faster than 0.5 m/s: measures.hpp step_skating) or off the
-/// ground; transitions shaded.
+/// Per foot segment (SynthSkeleton::foot_joints), per frame, the energy
+/// model's contact (measures.hpp foot_contact_rows): in contact, within
+/// contact height but too fast, or higher; and a row of the steps that
+/// skate (measures.hpp step_skating); transitions shaded. Nothing for fewer
+/// than two frames.
 void contact_timeline(std::ostringstream& o, const SynthResult& result);
 
 }  // namespace mocap::synth_detail

@@ -3,12 +3,26 @@
 
 namespace mocap {
 
+nlohmann::json range_violation_list_json(const std::vector<RangeViolation>& list) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RangeViolation& v : list)
+    out.push_back({{"frame", v.frame},
+                   {"joint", v.joint},
+                   {"channel", v.channel},
+                   {"min_deg", v.min_deg},
+                   {"max_deg", v.max_deg},
+                   {"value_deg", v.value_deg},
+                   {"excess_deg", v.excess_deg}});
+  return out;
+}
+
 nlohmann::json measures_json(const TransitionMeasures& m) {
   return {{"frames", m.frames},
           {"g_J", m.energy_J},
           {"g_paper_J", m.energy_J},
           {"h_J", m.approximate_energy_J},
           {"foot_sliding_m", m.foot_sliding_m},
+          {"foot_sliding_slow_m", m.foot_sliding_slow_m},
           {"foot_skating_ratio", m.skating_ratio},
           {"skating_speed_mps", m.skating_speed_mps},
           {"airborne_ratio", m.airborne_ratio},
@@ -16,6 +30,7 @@ nlohmann::json measures_json(const TransitionMeasures& m) {
           {"unsupported_J", m.unsupported_J},
           {"no_contact_ratio", m.no_contact_ratio},
           {"range_violations", m.range_violations},
+          {"range_violation_list", range_violation_list_json(m.range_violation_list)},
           {"peak_angular_speed_radps", m.peak_angular_speed_radps},
           {"step_energies_J", m.step_energies_J},
           {"g_split_J",

@@ -192,6 +192,22 @@ std::vector<SynthFrame> slerp_transition(const GapProblem& gap, std::size_t fram
 /// `frames` inserted frames of inertialization toward the goal (header).
 std::vector<SynthFrame> inertialize_transition(const GapProblem& gap, std::size_t frames);
 
+/// One (inserted frame, joint) pair outside the range of motion
+/// (RangeOfMotion: the union of the captured channel ranges of the
+/// skeleton's clips; within_range's test, 0.5 degree slack): the channel
+/// furthest outside, in the Euler solution and 360-degree turn nearest the
+/// range.
+struct RangeViolation {
+  /// The inserted frame, 0 = the transition's first.
+  std::size_t frame = 0;
+  std::string joint;    // the skeleton's joint name
+  std::string channel;  // "Xrotation", "Yrotation" or "Zrotation"
+  /// The channel's range and its value, degrees (value outside [min, max]).
+  double min_deg = 0.0, max_deg = 0.0, value_deg = 0.0;
+  /// How far outside the range the value is, degrees (> 0.5: the slack).
+  double excess_deg = 0.0;
+};
+
 /// The measures of a transition (the report's).
 struct TransitionMeasures {
   std::size_t frames = 0;
@@ -203,6 +219,10 @@ struct TransitionMeasures {
   /// (within EnergyParams::contact_height_m of the ground in both frames of
   /// a step, however fast they move), metres, over the same steps.
   double foot_sliding_m = 0.0;
+  /// The part of foot_sliding_m at contact speed: steps in which a contact
+  /// point moves horizontally at most EnergyParams::contact_speed_mps
+  /// (0.8 m/s). The rest is faster: a foot swinging low, or gliding.
+  double foot_sliding_slow_m = 0.0;
   /// Foot-skating ratio (docs/synthesis.md "Measures"): the fraction of the
   /// same steps in which a foot or toe joint is below 5 cm above the ground
   /// in both frames while moving horizontally faster than 0.5 m/s.
@@ -215,6 +235,8 @@ struct TransitionMeasures {
   double airborne_ratio = 0.0;
   /// (frame, joint) pairs of the inserted frames outside the range of motion.
   std::size_t range_violations = 0;
+  /// Those pairs named, in frame then joint order (range_violations of them).
+  std::vector<RangeViolation> range_violation_list;
   /// max over steps and joints of |log(q_f+1 q_f^-1)| / dt, local rotations, rad/s.
   double peak_angular_speed_radps = 0.0;
   /// W, the work energy (work_energy.hpp), over the same steps, and its
@@ -256,6 +278,7 @@ TransitionMeasures measure_transition(const GapProblem& gap, const std::vector<S
 /// The sliding measures of a whole motion (every step of `frames`).
 struct MotionMeasures {
   double foot_sliding_m = 0.0;
+  double foot_sliding_slow_m = 0.0;  // TransitionMeasures::foot_sliding_slow_m
   double skating_ratio = 0.0;
   double skating_speed_mps = 0.0;
   double airborne_ratio = 0.0;

@@ -159,6 +159,13 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                               const SynthResult& result, const SynthOptions& options,
                               double search_ms, double total_ms, const std::string& bvh_path);
 
+/// What mocap-synth prints after the paths, lines ending in "\n": the feet
+/// (foot sliding beside the skating ratio, with what each counts and its
+/// thresholds; per foot segment, the frames in the energy model's contact)
+/// and each transition's range violations by joint and channel (range,
+/// worst value, how far outside). "" without a skeleton.
+std::string synth_report_text(const SynthResult& result);
+
 struct PlayerLibrary;  // mocap/player/player.hpp
 
 /// REPORT.html text: one self-contained page (no network) with the 3D

@@ -9,9 +9,15 @@
 namespace mocap {
 
 /// A transition's measures: frames, g_J, h_J, foot_sliding_m,
-/// range_violations, peak_angular_speed_radps, step_energies_J and g_split_J
-/// ({h, adjacent, contact, joint, residual_work, residual_impulse}, joules).
+/// foot_sliding_slow_m, range_violations (the count) and
+/// range_violation_list (range_violation_list_json), peak_angular_speed_radps,
+/// step_energies_J and g_split_J ({h, adjacent, contact, joint,
+/// residual_work, residual_impulse}, joules).
 nlohmann::json measures_json(const TransitionMeasures& m);
+
+/// The named range violations: an array of {frame, joint, channel, min_deg,
+/// max_deg, value_deg, excess_deg} (RangeViolation), [] for none.
+nlohmann::json range_violation_list_json(const std::vector<RangeViolation>& list);
 
 /// The supplementation parameters both tools report: max_states,
 /// cost_threshold_J and the refinement's (SupplementParams::refine: refine_iterations,
