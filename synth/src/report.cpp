@@ -112,7 +112,7 @@ void measure_notes(std::ostringstream& o, const SynthResult& result) {
            "joint and channel, the furthest outside first:</p><ul data-note=\"range\">";
     any = true;
     o << "<li>pair " << t.pair << " " << esc(t.side) << ": " << t.measures.range_violations << ": "
-      << esc(synth_detail::range_violation_summary(t.measures.range_violation_list)) << "</li>";
+      << esc(synth_detail::range_violation_summary(t.measures.range_violation_list, 12)) << "</li>";
   }
   o << (any ? "</ul>" : "") << "</div>\n";
 }

@@ -242,7 +242,7 @@ void contact_timeline(std::ostringstream& o, const SynthResult& r) {
   const double cw = (W - left - 10) / static_cast<double>(r.frames.size());
   o << "<figure data-figure=\"contacts\"><figcaption>Foot contact per frame as the energy "
        "model sees it: green in contact (the segment's contact point, its joint origin for the "
-       "foot (the heel: the ankle) and its joint or bone tip for the toes, within "
+       "foot (the ankle) and its joint or bone tip for the toes, within "
     << fixed(0, 100 * ep.contact_height_m) << " cm of the ground and slower than "
     << fixed(1, ep.contact_speed_mps) << " m/s), orange within "
     << fixed(0, 100 * ep.contact_height_m)
