@@ -145,6 +145,18 @@ for tr in r["transitions"]:
         assert m["g_paper_J"] == m["g_J"]
 mo = r["motion"]
 assert mo["g_paper_total_J"] == mo["g_total_J"]
+# Range violations named, the count kept; contacts per foot segment; the
+# sliding / skating pair explained (docs/synthesis.md "Reports").
+for tr in r["transitions"]:
+    assert len(tr["range_violation_list"]) == tr["range_violations"]
+    for v in tr["range_violation_list"]:
+        assert v["excess_deg"] > 0 and v["joint"] and v["channel"].endswith("rotation"), v
+        assert not v["min_deg"] <= v["value_deg"] <= v["max_deg"], v
+    assert 0 <= tr["foot_sliding_slow_m"] <= tr["foot_sliding_m"] + 1e-12
+fc = mo["foot_contacts"]
+assert fc and all(len(c["states"]) == mo["frames"] == c["frames"] for c in fc), fc
+assert any(c["contact_frames"] > 0 for c in fc)
+assert "skating" in r["about_measures"]["sliding_and_skating"]
 assert mo["w_J"] > 0 and 0 <= mo["no_contact_ratio"] <= 1 and mo["peak_angular_speed_radps"] > 0
 for s in segs:
     if s["kind"] == "partial":
