@@ -7,7 +7,7 @@
 #include <iostream>
 #include <string_view>
 
-#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/motion_file.hpp"
 #include "mocap/common/motion/clip_source.hpp"
 #include "mocap/common/motion/export.hpp"
 #include "mocap/common/motion/skeleton_motion.hpp"
@@ -37,9 +37,10 @@ void require(const std::string& value, const std::string& option, const std::str
 CLI::App* add_export_command(CLI::App& app, ExportArgs& a) {
   CLI::App* cmd = app.add_subcommand(
       "export",
-      "Write a partial motion of the index as BVH (the clip's skeleton, written as mocap-synth "
-      "writes motions): --clip NAME --frames S-E, or the result of rank K of pair P of query Q in "
-      "a results file (--results R.jsonl --id Q --pair P --rank K).");
+      "Write a partial motion of the index as BVH, glTF binary (.glb) or NumPy (.npz), by the "
+      "extension of --out (the clip's skeleton, written as mocap-synth writes motions): --clip "
+      "NAME --frames S-E, or the result of rank K of pair P of query Q in a results file "
+      "(--results R.jsonl --id Q --pair P --rank K).");
   cmd->add_option("--index", a.index,
                   "Index file (mocap-index build), or a collection manifest (build --shards)");
   cmd->add_option("--clip", a.clip,
@@ -53,7 +54,10 @@ CLI::App* add_export_command(CLI::App& app, ExportArgs& a) {
                   "With --results: the pair, 1-based (pair P joins query frames P and P+1, as "
                   "mocap-synth --pick)");
   cmd->add_option("--rank", a.rank, "With --results: the result's rank (1: the best)");
-  cmd->add_option("--out", a.out, "The BVH file to write (replaced atomically)");
+  cmd->add_option("--out", a.out,
+                  "The file to write (replaced atomically): M.glb glTF 2.0 binary (metres, +Y "
+                  "up), M.npz NumPy arrays (positions, rotations, names, parents, fps), any "
+                  "other name BVH (docs/cli.md \"Motion formats\")");
   cmd->add_flag("--force", a.force,
                 "Replace --out even when it holds something else (never a folder, device or FIFO; "
                 "docs/cli.md \"Output paths\")");
@@ -84,10 +88,11 @@ int run_export(const ExportArgs& a) {
     pair = positive(a.pair, "--pair", "a pair number");
     rank = positive(a.rank, "--rank", "a rank");
   }
-  require(a.out, "--out", "(the BVH file to write)");
+  require(a.out, "--out", "(the motion file to write: .bvh, .glb or .npz)");
   // The output is checked before anything is read (docs/cli.md "Output paths").
   check_outputs_and_inputs({{"--out", a.out}}, {{"--index", a.index}, {"--results", a.results}});
-  const std::filesystem::path out = checked_output_path(a.out, OutputKind::bvh, a.force, "--out");
+  const std::filesystem::path out =
+      checked_output_path(a.out, motion_output_kind(motion_format(a.out)), a.force, "--out");
 
   const ClipSource clips = ClipSource::open(a.index);
   std::size_t clip = 0;
@@ -112,7 +117,7 @@ int run_export(const ExportArgs& a) {
     range = {it->start_frame, it->end_frame};
   }
   const RawClip motion = partial_motion_clip(clips, clip, range, direct ? "--frames" : a.results);
-  write_bvh_file(motion, out);
+  write_motion_file(motion, clips.skeleton(clips.skeleton_of(clip)).skeleton.unit_scale_m, out);
   std::cout << "motion: " << std::filesystem::absolute(a.out).string() << " (" << motion.frame_count
             << " frames: " << clips.clip(clip).path << " frames " << range.first << "-"
             << range.last << ")\n";

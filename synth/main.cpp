@@ -1,7 +1,8 @@
 // mocap-synth: query -> target motion (docs/synthesis.md).
 //   mocap-synth --index INDEX.h5|COLLECTION.json --query Q.json|Q.jsonl [--id ID]
 //               [--results R.jsonl]
-//               [--pick PAIR:RANK ...] --out MOTION.bvh [--report REPORT.json] [--html REPORT.html]
+//               [--pick PAIR:RANK ...] --out MOTION.bvh|.glb|.npz [--report REPORT.json]
+//               [--html REPORT.html]
 //               [--transition astar|slerp|inertialize] [--max-states N] [--cost-threshold J]
 //               [--refine N] [--refine-smoothing J] [--refine-polish S]
 //               [--refine-polish-window W] [--refine-polish-segments]
@@ -22,6 +23,7 @@
 #include <mutex>
 #include <optional>
 
+#include "mocap/common/io/motion_file.hpp"
 #include "mocap/common/motion/clip_source.hpp"
 #include "mocap/common/util/atomic_file.hpp"
 #include "mocap/common/util/error.hpp"
@@ -100,7 +102,9 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                  "search results (mocap-search JSONL); without it the search runs here");
   app.add_option("--pick", a.picks,
                  "PAIR:RANK: take rank RANK for pair PAIR (1-based; default rank 1)");
-  app.add_option("--out", a.out_path, "output BVH");
+  app.add_option("--out", a.out_path,
+                 "output motion, by its extension: M.glb glTF 2.0 binary (metres, +Y up), M.npz "
+                 "NumPy arrays (positions, rotations, names, parents, fps), any other name BVH");
   app.add_option("--report", a.report_path, "REPORT.json");
   app.add_option("--html", a.html_path, "REPORT.html (self-contained)");
   app.add_flag("--force", a.force,
@@ -191,7 +195,8 @@ SynthOutputs check_synth_outputs(const SynthArgs& a) {
       {{"--out", a.out_path}, {"--report", a.report_path}, {"--html", a.html_path}},
       {{"--index", a.index_path}, {"--query", a.query_path}, {"--results", a.results_path}});
   SynthOutputs out;
-  out.bvh = mocap::checked_output_path(a.out_path, mocap::OutputKind::bvh, a.force, "--out");
+  out.bvh = mocap::checked_output_path(
+      a.out_path, mocap::motion_output_kind(mocap::motion_format(a.out_path)), a.force, "--out");
   out.report =
       a.report_path.empty()
           ? std::filesystem::path()
@@ -283,7 +288,7 @@ int run_synth(SynthArgs& a) {
       ranked = search_here(clips, query, a.query_path, search_ms);
     std::optional<mocap::SynthSkeleton> skeleton;
     const mocap::SynthResult result = mocap::synthesize(clips, query, ranked, a.options, skeleton);
-    mocap::write_motion_bvh(result, files.bvh);
+    mocap::write_motion_file(result, files.bvh);
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!a.report_path.empty())

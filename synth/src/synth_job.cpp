@@ -19,6 +19,7 @@
 #include "mocap/common/body/skeleton.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/motion_file.hpp"
 #include "mocap/common/io/units.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/file.hpp"
@@ -470,6 +471,13 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path) {
   write_bvh_file(
       motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()), path);
+}
+
+void write_motion_file(const SynthResult& result, const std::filesystem::path& path) {
+  if (motion_format(path) == MotionFormat::bvh) return write_motion_bvh(result, path);
+  write_motion_file(
+      motion_bvh_clip(*result.skeleton, result.frames, result.frame_time_s, path.string()),
+      result.skeleton->skeleton.unit_scale_m, path);
 }
 
 Pick parse_pick(const std::string& text) {

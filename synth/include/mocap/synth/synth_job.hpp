@@ -153,6 +153,11 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
 /// OFFSET is not read right by loaders that add position channels to the
 /// OFFSET (three.js BVHLoader): docs/synthesis.md "Output".
 void write_motion_bvh(const SynthResult& result, const std::filesystem::path& path);
+/// Writes the motion in the format `path`'s extension names: .glb (glTF 2.0
+/// binary, metres, +Y up) and .npz (NumPy arrays) as write_motion_file
+/// (mocap/common/io/motion_file.hpp) writes the BVH clip of write_motion_bvh
+/// in the skeleton's unit; any other name BVH (write_motion_bvh).
+void write_motion_file(const SynthResult& result, const std::filesystem::path& path);
 /// REPORT.json text ("index": the index file or manifest of `clips`).
 std::string synth_report_json(const ClipSource& clips, const Query& query,
                               const std::string& query_path, const std::vector<PairResults>& ranked,
