@@ -7,7 +7,8 @@
 # compare_motion.py). Checked on a partial motion (`mocap-search export`) and
 # a synthesised one (`mocap-synth`), both of Bandai Namco set 1 (a static
 # joint_Root above a Hips with position channels under a non-zero OFFSET).
-# The formats by extension and the output-path policy: tests/cli/motion_formats.sh.
+# scripts/blender-import saves a .blend of each. The formats by extension and
+# the output-path policy: tests/cli/motion_formats.sh.
 #   bash tests/cli/crosscheck_gltf.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/crosscheck.sh" "$@"
@@ -56,4 +57,12 @@ for ext in bvh glb npz; do
 done
 compare "$tmp/synth"
 
-echo "ok: .glb and .npz outputs match our forward kinematics (three.js, Blender, numpy)"
+# scripts/blender-import: a .blend of the .glb and of the .bvh (Debian 12's
+# Blender 3.4 cannot import any BVH without its workaround).
+"$py" "$root/scripts/blender-import" "$tmp/piece.glb" >"$tmp/import.log" 2>&1 &&
+  "$py" "$root/scripts/blender-import" "$tmp/piece.bvh" --scale 0.01 --out "$tmp/bvh.blend" \
+    >>"$tmp/import.log" 2>&1 || { cat "$tmp/import.log" >&2; echo "FAIL: blender-import" >&2; exit 1; }
+for f in "$tmp/piece.blend" "$tmp/bvh.blend"; do
+  [ "$(head -c 7 "$f")" = BLENDER ] || { echo "FAIL: $f is not a .blend" >&2; exit 1; }
+done
+echo "ok: .glb and .npz outputs match our forward kinematics (three.js, Blender, numpy); blender-import"

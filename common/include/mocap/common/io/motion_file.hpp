@@ -25,7 +25,9 @@
 //  - anything else: BVH (write_bvh_file), as the clip holds it (its own
 //    length unit).
 //
-// Joints are the clip's, in its order. glTF and npz take the clip's poses by
+// The clip must be Y up, as every clip of an index is (units.hpp: a Z-up file
+// is rotated when indexed); its axes are written as they are. Joints are the
+// clip's, in its order. glTF and npz take the clip's poses by
 // the engine's forward kinematics (clip_motion_from_raw, kinematics.hpp:
 // position channels replace the OFFSET), so their world positions are those
 // of the BVH read back by `mocap-index inspect`.
