@@ -369,6 +369,9 @@ std::size_t write_search_results(const SearchArgs& a,
   std::size_t failed = 0;
   for (const auto& o : outcomes) {
     os << mocap::query_outcome_json(o) << '\n';
+    if (!a.quiet)
+      for (const std::string& w : o.warnings)
+        fmt::print(stderr, "mocap-search: warning: query {}: {}\n", o.id, w);
     if (o.error) {
       ++failed;
       if (!a.quiet) fmt::print(stderr, "mocap-search: {}\n", *o.error);

@@ -3,7 +3,12 @@
 # against a set-1 index: every request answered; at least 10 of the 12
 # retrieve their intended content among the top 3 (the issue's goal; all 12
 # do today, and each is checked); constrained requests report residuals by
-# name on both sides; the page documents every request.
+# name on both sides; the page documents every request. Verdicts (docs/queries.md "Residuals and
+# verdicts"): every constrained result says whether it meets each
+# constraint; under "met": "first" (the default) the met results rank first,
+# "only" keeps them alone, "any" ranks by score; each equals the reference
+# ranking of every clip's best match (a search with top 400 > 174 clips);
+# show-ranking names the misses.
 set -euo pipefail
 BUILD=$1; DATA=$2
 SRC=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -58,3 +63,79 @@ for q, r in zip(qs, rs):
 print("intended content in the top 3: %d of %d" % (hits, len(qs)))
 assert hits == len(qs), "a cookbook request no longer retrieves its intended content"
 PY
+
+# Verdicts and the three rankings against a reference over every clip.
+for policy in first only any; do
+  /usr/bin/python3 - "$SRC/docs/examples/cookbook.jsonl" "$policy" "$T/q-$policy.jsonl" <<'PY'
+import json, sys
+with open(sys.argv[3], "w") as out:
+    for line in open(sys.argv[1]):
+        if line.strip():
+            q = json.loads(line)
+            q["met"] = sys.argv[2]
+            if sys.argv[2] == "any":
+                q["top"] = 400  # every clip's best match: the reference
+            out.write(json.dumps(q) + "\n")
+PY
+  "$SEARCH" --index "$T/i.h5" --queries "$T/q-$policy.jsonl" --out "$T/r-$policy.jsonl" -q
+done
+/usr/bin/python3 - "$T" <<'PY'
+import json, sys
+t = sys.argv[1]
+load = lambda name: [json.loads(l) for l in open(t + "/" + name)]
+every, default = load("r-any.jsonl"), load("r.jsonl")
+runs = {p: load("r-%s.jsonl" % p) for p in ("first", "only")}
+def key(policy):
+    return lambda x: ((not x["met"]) if policy != "any" else False, x["score_J"], x["misfit"],
+                      x["clip_index"], x["end_frame"], x["start_frame"])
+ident = lambda x: (x["clip_index"], x["start_frame"], x["end_frame"])
+misses = checked = 0
+for i, all_r in enumerate(every):
+    for h, pair in enumerate(all_r["pairs"]):
+        allres = pair["results"]
+        assert len(allres) < 400
+        if not any("verdicts" in x for x in allres):
+            continue
+        for x in allres:
+            assert sorted(x["verdicts"]) == sorted(x["residuals"]), x
+            for side, vs in x["verdicts"].items():
+                assert sorted(vs) == sorted(x["residuals"][side])
+                for name, v in vs.items():
+                    floor = 0.01 if v["unit"] == "m" else 1.0
+                    assert abs(v["limit"] - max(v["tolerance"], floor)) < 1e-12, v
+                    assert v["met"] == (v["residual"] <= v["limit"]), v
+                    assert v["residual"] == x["residuals"][side][name]
+            assert x["met"] == all(v["met"] for vs in x["verdicts"].values() for v in vs.values())
+        misses += sum(not x["met"] for x in allres)
+        # "any" with top 400 is in its own order; each policy's top 3 is the
+        # reference order of these.
+        assert [ident(x) for x in allres] == [ident(x) for x in sorted(allres, key=key("any"))]
+        for policy, run in runs.items():
+            got = run[i]["pairs"][h]["results"]
+            ref = sorted((x for x in allres if policy != "only" or x["met"]), key=key(policy))[:3]
+            assert [ident(x) for x in got] == [ident(x) for x in ref], (run[i]["id"], policy)
+            assert [x["rank"] for x in got] == list(range(1, len(got) + 1))
+        assert default[i]["pairs"][h]["results"] == runs["first"][i]["pairs"][h]["results"]
+        checked += 1
+assert misses > 0, "no constrained result misses: the check would not see a wrong order"
+print("verdict rankings equal the reference on %d pairs; %d misses among every clip's best"
+      % (checked, misses))
+PY
+# show-ranking names what a result misses.
+"$SRC/scripts/show-ranking" "$T/r-any.jsonl" >"$T/show.txt"
+grep -q "request" "$T/show.txt" || { echo "show-ranking has no request column"; exit 1; }
+grep -Eq "MISS (from|to) [a-zA-Z_]+ [0-9.]+ (m|deg) > [0-9.]+ (m|deg)" "$T/show.txt" ||
+  { echo "show-ranking names no miss:"; cat "$T/show.txt"; exit 1; }
+# The HTML ranking shows them too (a badge on each figure, the misses in
+# the legend), and the page made from the results file is the same.
+if [ -f "$SRC/common/player/web/node_modules/three/build/three.module.js" ]; then
+  head -n 1 "$T/q-any.jsonl" | sed 's/"top": 400/"top": 40/' >"$T/q-bow.jsonl"
+  "$SEARCH" --index "$T/i.h5" --queries "$T/q-bow.jsonl" --out "$T/bow.jsonl" --html "$T/bow.html" -q
+  grep -q '\\u2717\|\xe2\x9c\x97' "$T/bow.html" || grep -q "✗" "$T/bow.html" ||
+    { echo "the HTML ranking has no miss badge"; exit 1; }
+  grep -q "misses to trunk_flexion" "$T/bow.html" || { echo "the HTML ranking names no miss"; exit 1; }
+  grep -q "meets the request" "$T/bow.html" || { echo "the HTML ranking names no met result"; exit 1; }
+  MOCAP_BUILD_DIR="$BUILD" "$SRC/scripts/view" "$T/bow.jsonl" --index "$T/i.h5" --out "$T/view.html" >/dev/null
+  cmp -s "$T/bow.html" "$T/view.html" || { echo "scripts/view and mocap-search --html differ"; exit 1; }
+fi
+echo "ok"

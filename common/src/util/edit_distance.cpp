@@ -27,4 +27,16 @@ std::string ascii_lower(std::string_view s) {
   return out;
 }
 
+std::string closest_name(std::string_view key, const std::vector<std::string>& names,
+                         std::size_t max_distance) {
+  const std::string lower_key = ascii_lower(key);
+  const std::string* best = nullptr;
+  std::size_t best_distance = max_distance + 1;
+  for (const std::string& n : names) {
+    const std::size_t d = edit_distance(lower_key, ascii_lower(n));
+    if (d < best_distance) best = &n, best_distance = d;
+  }
+  return best ? *best : std::string();
+}
+
 }  // namespace mocap

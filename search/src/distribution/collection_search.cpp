@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "engine/ranking.hpp"
 #include "mocap/common/io/collection_manifest.hpp"
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/util/error.hpp"
@@ -49,6 +50,10 @@ std::vector<QueryOutcome> merge_shard_outcomes(
     QueryOutcome merged;
     merged.id = per_shard.front()[q].id;
     for (const auto& shard : per_shard)
+      for (const std::string& w : shard[q].warnings)
+        if (std::find(merged.warnings.begin(), merged.warnings.end(), w) == merged.warnings.end())
+          merged.warnings.push_back(w);
+    for (const auto& shard : per_shard)
       if (shard[q].error) {
         merged.error = shard[q].error;
         break;
@@ -67,14 +72,10 @@ std::vector<QueryOutcome> merge_shard_outcomes(
           r.clip_index += clip_offsets[k];
           all.push_back(std::move(r));
         }
-      std::sort(all.begin(), all.end(), [](const SearchResult& x, const SearchResult& y) {
-        if (x.score_J != y.score_J) return x.score_J < y.score_J;
-        if (x.clip_index != y.clip_index) return x.clip_index < y.clip_index;
-        if (x.end_frame != y.end_frame) return x.end_frame < y.end_frame;
-        return x.start_frame < y.start_frame;
-      });
-      if (all.size() > top) all.resize(top);
-      for (std::size_t i = 0; i < all.size(); ++i) all[i].rank = i + 1;
+      // Each shard's results are its best under the query's ranking
+      // (ranking.hpp), a total order on results: the best of their union
+      // are the collection's.
+      search_detail::rank_results(all, batch[q].query ? batch[q].query->met : MetPolicy::any, top);
     }
     for (const auto& shard : per_shard) {
       const SearchStats& s = shard[q].stats;

@@ -18,8 +18,10 @@ json result_json(const SearchResult& r) {
   json labels = json::array();
   for (const auto& [k, v] : r.labels) labels.push_back({k, v});
   json from = json::array(), to = json::array();
-  for (const auto& [k, v] : r.residuals_from) from.push_back({k, v});
-  for (const auto& [k, v] : r.residuals_to) to.push_back({k, v});
+  for (const ConstraintResidual& c : r.residuals_from)
+    from.push_back({c.name, c.residual, c.tolerance, c.metres});
+  for (const ConstraintResidual& c : r.residuals_to)
+    to.push_back({c.name, c.residual, c.tolerance, c.metres});
   return {r.rank,    r.clip_index, r.clip,    labels,        r.start_frame, r.end_frame,
           r.score_J, r.h_in_J,     r.h_out_J, r.path_cost_J, from,          to};
 }
@@ -36,8 +38,11 @@ SearchResult result_from(const json& j) {
   r.h_in_J = j.at(7).get<double>();
   r.h_out_J = j.at(8).get<double>();
   r.path_cost_J = j.at(9).get<double>();
-  for (const json& x : j.at(10)) r.residuals_from.emplace_back(x.at(0), x.at(1).get<double>());
-  for (const json& x : j.at(11)) r.residuals_to.emplace_back(x.at(0), x.at(1).get<double>());
+  for (const std::size_t side : {10, 11})
+    for (const json& x : j.at(side))
+      (side == 10 ? r.residuals_from : r.residuals_to)
+          .push_back({x.at(0).get<std::string>(), x.at(1).get<double>(), x.at(2).get<double>(),
+                      x.at(3).get<bool>()});
   return r;
 }
 
@@ -51,7 +56,7 @@ json outcome_json(const QueryOutcome& o) {
   const SearchStats& s = o.stats;
   json stats = {s.clips,         s.clips_pruned, s.frames_evaluated,
                 s.frames_pruned, s.time_ms,      s.recall ? json(*s.recall) : json(nullptr)};
-  return {o.id, o.error ? json(*o.error) : json(nullptr), pairs, stats};
+  return {o.id, o.error ? json(*o.error) : json(nullptr), pairs, stats, o.warnings};
 }
 
 QueryOutcome outcome_from(const json& j) {
@@ -65,6 +70,7 @@ QueryOutcome outcome_from(const json& j) {
     for (const json& r : p.at(2)) pr.results.push_back(result_from(r));
     o.pairs.push_back(std::move(pr));
   }
+  if (j.size() > 4) o.warnings = j.at(4).get<std::vector<std::string>>();
   const json& s = j.at(3);
   o.stats.clips = s.at(0).get<std::uint64_t>();
   o.stats.clips_pruned = s.at(1).get<std::uint64_t>();

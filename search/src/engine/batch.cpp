@@ -127,6 +127,35 @@ bool reads_frame_arrays(const QueryFrameSpec& f) {
   }
   return heading || (root_position && joints);
 }
+
+// A result's residuals, its verdicts and misfit (docs/queries.md "Residuals
+// and verdicts"): "residuals" {"from": {NAME: r}, "to": {...}} as before,
+// "verdicts" the same names with residual, tolerance, limit, unit and met,
+// "met" every constraint met, "misfit" the tie-break key.
+void add_verdicts(const SearchResult& r, nlohmann::ordered_json& rj) {
+  nlohmann::ordered_json res = nlohmann::ordered_json::object();
+  nlohmann::ordered_json verdicts = nlohmann::ordered_json::object();
+  for (const auto* side : {&r.residuals_from, &r.residuals_to}) {
+    if (side->empty()) continue;
+    const char* key = side == &r.residuals_from ? "from" : "to";
+    nlohmann::ordered_json by_name = nlohmann::ordered_json::object();
+    nlohmann::ordered_json verdict = nlohmann::ordered_json::object();
+    for (const ConstraintResidual& c : *side) {
+      by_name[c.name] = c.residual;
+      verdict[c.name] = {{"residual", c.residual},
+                         {"tolerance", c.tolerance},
+                         {"limit", c.limit()},
+                         {"unit", c.metres ? "m" : "deg"},
+                         {"met", c.met()}};
+    }
+    res[key] = std::move(by_name);
+    verdicts[key] = std::move(verdict);
+  }
+  rj["residuals"] = std::move(res);
+  rj["verdicts"] = std::move(verdicts);
+  rj["met"] = r.met();
+  rj["misfit"] = r.misfit();
+}
 }  // namespace
 
 std::vector<QueryOutcome> run_query_batch(
@@ -205,20 +234,12 @@ std::string query_outcome_json(const QueryOutcome& o) {
       rj["h_in_J"] = r.h_in_J;
       rj["h_out_J"] = r.h_out_J;
       rj["path_cost_J"] = r.path_cost_J;
-      if (!r.residuals_from.empty() || !r.residuals_to.empty()) {
-        nlohmann::ordered_json res = nlohmann::ordered_json::object();
-        for (const auto* side : {&r.residuals_from, &r.residuals_to}) {
-          if (side->empty()) continue;
-          nlohmann::ordered_json by_name = nlohmann::ordered_json::object();
-          for (const auto& [name, v] : *side) by_name[name] = v;
-          res[side == &r.residuals_from ? "from" : "to"] = by_name;
-        }
-        rj["residuals"] = res;
-      }
+      if (!r.residuals_from.empty() || !r.residuals_to.empty()) add_verdicts(r, rj);
       pj["results"].push_back(std::move(rj));
     }
     j["pairs"].push_back(std::move(pj));
   }
+  if (!o.warnings.empty()) j["warnings"] = o.warnings;
   nlohmann::ordered_json s;
   s["clips"] = o.stats.clips;
   s["clips_pruned"] = o.stats.clips_pruned;

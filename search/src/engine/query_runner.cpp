@@ -11,6 +11,7 @@
 #include <array>
 #include <atomic>
 #include <filesystem>
+#include <numbers>
 #include <set>
 #include <string>
 
@@ -25,7 +26,46 @@ QueryRunner::QueryRunner(const SearchEngine::Impl& engine, const Query& query,
                          const SearchOptions& options,
                          const std::vector<std::unique_ptr<SkeletonData>>& skeletons,
                          const std::vector<double>* ceilings)
-    : engine_(engine), q_(query), options_(options), skeletons_(skeletons), ceilings_(ceilings) {}
+    : engine_(engine),
+      q_(query),
+      options_(options),
+      skeletons_(skeletons),
+      ceilings_(ceilings),
+      top_(query.top) {}
+
+double QueryRunner::ceiling(std::size_t h) const {
+  // A pair ranked by its verdicts too (rank_pair_results) may need results
+  // that score above another shard's: no ceiling.
+  if (!ceilings_ || h >= ceilings_->size() || named_constraints(h))
+    return std::numeric_limits<double>::infinity();
+  return (*ceilings_)[h];
+}
+
+bool QueryRunner::named_constraints(std::size_t h) const {
+  for (const auto& frames : resolved_)
+    for (const std::size_t i : {h, h + 1})
+      for (const PoseConstraint& c : frames[i].constraints)
+        if (!c.name.empty()) return true;
+  return false;
+}
+
+void QueryRunner::add_name_warnings(std::size_t k, std::size_t i, const QueryBvhFile* file) {
+  const Index& index = *engine_.index;
+  std::string rig = "index skeleton " + std::to_string(k);
+  for (const IndexClip& c : index.clips())
+    if (c.skeleton == k) {
+      rig += " (" + std::filesystem::path(c.path).filename().string() + ", ...)";
+      break;
+    }
+  const QueryFrameSpec& spec = q_.frames[i];
+  const std::string file_name =
+      spec.asf ? spec.asf->filename().string()
+               : (spec.bvh ? spec.bvh->filename().string() : std::string("the file"));
+  for (std::string& w : joint_name_warnings(q_, i, index.skeletons()[k].skeleton, rig,
+                                            file ? &file->motion.skeleton : nullptr, file_name))
+    if (std::find(warnings_.begin(), warnings_.end(), w) == warnings_.end())
+      warnings_.push_back(std::move(w));
+}
 
 void QueryRunner::prepare() {
   const SearchEngine::Impl& m = engine_;
@@ -40,6 +80,7 @@ void QueryRunner::prepare() {
                                            q_.transition_time_s, m.t_index, m.bvh_cache,
                                            m.index->info().unit_option, &files[i],
                                            [&] { return &typical_pose(*m.index, skeleton); }));
+      add_name_warnings(k, i, files[i].get());
       set_needed_joints(resolved_[k].back(), skeleton.tables.model);
       set_subtree_plan(resolved_[k].back(), skeleton, *m.index, q_.transition_time_s);
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
@@ -225,7 +266,7 @@ std::optional<std::vector<std::pair<std::size_t, std::size_t>>> QueryRunner::app
     if (n == 0) continue;
     ensure_forest(*engine_.index, skeleton, options_);
     const std::size_t knn = std::min<std::size_t>(
-        n, static_cast<std::size_t>(options_.approx_neighbours_per_result) * q_.top);
+        n, static_cast<std::size_t>(options_.approx_neighbours_per_result) * top_);
     std::set<std::size_t> rows;
     std::vector<std::size_t> idx;
     for (const ResolvedFrame* f : {&resolved_[k][h], &resolved_[k][h + 1]}) {
@@ -254,8 +295,9 @@ class PairSearch {
         eval_mode_(mode == SearchMode::approx ? SearchMode::exact : mode),
         relative_(runner.relative_pair(h)),
         bounded_(eval_mode_ == SearchMode::exact && !relative_),
-        top_(q_.top, eval_mode_ == SearchMode::exact ? runner.ceiling(h)
-                                                     : std::numeric_limits<double>::infinity()) {
+        top_(runner_.top_, eval_mode_ == SearchMode::exact
+                               ? runner.ceiling(h)
+                               : std::numeric_limits<double>::infinity()) {
     const std::size_t skeletons = runner_.skeletons_.size();
     for (std::size_t k = 0; k < skeletons; ++k)
       contexts_.push_back(runner_.context(k, h, eval_mode_));
@@ -332,7 +374,7 @@ class PairSearch {
     std::vector<ClipWork> pool, work;
     auto later = [&](const ClipWork& x, const ClipWork& y) { return by_bound(y, x); };
     std::size_t next = 0, done = 0;
-    while (done < 2 * q_.top) {
+    while (done < 2 * runner_.top_) {
       if (next < groups_.size() && (pool.empty() || !(pool.front().lb < groups_[next].lb))) {
         bounded_work(groups_[next++], work);
         for (const ClipWork& w : work) {
@@ -386,7 +428,7 @@ class PairSearch {
       const SkeletonTables& tables = runner_.skeletons_[k]->tables;
       work.push_back({relative_clip_bound(pair, r), tables.clips[r].clip, k, r, i});
     }
-    const std::size_t n = std::min(work.size(), 2 * q_.top);
+    const std::size_t n = std::min(work.size(), 2 * runner_.top_);
     std::partial_sort(work.begin(), work.begin() + static_cast<std::ptrdiff_t>(n), work.end(),
                       by_bound);
     Scratch& scratch = runner_.engine_.scratch.local();
@@ -557,11 +599,16 @@ void QueryRunner::add_residuals(PairResults& pair) const {
       if (!named) continue;
       const FrameRef frame = database_frame(
           skeleton, *engine_.index, clip.frame_start + (in ? r.start_frame : r.end_frame), scratch);
-      for (const PoseConstraint& c : f.constraints)
-        if (!c.name.empty())
-          out.emplace_back(
-              c.name, constraint_residual(model.parents, model.root(), c,
-                                          frame.state.joint_positions_m, frame.state.rotations));
+      for (const PoseConstraint& c : f.constraints) {
+        if (c.name.empty()) continue;
+        ConstraintResidual cr;
+        cr.name = c.name;
+        cr.residual = constraint_residual(model.parents, model.root(), c,
+                                          frame.state.joint_positions_m, frame.state.rotations);
+        cr.metres = c.kind == PoseConstraintKind::effector;
+        cr.tolerance = cr.metres ? c.tolerance : c.tolerance * 180.0 / std::numbers::pi;
+        out.push_back(std::move(cr));
+      }
     }
   }
 }

@@ -41,11 +41,24 @@ class QueryRunner {
               const std::vector<std::unique_ptr<SkeletonData>>& skeletons,
               const std::vector<double>* ceilings = nullptr);
 
-  // The starting tau of pair h (+inf without ceilings).
-  double ceiling(std::size_t h) const {
-    return ceilings_ && h < ceilings_->size() ? (*ceilings_)[h]
-                                              : std::numeric_limits<double>::infinity();
-  }
+  // The starting tau of pair h (+inf without ceilings, and for a pair with
+  // named constraints, whose ranking is not by score alone).
+  double ceiling(std::size_t h) const;
+
+  // Whether a query frame of pair h has a named constraint (on any
+  // skeleton; after prepare).
+  bool named_constraints(std::size_t h) const;
+
+  const Query& query() const { return q_; }
+
+  // Joint names read as another body part than a rig carrying them names
+  // (joint_name_warnings), over every frame and skeleton, each once.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+  // The number of matches a pair keeps: the query's top unless set (the
+  // deeper looks of a ranking by verdicts, SearchEngine::run).
+  std::size_t top() const { return top_; }
+  void set_top(std::size_t top) { top_ = top; }
 
   // Resolves every query frame on every skeleton, with what the engine
   // precomputes for them, and the per-frame bounds of partial frames (exact
@@ -82,6 +95,8 @@ class QueryRunner {
   // Whether every pair is placed relatively (no per-frame world bounds needed).
   bool all_relative() const;
   void prepare_caches();
+  // Adds frame i's joint_name_warnings on skeleton k (and its file's, if any).
+  void add_name_warnings(std::size_t k, std::size_t i, const QueryBvhFile* file);
   void compute_frame_bounds();
   FrameCache* cache_of(std::size_t k, std::size_t i);
   // Computes query frame i's group bounds on skeleton k if not done yet and
@@ -105,6 +120,8 @@ class QueryRunner {
   const SearchOptions& options_;
   const std::vector<std::unique_ptr<SkeletonData>>& skeletons_;
   const std::vector<double>* ceilings_ = nullptr;
+  std::size_t top_;
+  std::vector<std::string> warnings_;
   // resolved_[k][i]: query frame i on skeleton k; bounds_[k][i] its box-bound form.
   std::vector<std::vector<ResolvedFrame>> resolved_;
   std::vector<std::vector<BoundQuery>> bounds_;

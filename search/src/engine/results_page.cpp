@@ -1,6 +1,8 @@
 // The player page of search results (mocap/search/results_page.hpp).
 #include "mocap/search/results_page.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <string>
 
@@ -14,10 +16,42 @@ std::string base_name(const std::string& path) {
   return s == std::string::npos ? path : path.substr(s + 1);
 }
 
+std::string measure_text(double v, bool metres) {
+  return metres ? fmt::format("{:.2f} m", v) : fmt::format("{:.0f}\u00b0", v);
+}
+
+// "meets the request", or "misses to NAME 73° > 20°, ..." (docs/queries.md
+// "Residuals and verdicts"); "" for a result without named constraints.
+std::string verdict_text(const SearchResult& r) {
+  if (r.residuals_from.empty() && r.residuals_to.empty()) return "";
+  std::string misses;
+  for (const auto* side : {&r.residuals_from, &r.residuals_to}) {
+    // By name: a results file read back holds them in that order.
+    std::vector<ConstraintResidual> sorted = *side;
+    std::sort(sorted.begin(), sorted.end(),
+              [](const auto& a, const auto& b) { return a.name < b.name; });
+    for (const ConstraintResidual& c : sorted)
+      if (!c.met())
+        misses += (misses.empty() ? "" : ", ") +
+                  std::string(side == &r.residuals_from ? "from " : "to ") + c.name + " " +
+                  measure_text(c.residual, c.metres) + " > " + measure_text(c.limit(), c.metres);
+  }
+  return misses.empty() ? "meets the request" : "misses " + misses;
+}
+
 std::string partial_label(std::size_t pair, const SearchResult& r, bool chosen) {
+  const std::string verdict = verdict_text(r);
   return "pair " + std::to_string(pair) + " rank " + std::to_string(r.rank) +
          (chosen ? " (chosen)" : "") + ": " + base_name(r.clip) + " " +
-         std::to_string(r.start_frame) + "-" + std::to_string(r.end_frame);
+         std::to_string(r.start_frame) + "-" + std::to_string(r.end_frame) +
+         (verdict.empty() ? "" : " \u00b7 " + verdict);
+}
+
+// The badge after the tag: a tick for a result meeting every named
+// constraint, a cross for one missing some; none without constraints.
+std::string verdict_badge(const SearchResult& r) {
+  if (r.residuals_from.empty() && r.residuals_to.empty()) return "";
+  return r.met() ? " \u2713" : " \u2717";
 }
 
 }  // namespace
@@ -26,7 +60,8 @@ PlayerMotion result_player_motion(PlayerClipMotions& made, std::size_t pair, con
                                   bool chosen) {
   PlayerMotion m = made.get(r.clip_index, r.start_frame, r.end_frame);
   m.id = "p" + std::to_string(pair) + "r" + std::to_string(r.rank);
-  m.tag = "p" + std::to_string(pair) + " r" + std::to_string(r.rank) + (chosen ? " \u2605" : "");
+  m.tag = "p" + std::to_string(pair) + " r" + std::to_string(r.rank) + verdict_badge(r) +
+          (chosen ? " \u2605" : "");
   m.label = partial_label(pair, r, chosen);
   m.group = "pair " + std::to_string(pair);
   m.colour = chosen ? kPlayerChosenColour : player_rank_colour(r.rank);

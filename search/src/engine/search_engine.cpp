@@ -15,6 +15,7 @@
 #include "bounds/partial_bounds.hpp"
 #include "bounds/relative_bounds.hpp"
 #include "engine/query_runner.hpp"
+#include "engine/ranking.hpp"
 #include "engine/search_engine_impl.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/search/search.hpp"
@@ -134,6 +135,37 @@ PairResults pair_results(const Index& index, std::size_t h, const PairRun& run) 
   return res;
 }
 
+void add_stats(SearchStats& total, const SearchStats& run) {
+  total.clips += run.clips;
+  total.clips_pruned += run.clips_pruned;
+  total.frames_evaluated += run.frames_evaluated;
+  total.frames_pruned += run.frames_pruned;
+}
+
+// Pair h's results, ranked (ranking.hpp): by score, or for a pair with
+// named constraints by its verdicts too, looking deeper (twice as many
+// matches each time, up to deepest_look) until the ranking is settled.
+PairResults ranked_pair(const Index& index, search_detail::QueryRunner& runner, std::size_t h,
+                        SearchMode mode, const search_detail::PairRun& first, SearchStats& stats) {
+  using namespace search_detail;
+  const Query& q = runner.query();
+  PairResults res = pair_results(index, h, first);
+  runner.add_residuals(res);
+  if (!runner.named_constraints(h)) return res;
+  for (std::size_t asked = q.top;
+       !ranking_settled(res.results, asked, q.met, q.top) && asked < deepest_look(q.top);) {
+    asked = std::min(2 * asked, deepest_look(q.top));
+    runner.set_top(asked);
+    const PairRun deeper = runner.run_pair(h, mode);
+    add_stats(stats, deeper.stats);
+    res = pair_results(index, h, deeper);
+    runner.add_residuals(res);
+  }
+  runner.set_top(q.top);
+  rank_results(res.results, q.met, q.top);
+  return res;
+}
+
 }  // namespace
 
 QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options) const {
@@ -157,17 +189,14 @@ QueryOutcome SearchEngine::run(const Query& q, const SearchOptions& options,
   runner.prepare();
   QueryOutcome out;
   out.id = q.id;
+  out.warnings = runner.warnings();
   double recall_sum = 0.0;
   for (std::size_t h = 0; h + 1 < q.frames.size(); ++h) {
     const PairRun run = runner.run_pair(h, options.mode);
     if (options.mode == SearchMode::approx && options.compute_recall)
       recall_sum += top_r_recall(run, runner.run_pair(h, SearchMode::exact));
-    out.pairs.push_back(pair_results(*m.index, h, run));
-    runner.add_residuals(out.pairs.back());
-    out.stats.clips += run.stats.clips;
-    out.stats.clips_pruned += run.stats.clips_pruned;
-    out.stats.frames_evaluated += run.stats.frames_evaluated;
-    out.stats.frames_pruned += run.stats.frames_pruned;
+    add_stats(out.stats, run.stats);
+    out.pairs.push_back(ranked_pair(*m.index, runner, h, options.mode, run, out.stats));
   }
   if (options.mode == SearchMode::approx && options.compute_recall)
     out.stats.recall = recall_sum / static_cast<double>(q.frames.size() - 1);

@@ -399,13 +399,35 @@ const char* placement_name(FramePlacement p) {
   return "?";
 }
 
+const char* met_policy_name(MetPolicy p) {
+  switch (p) {
+    case MetPolicy::any:
+      return "any";
+    case MetPolicy::first:
+      return "first";
+    case MetPolicy::only:
+      return "only";
+  }
+  return "first";
+}
+
+namespace {
+
+MetPolicy met_policy(const Ctx& c, const json& v) {
+  for (const MetPolicy p : {MetPolicy::any, MetPolicy::first, MetPolicy::only})
+    if (v.is_string() && v.get<std::string>() == met_policy_name(p)) return p;
+  c.fail("met", "expected \"first\", \"only\" or \"any\", got " + json_text(v));
+}
+
+}  // namespace
+
 Query parse_query(const json& j, const std::string& source, std::size_t line,
                   const std::filesystem::path& base_dir, const std::string& default_id) {
   const Ctx c{source, line};
   if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
   check_keys(c, j, "",
              {"id", "frames", "relative", "character", "transition_time", "top", "path_weight",
-              "filter", "min_length_s", "max_length_s"});
+              "filter", "min_length_s", "max_length_s", "met"});
   Query q;
   q.id = default_id;
   if (j.contains("id")) {
@@ -477,6 +499,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     q.path_weight = number(c, j["path_weight"], "path_weight");
     if (q.path_weight < 0.0) c.fail("path_weight", "must be >= 0");
   }
+  if (j.contains("met")) q.met = met_policy(c, j["met"]);
   if (j.contains("filter")) {
     const json& f = j["filter"];
     if (!f.is_object()) c.fail("filter", "expected an object, got " + type_name(f));

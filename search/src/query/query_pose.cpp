@@ -45,9 +45,9 @@ int resolve_joint(const Query& q, const std::string& path, const Skeleton& skel,
   const int j = find_joint_by_alias(skel, name);
   if (j < 0)
     fail(q, path,
-         fmt::format("unknown joint \"{}\" (valid: {}; canonical names such as RightUpperArm, "
+         fmt::format("unknown joint \"{}\" ({}valid: {}; canonical names such as RightUpperArm, "
                      "LeftForeArm, Hips also work)",
-                     name, valid_joint_names(skel)));
+                     name, joint_did_you_mean(skel, name), valid_joint_names(skel)));
   return j;
 }
 

@@ -44,6 +44,18 @@ void read_results_lines(const std::filesystem::path& path,
   });
 }
 
+// A result's "verdicts" (docs/queries.md "Residuals and verdicts") back
+// into its residuals, tolerances and units; json exceptions for a malformed one.
+void read_verdicts(const nlohmann::json& v, SearchResult& r) {
+  for (const char* side : {"from", "to"}) {
+    if (!v.contains(side)) continue;
+    for (const auto& [name, c] : v.at(side).items())
+      (side[0] == 'f' ? r.residuals_from : r.residuals_to)
+          .push_back({name, c.at("residual").get<double>(), c.at("tolerance").get<double>(),
+                      c.at("unit").get<std::string>() == "m"});
+  }
+}
+
 // The "pairs" of results line `j` (line n of `path`), checked against
 // `clips`: every clip_index names a clip of that path (or base name) and
 // start < end < its frame count; InputError(path, n, ...) otherwise.
@@ -68,6 +80,7 @@ std::vector<PairResults> parse_result_pairs(const nlohmann::json& j, const std::
         r.h_in_J = jr.value("h_in_J", 0.0);
         r.h_out_J = jr.value("h_out_J", 0.0);
         r.path_cost_J = jr.value("path_cost_J", 0.0);
+        if (jr.contains("verdicts")) read_verdicts(jr.at("verdicts"), r);
         if (r.clip_index >= clips.clip_count() ||
             (clips.clip(r.clip_index).path != r.clip &&
              base_name(clips.clip(r.clip_index).path) != base_name(r.clip)))

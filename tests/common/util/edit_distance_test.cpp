@@ -29,5 +29,16 @@ TEST(EditDistance, LowerCaseFoldsAsciiLettersOnly) {
   EXPECT_EQ(edit_distance(ascii_lower("Top"), ascii_lower("top")), 0u);
 }
 
+TEST(ClosestName, NearestWithinTheLimitAnyCase) {
+  const std::vector<std::string> names = {"LeftFoot", "LeftToe", "RightFoot", "Hips"};
+  EXPECT_EQ(closest_name("", {}), "");
+  EXPECT_EQ(closest_name("LeftFooot", names), "LeftFoot");
+  EXPECT_EQ(closest_name("leftfoot", names), "LeftFoot");  // case only: distance 0
+  EXPECT_EQ(closest_name("Tail", names), "");
+  EXPECT_EQ(closest_name("Hipsss", names, 1), "");
+  EXPECT_EQ(closest_name("Hipsss", names, 2), "Hips");
+  EXPECT_EQ(closest_name("LeftFoo", {"LeftFoot", "LeftFoo1"}), "LeftFoot");  // first of equals
+}
+
 }  // namespace
 }  // namespace mocap

@@ -265,3 +265,42 @@ TEST(CrossRig, EnergyCommandGivesTheSearchsH) {
 }
 
 }  // namespace
+
+// A joint name that is a joint of a rig in the index, or of the query's own
+// BVH file, but is read as another body part there gets a warning naming
+// both parts and the name to write (CMU 131's 3ds-max "LeftShoulder" is an
+// upper arm; the name means the clavicle on every rig). Names meaning what
+// they name, and body-part names no rig carries, get none.
+TEST(CrossRig, NamesReadAsAnotherBodyPartAreWarned) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_FALSE(mixed_index().empty());
+  const Index index = Index::open(mixed_index());
+  const SearchEngine engine(index);
+  auto warnings_of = [&](const std::string& text) {
+    const QueryOutcome o = engine.run(test::parse(text), SearchOptions{});
+    EXPECT_FALSE(o.error) << text;
+    return o.warnings;
+  };
+  const std::string up = R"({"root_position": [0, null, 0]})";
+  for (const char* name : {"LeftUpperArm", "LeftArm", "RightForeArm", "LeftCollar"})
+    EXPECT_TRUE(warnings_of(R"({"top": 1, "frames": [)" + up + R"(, {"joints": {")" + name +
+                            R"(": {"direction": [0, 1, 0]}}}]})")
+                    .empty())
+        << name;
+  const auto w = warnings_of(R"({"top": 1, "frames": [)" + up +
+                             R"(, {"joints": {"LeftShoulder": {"direction": [0, 1, 0]}}}]})");
+  ASSERT_FALSE(w.empty());  // one per CMU skeleton of the index
+  for (const char* part :
+       {"frames[1].joints.LeftShoulder: read as the left clavicle", "joint \"LeftCollar\"",
+        "is its left upper arm", "131_0", "write \"LeftUpperArm\""})
+    EXPECT_NE(w[0].find(part), std::string::npos) << part << " in: " << w[0];
+  // `only` names are read on the frame's own file.
+  const auto only = warnings_of(
+      R"({"top": 1, "frames": [)" +
+      bvh_frame(cmu_file("131_01"), 600, R"(, "only": ["root_position_xz", "LeftShoulder"])") +
+      ", " + bvh_frame(cmu_file("131_01"), 620) + "]}");
+  ASSERT_EQ(only.size(), 1u);
+  EXPECT_NE(only[0].find("frames[0].only[1]: read as the left clavicle"), std::string::npos)
+      << only[0];
+  EXPECT_NE(only[0].find("131_01.bvh's joint \"LeftShoulder\""), std::string::npos) << only[0];
+}

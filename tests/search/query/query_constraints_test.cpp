@@ -173,8 +173,8 @@ TEST(QueryConstraints, ResidualsMeasureTheResultFrames) {
   for (const SearchResult& r : o.pairs[0].results) {
     ASSERT_EQ(r.residuals_from.size(), 1u);
     ASSERT_EQ(r.residuals_to.size(), 1u);
-    EXPECT_EQ(r.residuals_from[0].first, "trunk_flexion");
-    EXPECT_EQ(r.residuals_to[0].first, "RightHand");
+    EXPECT_EQ(r.residuals_from[0].name, "trunk_flexion");
+    EXPECT_EQ(r.residuals_to[0].name, "RightHand");
     const IndexClip& c = index.clips()[r.clip_index];
     const ClipMotion m = clip_motion_from_raw(read_bvh_file(c.path), c.unit_scale_m);
     const int hips = m.skeleton.find("Hips"), hand = m.skeleton.find("Hand_R"),
@@ -190,13 +190,13 @@ TEST(QueryConstraints, ResidualsMeasureTheResultFrames) {
     const double psi = heading(e);
     const Eigen::Vector3d world = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitY()) * target +
                                   Eigen::Vector3d(at(e, hips).x(), 0.0, at(e, hips).z());
-    EXPECT_NEAR(r.residuals_to[0].second, (at(e, hand) - world).norm(), 2e-5) << c.path;
+    EXPECT_NEAR(r.residuals_to[0].residual, (at(e, hand) - world).norm(), 2e-5) << c.path;
     // F^s: the trunk's forward lean from vertical against 20 degrees.
     const std::size_t s = r.start_frame;
     const Eigen::Vector3d t =
         Eigen::AngleAxisd(-heading(s), Eigen::Vector3d::UnitY()) * (at(s, neck) - at(s, spine));
     const double lean = std::atan2(t.z(), t.y()) * 180.0 / std::numbers::pi;
-    EXPECT_NEAR(r.residuals_from[0].second, std::abs(lean - 20.0), 5e-3) << c.path;
+    EXPECT_NEAR(r.residuals_from[0].residual, std::abs(lean - 20.0), 5e-3) << c.path;
   }
 }
 

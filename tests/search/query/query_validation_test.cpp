@@ -303,6 +303,7 @@ TEST(CheckOrder, UnknownJointBeforeItsMissingOrder) {
   const std::string unknown =
       error_of([&] { engine.run(joints(R"({"RightUpLegg": {"euler_deg": [0, 40, 0]}})"), opt); });
   EXPECT_TRUE(has(unknown, "query q: frames[0].joints.RightUpLegg: unknown joint")) << unknown;
+  EXPECT_TRUE(has(unknown, "did you mean \"RightUpLeg\"?")) << unknown;
   EXPECT_FALSE(has(unknown, "order")) << unknown;
   // Also when the unknown joint comes after the invalid value.
   const std::string second = error_of([&] {
@@ -311,6 +312,7 @@ TEST(CheckOrder, UnknownJointBeforeItsMissingOrder) {
         opt);
   });
   EXPECT_TRUE(has(second, "joints.Tail: unknown joint")) << second;
+  EXPECT_FALSE(has(second, "did you mean")) << second;  // nothing within 2 edits
   // A misspelt direction joint, or effector, of the frame comes first too.
   const std::string direction = error_of([&] {
     engine.run(
@@ -328,6 +330,7 @@ TEST(CheckOrder, UnknownJointBeforeItsMissingOrder) {
                opt);
   });
   EXPECT_TRUE(has(effector, "effectors.LeftFooot: unknown joint")) << effector;
+  EXPECT_TRUE(has(effector, "did you mean \"LeftFoot\"?")) << effector;
   const std::string order =
       error_of([&] { engine.run(joints(R"({"RightUpLeg": {"euler_deg": [0, 40, 0]}})"), opt); });
   EXPECT_TRUE(has(order, "q.jsonl:4: frames[0].joints.RightUpLeg.order: expected a string"))

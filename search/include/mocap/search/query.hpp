@@ -147,6 +147,22 @@ enum class FramePlacement : std::uint8_t {
 /// "world", "position", "relative".
 const char* placement_name(FramePlacement p);
 
+/// How results that miss a named constraint rank (docs/queries.md
+/// "Residuals and verdicts"; JSON "met"). Queries without named constraints
+/// rank by score whatever it says.
+enum class MetPolicy : std::uint8_t {
+  /// "any": by score alone (ties: the misfit, then the clip).
+  any,
+  /// "first" (the default): results that meet every named constraint before
+  /// the rest, each group by score.
+  first,
+  /// "only": results that miss a constraint are left out (fewer than top
+  /// may remain).
+  only,
+};
+/// "any", "first", "only".
+const char* met_policy_name(MetPolicy p);
+
 struct Query {
   std::string id;  // default "<line N>" / file stem
   std::vector<QueryFrameSpec> frames;
@@ -163,6 +179,7 @@ struct Query {
   double transition_time_s = 0.5;  // > 0
   std::size_t top = 10;            // the paper's r, >= 1
   double path_weight = 0.0;        // lambda >= 0
+  MetPolicy met = MetPolicy::first;
   QueryFilter filter;
 };
 

@@ -71,4 +71,27 @@ inline constexpr const char* kOnlyRootFields[] = {"root_position", "root_positio
 int resolve_only_joint(const Query& q, std::size_t i, std::size_t k, const Skeleton& file_skeleton,
                        const Skeleton& index_skeleton, const std::vector<int>& file_joints);
 
+/// "did you mean \"NAME\"? " for an unknown joint name within 2 edits (any
+/// case) of a joint of `skeleton` or of a canonical body-part name
+/// (canonical_joint_name: "LeftUpperArm", "Hips", ...); "" when none is.
+std::string joint_did_you_mean(const Skeleton& skeleton, const std::string& name);
+
+/// Warnings for joint names that the query reads as another body part than
+/// the one they name on a rig that carries them (docs/queries.md "Across
+/// rigs"). A name means a body part on every rig (find_joint_by_alias):
+/// "LeftShoulder" is the clavicle, though the joint named LeftShoulder in
+/// CMU's 3ds-max files is the upper arm. Checked: frame i's hand-written
+/// `joints` and `effectors` names on `skeleton` (called `rig` in the
+/// message), and a file frame's `only` names on its file's skeleton
+/// (`file_skeleton`, called `file`; null for a hand-written frame). One
+/// warning per name whose exact-named joint is not the joint it is read
+/// as: "frames[i].joints.NAME: read as the left clavicle (joint "LeftCollar"
+/// of RIG), but RIG's joint "LeftShoulder" is its left upper arm; ...
+/// write "LeftUpperArm" for that joint". Unknown names are the resolution's
+/// errors, not warnings. Never throws.
+std::vector<std::string> joint_name_warnings(const Query& q, std::size_t i,
+                                             const Skeleton& skeleton, const std::string& rig,
+                                             const Skeleton* file_skeleton,
+                                             const std::string& file);
+
 }  // namespace mocap

@@ -87,6 +87,28 @@ void validate_search_options(const SearchOptions& options,
                              const std::string& min_name = "--min-length",
                              const std::string& max_name = "--max-length");
 
+/// A result's frame measured against one named constraint of its query
+/// frame (docs/queries.md "Residuals and verdicts").
+struct ConstraintResidual {
+  std::string name;  // as the query wrote it
+  /// How far the frame is from the target (constraint_residual): metres for
+  /// effectors, degrees for directions, angles and joint rotations.
+  double residual = 0.0;
+  /// The query's tolerance, in the residual's unit (0 when none was given).
+  double tolerance = 0.0;
+  bool metres = false;  // an effector (metres); otherwise degrees
+  /// The limit the verdict uses: the tolerance, but at least the verdict's
+  /// floor (kMetFloorM, kMetFloorDeg), so that "exactly" allows round-off.
+  double limit() const;
+  /// residual <= limit().
+  bool met() const { return residual <= limit(); }
+  bool operator==(const ConstraintResidual&) const = default;
+};
+/// The verdict's floors: a constraint given without a tolerance is met
+/// within 1 cm (effectors) or 1 degree (the others).
+inline constexpr double kMetFloorM = 0.01;
+inline constexpr double kMetFloorDeg = 1.0;
+
 /// One ranked partial motion. Frames are 0-based within the clip.
 struct SearchResult {
   std::size_t rank = 0;        // 1-based
@@ -103,8 +125,15 @@ struct SearchResult {
   /// How far F^s misses each named constraint of Q^h (residuals_from) and
   /// F^e each of Q^h+1 (residuals_to), by name: metres for effectors,
   /// degrees for joint rotations, directions and angles
-  /// (constraint_residual). Empty for frames without constraints.
-  std::vector<std::pair<std::string, double>> residuals_from, residuals_to;
+  /// (constraint_residual), with the tolerance and verdict. Empty for
+  /// frames without named constraints.
+  std::vector<ConstraintResidual> residuals_from, residuals_to;
+  /// Every named constraint of both frames met (true without any).
+  bool met() const;
+  /// The sum over both frames of residual / limit(): how far the result is
+  /// from the request in units of what it accepts; 0 without constraints.
+  /// Results of equal score rank by it (docs/queries.md "Ranking").
+  double misfit() const;
 };
 
 struct PairResults {
@@ -135,6 +164,10 @@ struct QueryOutcome {
   SearchStats stats;
   /// Set when the query could not be answered; pairs is then empty.
   std::optional<std::string> error;
+  /// What the query may not mean as written (joint_name_warnings:
+  /// "frames[i].joints.NAME: read as ..."), each once; the JSON line's
+  /// "warnings" when not empty.
+  std::vector<std::string> warnings;
 };
 
 /// SearchEngine::frame_bounds: per frame F of one skeleton (index order of
