@@ -322,9 +322,11 @@ class Index:
         per query, mocap-search's output line as a dict: {"id", "pairs":
         [{"from", "to", "results": [{"rank", "clip", "clip_index", "labels",
         "start_frame", "end_frame", "score_J", "h_in_J", "h_out_J",
-        "path_cost_J"}]}], "stats": {...}}, or {"id", "error"} for a query
-        that could not be answered (the others are still answered). One dict
-        for one query, a list for a list. Relative "bvh" / "character" paths
+        "path_cost_J", ...}]}], "stats": {...}}. One query (a dict or a
+        string): its dict, or mocap.InputError raised when it cannot be
+        answered. A list: a list in order, where a query that could not be
+        answered gets mocap-search's error line {"id", "error"} and the
+        others are still answered. Relative "bvh" / "character" paths
         resolve against base_dir (default: the current folder). The options
         are mocap-search's (--mode, --min-length, --max-length, --checks,
         --trees, --no-recall, --threads; threads=0: all cores).
@@ -332,7 +334,7 @@ class Index:
         single = not isinstance(queries, (list, tuple))
         texts = [_query_text(q) for q in ([queries] if single else queries)]
         lines = self._raw.search(texts, _base_dir(base_dir), mode, min_length_s, max_length_s,
-                                 checks, trees, recall, threads)
+                                 checks, trees, recall, threads, raise_errors=single)
         out = [json.loads(line) for line in lines]
         return out[0] if single else out
 
@@ -342,6 +344,9 @@ class Index:
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
                    base_dir=None, energy="w", warp=None, warp_candidates=5):
         """Synthesises the target motion of one query, as mocap-synth does.
+
+        A list of queries is synthesize_batch's (the same keywords but
+        picks; a list in order of Synthesis or mocap.InputError).
 
         `results`: the search's answer for this query (a dict from search(),
         a list of them, or a mocap-search JSONL file); without it the query
@@ -355,6 +360,18 @@ class Index:
         --no-warp; --warp-candidates: warp_candidates). Returns a
         Synthesis.
         """
+        if isinstance(query, (list, tuple)):
+            if picks:
+                raise TypeError("picks name one query's results: give one query, "
+                                "or synthesize_batch without picks")
+            return self.synthesize_batch(
+                query, results=results, threads=threads, base_dir=base_dir, method=method,
+                max_states=max_states, cost_threshold_J=cost_threshold_J, step_feet=step_feet,
+                fps=fps, refine=refine, refine_smoothing_J=refine_smoothing_J,
+                refine_polish=refine_polish, refine_polish_window=refine_polish_window,
+                refine_polish_segments=refine_polish_segments,
+                refine_polish_smoothing_J=refine_polish_smoothing_J, energy=energy, warp=warp,
+                warp_candidates=warp_candidates)
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
         args = dict(method=method, picks=pick_texts, max_states=max_states,

@@ -24,7 +24,8 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
                                 const std::vector<std::string>& queries,
                                 const std::filesystem::path& base_dir, const std::string& mode,
                                 double min_length_s, double max_length_s, int approx_checks,
-                                int approx_trees, bool compute_recall, int threads) {
+                                int approx_trees, bool compute_recall, int threads,
+                                bool raise_errors) {
   SearchOptions options;
   const auto m = parse_search_mode(mode);
   if (!m) throw InputError("mode", 0, "expected exact, approx or brute, got '" + mode + "'");
@@ -53,6 +54,12 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
     if (threads > 0)
       parallelism.emplace(tbb::global_control::max_allowed_parallelism,
                           static_cast<std::size_t>(threads));
+    // One query asked for alone: its error is raised (mocap.InputError),
+    // not returned as an error line.
+    if (raise_errors && batch.size() == 1) {
+      if (batch[0].failure) throw *batch[0].failure;
+      return {query_outcome_json(self->engine().run(*batch[0].query, options))};
+    }
     const std::vector<QueryOutcome> outcomes = run_query_batch(self->engine(), batch, options);
     lines.reserve(outcomes.size());
     for (const QueryOutcome& o : outcomes) lines.push_back(query_outcome_json(o));
@@ -71,9 +78,12 @@ void bind_search(py::module_& m) {
             py::arg("max_length_s") = defaults.max_length_s,
             py::arg("checks") = defaults.approx_checks, py::arg("trees") = defaults.approx_trees,
             py::arg("recall") = defaults.compute_recall, py::arg("threads") = 0,
+            py::arg("raise_errors") = false,
             "Answers a batch of queries (JSON texts, docs/queries.md); returns one mocap-search "
             "output line (JSON text) per query, in order. Relative paths in the queries resolve "
-            "against base_dir; a query without an id gets 'query N' (1-based).");
+            "against base_dir; a query without an id gets 'query N' (1-based). With "
+            "raise_errors and one query, a query that cannot be answered raises InputError "
+            "instead of giving an error line.");
 }
 
 }  // namespace mocap::python

@@ -96,11 +96,31 @@ def test_bad_queries_fail_alone(index):
     assert out[3]["error"].startswith("<query 4>: frames")
 
 
+def test_one_bad_query_raises_like_synthesize(index):
+    # One query: mocap.InputError with where and what, as synthesize raises
+    # (a list gives error lines instead: test_bad_queries_fail_alone).
+    cases = [("this is not json", "invalid JSON"),
+             ({"id": "few", "frames": []}, "frames"),
+             ({"id": "typo", "Top": 3, "frames": [{"root_position": [0, None, 0]}] * 2},
+              'did you mean "top"'),
+             ({"id": "joint", "frames": [{"root_position": [0, None, 0]},
+                                         {"joints": {"NoSuchJoint": {"quat": [1, 0, 0, 0]}}}]},
+              "unknown joint")]
+    for query, what in cases:
+        with pytest.raises(mocap.InputError, match=what) as e:
+            index.search(query)
+        assert isinstance(e.value, ValueError) and e.value.detail, query
+        with pytest.raises(mocap.InputError, match=what):
+            index.synthesize(query)
+        assert "error" in index.search([query])[0]
+
+
 def test_relative_paths_resolve_against_base_dir(index, data_dir):
     q = {"id": "rel", "relative": False, "top": 2,
          "frames": [{"bvh": "dataset-1_walk_normal_001.bvh", "frame": 10},
                     {"bvh": "dataset-1_walk_normal_001.bvh", "frame": 40}]}
-    assert "error" in index.search(q, base_dir=os.path.dirname(data_dir))
+    with pytest.raises(mocap.InputError, match="dataset-1_walk_normal_001.bvh"):
+        index.search(q, base_dir=os.path.dirname(data_dir))
     out = index.search(q, base_dir=os.path.dirname(set1("x")))
     top = out["pairs"][0]["results"][0]
     assert top["clip"].endswith("dataset-1_walk_normal_001.bvh")

@@ -67,3 +67,14 @@ def test_results_given(index, batch):
     other = index.synthesize_batch([dict(batch[0], id="elsewhere")], results=found)
     assert isinstance(other[0], mocap.InputError)
     assert "no results for query" in str(other[0])
+
+
+def test_synthesize_takes_a_list_as_synthesize_batch(index, batch):
+    # A list given to synthesize is the batch call: the same items, in order.
+    listed = index.synthesize(batch[:2], threads=1)
+    made = index.synthesize_batch(batch[:2], threads=1)
+    assert len(listed) == 2 and isinstance(listed[0], mocap.Synthesis)
+    assert listed[0].bvh() == made[0].bvh()
+    assert isinstance(listed[1], mocap.InputError) and "unknown joint" in str(listed[1])
+    with pytest.raises(TypeError, match="picks name one query"):
+        index.synthesize(batch[:2], picks=[(1, 2)])
