@@ -104,31 +104,101 @@ void translate(SynthFrame& f, const Eigen::Vector3d& d) {
   f.root_position_m += d;
 }
 
-// Moves R_h and everything after it by the travel of the transitions
-// (motion_layout.hpp), and sets the merge flags.
+// The frames to drop from the start and the end of piece `pc` (n >= 3) so
+// that its root run shrinks by about `excess` metres (horizontal, along the
+// run; <= 0: none): frames alternately from both ends (from one end when
+// the other is merged), while at least half of the piece, and 3 frames,
+// remain.
+std::pair<std::size_t, std::size_t> overshoot_trim(const std::vector<SynthFrame>& pc, double excess,
+                                                   bool keep_front, bool keep_back) {
+  const std::size_t n = pc.size();
+  Eigen::Vector3d run = pc[n - 1].root_position_m - pc[0].root_position_m;
+  run.y() = 0.0;
+  if (!(excess > 0.0) || run.norm() < 1e-6 || (keep_front && keep_back)) return {0, 0};
+  const Eigen::Vector3d u = run.normalized();
+  std::size_t front = 0, back = 0;
+  double removed = 0.0;
+  while (removed < excess && n - front - back > std::max<std::size_t>(3, n / 2)) {
+    const bool from_front = keep_back || (!keep_front && front <= back);
+    const std::size_t a = from_front ? front : n - 2 - back;
+    removed += (pc[a + 1].root_position_m - pc[a].root_position_m).dot(u);
+    (from_front ? front : back) += 1;
+  }
+  return {front, back};
+}
+
+// Untimed key poses: the query frames that give their root x/z stay where
+// the query puts them; each partial motion moves horizontally between its
+// two query frames, by the mean of what its start needs (Q^h plus the
+// in-transition's travel, none when merged) and what its end needs, after
+// dropping end frames of a piece whose run would overshoot the transitions'
+// travel (motion_layout.hpp); sets the merge flags.
 void add_travel(FramePlacement placement, const std::vector<QueryFrameInput>& query_frames,
                 double dt, double transition_time_s, MotionLayout& out) {
   const std::size_t pairs = out.pieces.size();
   out.merged_in.assign(pairs, 0);
   out.merged_out.assign(pairs, 0);
+  out.trimmed.assign(pairs, {0, 0});
   auto gives_xz = [&](std::size_t h) { return gives_root_xz(placement, query_frames, h); };
   auto velocity = [&](std::size_t h) { return query_velocity(out, query_frames, h, dt); };
-  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
-  for (std::size_t h = 0; h < pairs; ++h) {
-    auto& pc = out.pieces[h];
+  auto move_query = [&](std::size_t h, const Eigen::Vector3d& d) {
+    PlacedQueryFrame& q = out.queries[h];
+    for (SynthFrame* f : {&q.before, &q.frame, &q.after}) translate(*f, d);
+  };
+  // What the start and the end of piece h need to move by (absent: that
+  // query frame gives no root x/z).
+  auto needs_of = [&](std::size_t h) {
+    const auto& pc = out.pieces[h];
     const std::size_t n = pc.size();
-    // Unshifted relations decide the merges (the search's placement).
-    out.merged_in[h] = same_pose(out.queries[h].frame, pc[0]) && n >= 3;
-    out.merged_out[h] = same_pose(pc[n - 1], out.queries[h + 1].frame) &&
-                        n >= 3 + static_cast<std::size_t>(out.merged_in[h]);
     const Eigen::Vector3d v_s = horizontal_root_velocity(pc[0], pc[1], dt);
     const Eigen::Vector3d v_e = horizontal_root_velocity(pc[n - 2], pc[n - 1], dt);
-    if (!out.merged_in[h] && gives_xz(h)) shift += 0.5 * transition_time_s * (velocity(h) + v_s);
+    const double in_time = out.merged_in[h] ? 0.0 : transition_time_s;
+    const double out_time = out.merged_out[h] ? 0.0 : transition_time_s;
+    std::pair<std::optional<Eigen::Vector3d>, std::optional<Eigen::Vector3d>> needs;
+    if (gives_xz(h))
+      needs.first = out.queries[h].frame.root_position_m + 0.5 * in_time * (velocity(h) + v_s) -
+                    pc[0].root_position_m;
+    if (gives_xz(h + 1))
+      needs.second = out.queries[h + 1].frame.root_position_m -
+                     0.5 * out_time * (v_e + velocity(h + 1)) - pc[n - 1].root_position_m;
+    return needs;
+  };
+  Eigen::Vector3d carried = Eigen::Vector3d::Zero();  // the previous piece's move
+  for (std::size_t h = 0; h < pairs; ++h) {
+    auto& pc = out.pieces[h];
+    // Unmoved relations decide the merges (the search's placement).
+    out.merged_in[h] = same_pose(out.queries[h].frame, pc[0]) && pc.size() >= 3;
+    out.merged_out[h] = same_pose(pc.back(), out.queries[h + 1].frame) &&
+                        pc.size() >= 3 + static_cast<std::size_t>(out.merged_in[h]);
+    auto needs = needs_of(h);
+    if (needs.first && needs.second && pc.size() >= 3) {
+      // The run past what the two transitions leave it, along the run.
+      Eigen::Vector3d run = pc.back().root_position_m - pc.front().root_position_m;
+      run.y() = 0.0;
+      const double excess =
+          run.norm() < 1e-6 ? 0.0 : (*needs.first - *needs.second).dot(run.normalized());
+      const auto [front, back] =
+          overshoot_trim(pc, excess, out.merged_in[h] != 0, out.merged_out[h] != 0);
+      if (front + back > 0) {
+        pc.erase(pc.end() - static_cast<std::ptrdiff_t>(back), pc.end());
+        pc.erase(pc.begin(), pc.begin() + static_cast<std::ptrdiff_t>(front));
+        out.trimmed[h] = {front, back};
+        needs = needs_of(h);
+      }
+    }
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    if (needs.first && needs.second)
+      shift = 0.5 * (*needs.first + *needs.second);
+    else if (needs.first || needs.second)
+      shift = needs.first ? *needs.first : *needs.second;
+    else  // continues the previous piece (continuation_placement)
+      shift = carried;
+    shift.y() = 0.0;
     for (SynthFrame& f : pc) translate(f, shift);
-    if (!out.merged_out[h] && gives_xz(h + 1))
-      shift += 0.5 * transition_time_s * (v_e + velocity(h + 1));
-    PlacedQueryFrame& q = out.queries[h + 1];
-    for (SynthFrame* f : {&q.before, &q.frame, &q.after}) translate(*f, shift);
+    // Query frames without root x/z were completed from this piece.
+    if (!gives_xz(h)) move_query(h, shift);
+    if (h + 1 == pairs && !gives_xz(h + 1)) move_query(h + 1, shift);
+    carried = shift;
   }
 }
 
@@ -137,6 +207,7 @@ void add_travel(FramePlacement placement, const std::vector<QueryFrameInput>& qu
 void add_timed_travel(FramePlacement placement, const std::vector<QueryFrameInput>& query_frames,
                       const std::vector<TimedPair>& timed, double dt, MotionLayout& out) {
   const std::size_t pairs = out.pieces.size();
+  out.trimmed.assign(pairs, {0, 0});
   out.merged_in.assign(pairs, 0);
   out.merged_out.assign(pairs, 0);
   auto gives_xz = [&](std::size_t h) { return gives_root_xz(placement, query_frames, h); };

@@ -37,6 +37,10 @@ struct MotionLayout {
   /// Per pair: Q^h is R_h's first frame (merged_in), R_h's last frame is
   /// Q^h+1 (merged_out), as one pose (same_pose): no transition there.
   std::vector<std::uint8_t> merged_in, merged_out;
+  /// Per pair: frames dropped from the start and the end of R_h (untimed
+  /// key poses whose partial motion would overshoot the transitions'
+  /// travel); pieces[h] holds clip frames s + front .. e - back.
+  std::vector<std::pair<std::size_t, std::size_t>> trimmed;
 };
 
 /// True when two frames are one pose: root within 0.1 mm, every joint's
@@ -76,10 +80,19 @@ std::vector<SynthFrame> resample_frames(const std::vector<SynthFrame>& frames, s
 ///    frame (after it for Q^H).
 ///  - Travel during the transitions: the search compares Q^h with F^s (and
 ///    F^e with Q^h+1) at one place, but a transition of about T seconds
-///    lies between them. In a relative placement, where the query frame gives
-///    root x/z and the two are not one pose, R_h and everything after it move by the mean of the
-///    two horizontal root velocities times T (for "in" and "out" alike), so
-///    the character keeps moving instead of marking time.
+///    lies between them. In a relative placement the query frames that give
+///    root x/z stay where the query puts them (the output passes there), and
+///    each partial motion moves horizontally by the mean of what its start
+///    needs (Q^h plus the in-transition's travel: T times the mean of the
+///    two horizontal root velocities; none when merged) and what its end
+///    needs (Q^h+1 less the out-transition's), where its query frames give
+///    root x/z; a piece whose two query frames give none moves as the
+///    previous piece did, and a query frame without root x/z moves with the
+///    piece it was completed from. A piece between two such frames whose run
+///    overshoots what the transitions leave it first loses frames at its
+///    ends (overshoot_trim; MotionLayout::trimmed). The character keeps
+///    moving through the transitions, and the travel is absorbed instead of
+///    added.
 ///  - Timed key poses (`timed`: one entry per pair): the query frames stay
 ///    where the query puts them (no travel shift, no merges), and each
 ///    partial motion that is not `direct` moves horizontally by the mean of

@@ -126,6 +126,8 @@ nlohmann::json segments_json(const SynthResult& result) {
                          {"pair", s.pair},
                          {"first_frame", s.first_frame},
                          {"frames", s.frame_count}};
+    if (s.trimmed_front + s.trimmed_back > 0)
+      sj["trimmed"] = {{"start", s.trimmed_front}, {"end", s.trimmed_back}};
     if (s.kind == "partial" && s.frame_count >= 2) {  // the captured frames' own measures
       const auto first = result.frames.begin() + static_cast<std::ptrdiff_t>(s.first_frame);
       const MotionMeasures m = measure_motion(

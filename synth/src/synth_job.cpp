@@ -13,6 +13,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "mocap/common/body/retarget.hpp"
@@ -634,6 +635,9 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   tbb::parallel_for(std::size_t{0}, tasks.size(),
                     [&](std::size_t i) { supplement_gap(tasks[i], options); });
   assemble(res, layout.pieces, tasks);
+  for (MotionSegment& seg : res.segments)
+    if (seg.kind == "partial")
+      std::tie(seg.trimmed_front, seg.trimmed_back) = layout.trimmed[seg.pair - 1];
   if (!timed.empty() && options.warp_fill)
     warp_timed_pairs(res, rom, source, clips, query, ranked, options);
   if (!timed.empty()) {

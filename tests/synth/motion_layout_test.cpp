@@ -108,7 +108,9 @@ TEST(MotionLayout, HeldOutQueryStartsAtItsFirstFrameAndKeepsMoving) {
   // The query's clip excluded: the output starts at the first query frame's
   // world root, no two consecutive frames are one pose (the query frames'
   // velocities carry into the transitions), and the root keeps moving
-  // forward at walking speed (no step back, no standing still).
+  // forward at walking speed (no step back, no standing still), also where
+  // the second key pose, kept where the query puts it, leaves the
+  // transitions less travel than the partial motion's run would.
   if (!test::have_data()) GTEST_SKIP() << "no data";
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
@@ -119,12 +121,19 @@ TEST(MotionLayout, HeldOutQueryStartsAtItsFirstFrameAndKeepsMoving) {
   const std::size_t clip = clip_named(*index, file.filename().string());
   EXPECT_LT((fr.front().root_position_m - clip_root(*index, clip, 10)).norm(), 1e-5);
   const double dt = s->result.frame_time_s;
+  Eigen::Vector3d ahead = clip_root(*index, clip, 40) - clip_root(*index, clip, 10);
+  ahead.y() = 0.0;
+  ahead.normalize();
+  double slowest = 1e9;
   for (std::size_t k = 1; k < fr.size(); ++k) {
     EXPECT_FALSE(identical(fr[k - 1], fr[k])) << "frames " << k - 1 << " and " << k;
     Eigen::Vector3d v = (fr[k].root_position_m - fr[k - 1].root_position_m) / dt;
     v.y() = 0.0;
-    EXPECT_GT(v.norm(), 0.5) << "frame " << k << ": root at " << v.norm() << " m/s";
+    slowest = std::min(slowest, v.dot(ahead));
   }
+  // At walking speed throughout (0.87 m/s at the slowest; -0.35, a step
+  // back, when the partial motion was moved whole into the transitions).
+  EXPECT_GT(slowest, 0.5) << "slowest forward root speed, m/s";
 }
 
 TEST(MotionLayout, PelvisCarriesTheTranslationUnderAStaticDummyRoot) {
@@ -174,22 +183,82 @@ TEST(MotionLayout, PartialMotionsArePlacedByTheSearchRule) {
     const SynthResult& r = s->result;
     const SynthSkeleton& sk = *r.skeleton;
     const SearchResult& m = r.chosen[0];
-    std::size_t first = 0;
+    std::size_t first = 0, trimmed = 0;  // the partial motion's first frame, as kept
     for (const MotionSegment& seg : r.segments)
-      if (seg.kind == "partial") first = seg.first_frame;
+      if (seg.kind == "partial") first = seg.first_frame, trimmed = seg.trimmed_front;
     const SynthFrame& placed = r.frames[first];
-    const SynthFrame clip = clip_frame(*index, m.clip_index, m.start_frame);
+    const SynthFrame clip = clip_frame(*index, m.clip_index, m.start_frame + trimmed);
     const SynthFrame q1 = clip_frame(*index, query_clip, 10);
     EXPECT_LT((r.frames[0].root_position_m - q1.root_position_m).norm(), 1e-5) << placement;
     EXPECT_NEAR(std::remainder(root_heading(sk, r.frames[0]) - root_heading(sk, q1), 2 * M_PI), 0.0,
                 1e-6)
         << placement;
+    // Relative: F^s turned onto Q^1's heading (the kept first frame turns
+    // with it).
+    const double turn =
+        root_heading(sk, clip) - root_heading(sk, clip_frame(*index, m.clip_index, m.start_frame));
     const double want =
-        std::string(placement) == "true" ? root_heading(sk, q1) : root_heading(sk, clip);
+        std::string(placement) == "true" ? root_heading(sk, q1) + turn : root_heading(sk, clip);
     EXPECT_NEAR(std::remainder(root_heading(sk, placed) - want, 2 * M_PI), 0.0, 1e-6)
         << placement << ": " << m.clip;
     if (std::string(placement) == "false") {
       EXPECT_LT((placed.root_position_m - clip.root_position_m).norm(), 1e-9);
     }
+  }
+}
+
+namespace {
+
+// The output frame of query frame `number` (1-based), or none when merged.
+std::optional<std::size_t> query_output_frame(const SynthResult& r, std::size_t number) {
+  for (const MotionSegment& seg : r.segments)
+    if (seg.kind == "query" && seg.pair == number) return seg.first_frame;
+  return std::nullopt;
+}
+
+double ground_distance(Eigen::Vector3d a, Eigen::Vector3d b) {
+  a.y() = b.y() = 0.0;
+  return (a - b).norm();
+}
+
+}  // namespace
+
+TEST(MotionLayout, UntimedKeyPosesAreWhereTheQueryPutsThem) {
+  // The transitions' travel is absorbed, not added: an untimed query frame
+  // that gives its root position is where the output passes, within 1 cm,
+  // as a timed one is. Hand-written: a walk frame, 2 m ahead, then an arm
+  // up (the output passed 2.64 m ahead when the travel was added); BVH:
+  // three held-out frames of one walk, each at its place in the file (1.66
+  // and 3.10 m away when the travel was added).
+  if (!test::have_data()) GTEST_SKIP() << "no data";
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const fs::path file = data_file("bandai-namco-1/data/dataset-1_walk_normal_001.bvh");
+  const std::size_t walk = clip_named(*index, file.filename().string());
+  const auto written =
+      synthesise(*index, R"({"frames": [{"bvh": ")" + file.string() + R"(", "frame": 20},
+                             {"root_position": [0, null, 2.0]},
+                             {"joints": {"RightArm": {"direction": [0, 1, 0]}}}], "top": 3})");
+  ASSERT_TRUE(written);
+  const auto at = query_output_frame(written->result, 2);
+  ASSERT_TRUE(at.has_value());
+  EXPECT_NEAR(ground_distance(written->result.frames[*at].root_position_m,
+                              written->result.frames[0].root_position_m),
+              2.0, 0.01);
+  const auto held_out =
+      synthesise(*index, R"({"frames": [{"bvh": ")" + file.string() + R"(", "frame": 10},
+                                        {"bvh": ")" +
+                             file.string() + R"(", "frame": 45},
+                                        {"bvh": ")" +
+                             file.string() + R"(", "frame": 80}],
+                             "top": 3, "filter": {"exclude": ["dataset-1_walk_normal_001.bvh"]}})");
+  ASSERT_TRUE(held_out);
+  for (const auto& [number, frame] : {std::pair<std::size_t, std::size_t>{2, 45}, {3, 80}}) {
+    const auto out = query_output_frame(held_out->result, number);
+    ASSERT_TRUE(out.has_value()) << "query frame " << number;
+    EXPECT_LT(ground_distance(held_out->result.frames[*out].root_position_m,
+                              clip_root(*index, walk, frame)),
+              0.01)
+        << "query frame " << number;
   }
 }

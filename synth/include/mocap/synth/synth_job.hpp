@@ -5,8 +5,9 @@
 //
 // Placement (docs/synthesis.md "Placement"): the output starts at the first
 // query frame's own pose; partial motions and later query frames are placed
-// by the search's rule (mocap/search/placement.hpp), moved along by the
-// travel of the transitions; a query frame that is its partial motion's own
+// by the search's rule (mocap/search/placement.hpp); query frames that give
+// a root position stay there and each partial motion moves between them to
+// absorb the transitions' travel; a query frame that is its partial motion's own
 // frame is merged with it. BVH query frames carry their file's velocities
 // into the transitions.
 #include <cstddef>
@@ -101,6 +102,10 @@ struct MotionSegment {
   /// S_0 and S_G, the output's frames beside it as S_-1 and S_G+1. The
   /// capture beside which the transitions are judged.
   std::optional<TransitionMeasures> measures;
+  /// A partial motion: clip frames the layout dropped from the chosen
+  /// result's start and end (docs/synthesis.md "Placement": an untimed
+  /// pair whose partial motion would overshoot); 0 otherwise.
+  std::size_t trimmed_front = 0, trimmed_back = 0;
 };
 
 struct TransitionReport {
