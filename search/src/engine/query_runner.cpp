@@ -67,6 +67,23 @@ void QueryRunner::add_name_warnings(std::size_t k, std::size_t i, const QueryBvh
       warnings_.push_back(std::move(w));
 }
 
+void QueryRunner::set_require_met(bool on) {
+  auto set = [on](ResolvedFrame& f) {
+    bool named = false;
+    for (const PoseConstraint& c : f.constraints) named = named || !c.name.empty();
+    f.require_met = on && named;
+  };
+  for (auto& frames : resolved_)
+    for (ResolvedFrame& f : frames) set(f);
+  for (auto& pairs : body_)
+    for (auto& pair : pairs)
+      for (ResolvedFrame& f : pair) set(f);
+  // Shared h values were computed with the other setting.
+  for (auto& frames : cache_)
+    for (FrameCache& c : frames)
+      if (c.values) std::fill(c.done.begin(), c.done.end(), std::uint8_t{0});
+}
+
 void QueryRunner::prepare() {
   const SearchEngine::Impl& m = engine_;
   resolved_.resize(skeletons_.size());

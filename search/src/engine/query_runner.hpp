@@ -60,6 +60,10 @@ class QueryRunner {
   std::size_t top() const { return top_; }
   void set_top(std::size_t top) { top_ = top; }
 
+  // Whether database frames that miss a named constraint of a query frame
+  // score +inf (ResolvedFrame::require_met) in the following run_pair calls.
+  void set_require_met(bool on);
+
   // Resolves every query frame on every skeleton, with what the engine
   // precomputes for them, and the per-frame bounds of partial frames (exact
   // and approx modes, world). Throws InputError for a query that does not

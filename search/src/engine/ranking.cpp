@@ -54,8 +54,8 @@ void rank_results(std::vector<SearchResult>& results, MetPolicy policy, std::siz
   for (std::size_t i = 0; i < results.size(); ++i) results[i].rank = i + 1;
 }
 
-bool ranking_settled(const std::vector<SearchResult>& fetched, std::size_t asked,
-                     MetPolicy policy, std::size_t top) {
+bool ranking_settled(const std::vector<SearchResult>& fetched, std::size_t asked, MetPolicy policy,
+                     std::size_t top) {
   if (top == 0 || fetched.size() < asked) return true;
   double worst = -std::numeric_limits<double>::infinity();
   std::vector<double> needed;  // the scores of the results the ranking may take

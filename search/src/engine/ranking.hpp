@@ -31,8 +31,8 @@ void rank_results(std::vector<SearchResult>& results, MetPolicy policy, std::siz
 // `top`-th result the ranking needs (under first and only: the top-th met
 // one; under any: the top-th) scores below the worst fetched match, which
 // every match not fetched scores at or above.
-bool ranking_settled(const std::vector<SearchResult>& fetched, std::size_t asked,
-                     MetPolicy policy, std::size_t top);
+bool ranking_settled(const std::vector<SearchResult>& fetched, std::size_t asked, MetPolicy policy,
+                     std::size_t top);
 
 // The deepest look of a pair ranked by its verdicts: the best
 // max(32 * top, 256) matches by score. A pair with fewer results meeting

@@ -142,9 +142,42 @@ void add_stats(SearchStats& total, const SearchStats& run) {
   total.frames_pruned += run.frames_pruned;
 }
 
+// The best `top` results of pair h under `policy` among the clips not in
+// `exclude`, the frames that miss a named constraint left out or not
+// (`require_met`): the engine's best matches by score, looked at deeper
+// (twice as many each time, up to deepest_look) until ranking_settled.
+// `first`: the run of the query's own top without either, if made.
+std::vector<SearchResult> settled_results(const Index& index, search_detail::QueryRunner& runner,
+                                          std::size_t h, SearchMode mode, MetPolicy policy,
+                                          std::size_t top, bool require_met,
+                                          const std::set<std::size_t>& exclude,
+                                          const search_detail::PairRun* first, SearchStats& stats) {
+  using namespace search_detail;
+  runner.set_require_met(require_met);
+  for (std::size_t asked = top + exclude.size();;) {
+    runner.set_top(asked);
+    const bool reuse = first && !require_met && asked == runner.query().top;
+    const PairRun run = reuse ? *first : runner.run_pair(h, mode);
+    if (!reuse) add_stats(stats, run.stats);
+    PairResults res = pair_results(index, h, run);
+    runner.add_residuals(res);
+    const std::size_t fetched = res.results.size();
+    std::erase_if(res.results,
+                  [&](const SearchResult& r) { return exclude.count(r.clip_index) > 0; });
+    const std::size_t removed = fetched - res.results.size();
+    if (asked >= deepest_look(top) || ranking_settled(res.results, asked - removed, policy, top)) {
+      rank_results(res.results, policy, top);
+      return std::move(res.results);
+    }
+    asked = std::min(2 * asked, deepest_look(top));
+  }
+}
+
 // Pair h's results, ranked (ranking.hpp): by score, or for a pair with
-// named constraints by its verdicts too, looking deeper (twice as many
-// matches each time, up to deepest_look) until the ranking is settled.
+// named constraints by its verdicts too: under "only" the frames that miss
+// are left out; under "first" those results come first, then, if fewer than
+// top, the other clips' best by score; under "any" the score order with
+// ties by misfit.
 PairResults ranked_pair(const Index& index, search_detail::QueryRunner& runner, std::size_t h,
                         SearchMode mode, const search_detail::PairRun& first, SearchStats& stats) {
   using namespace search_detail;
@@ -152,17 +185,19 @@ PairResults ranked_pair(const Index& index, search_detail::QueryRunner& runner, 
   PairResults res = pair_results(index, h, first);
   runner.add_residuals(res);
   if (!runner.named_constraints(h)) return res;
-  for (std::size_t asked = q.top;
-       !ranking_settled(res.results, asked, q.met, q.top) && asked < deepest_look(q.top);) {
-    asked = std::min(2 * asked, deepest_look(q.top));
-    runner.set_top(asked);
-    const PairRun deeper = runner.run_pair(h, mode);
-    add_stats(stats, deeper.stats);
-    res = pair_results(index, h, deeper);
-    runner.add_residuals(res);
+  const bool masked = q.met != MetPolicy::any;
+  res.results = settled_results(index, runner, h, mode, masked ? MetPolicy::only : MetPolicy::any,
+                                q.top, masked, {}, &first, stats);
+  if (q.met == MetPolicy::first && res.results.size() < q.top) {
+    std::set<std::size_t> clips;
+    for (const SearchResult& r : res.results) clips.insert(r.clip_index);
+    for (SearchResult& r : settled_results(index, runner, h, mode, MetPolicy::any,
+                                           q.top - res.results.size(), false, clips, &first, stats))
+      res.results.push_back(std::move(r));
+    rank_results(res.results, MetPolicy::first, q.top);
   }
+  runner.set_require_met(false);
   runner.set_top(q.top);
-  rank_results(res.results, q.met, q.top);
   return res;
 }
 

@@ -86,6 +86,12 @@ struct ResolvedFrame {
   /// database frame, its per-joint term weights and its weight
   /// (ResolvedQueryPose's fields of those names).
   std::vector<PoseConstraint> constraints;
+  /// Database frames that miss one of the named constraints (verdict of
+  /// ConstraintResidual: residual above max(tolerance, floor)) score +inf
+  /// (evaluate_h): the pass of a ranking that wants met results only
+  /// (QueryRunner::set_require_met, docs/queries.md "Residuals and
+  /// verdicts"). Lower bounds stay bounds.
+  bool require_met = false;
   bool solve = false;
   std::vector<double> joint_weights;
   double weight = 1.0;

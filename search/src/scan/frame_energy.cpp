@@ -3,6 +3,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
+#include <numbers>
 #include <vector>
 
 #include "query/relative_frames.hpp"
@@ -119,6 +121,35 @@ double weighted_energy(const ResolvedFrame& q, const DynamicsModel& model, const
   return sum * q.weight;
 }
 
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Whether database frame `r` (every joint) meets each named constraint of
+// q within its verdict limit (ConstraintResidual::limit).
+bool frame_meets(const ResolvedFrame& q, const DynamicsModel& model, const FrameRef& r) {
+  for (const PoseConstraint& c : q.constraints) {
+    if (c.name.empty()) continue;
+    const bool metres = c.kind == PoseConstraintKind::effector;
+    ConstraintResidual v;
+    v.metres = metres;
+    v.tolerance = metres ? c.tolerance : c.tolerance * 180.0 / std::numbers::pi;
+    v.residual = constraint_residual(model.parents, model.root(), c, r.state.joint_positions_m,
+                                     r.state.rotations);
+    if (!v.met()) return false;
+  }
+  return true;
+}
+
+// The require_met pass: +inf on the evaluated frames that miss (frame_meets).
+void mask_missed(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index,
+                 std::size_t g0, std::size_t n, double* out, Scratch& scratch,
+                 const std::uint8_t* skip) {
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((skip != nullptr && skip[i]) || !(out[i] < kInfinity)) continue;
+    if (!frame_meets(q, skeleton.tables.model, database_frame(skeleton, index, g0 + i, scratch)))
+      out[i] = kInfinity;
+  }
+}
+
 }  // namespace
 
 // h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
@@ -176,6 +207,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
     if (q.weight != 1.0)
       for (std::size_t i = 0; i < n; ++i)
         if (skip == nullptr || !skip[i]) out[i] *= q.weight;
+    if (q.require_met) mask_missed(q, skeleton, index, g0, n, out, scratch, skip);
     return;
   }
   const FrameArrays& fa = frame_arrays(index, skeleton);
@@ -192,6 +224,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
                   &scratch.shifted_partial.keep_rates);
       out[i] = weighted_energy(q, tables.model, *pq, r, t, scratch);
     }
+    if (q.require_met) mask_missed(q, skeleton, index, g0, n, out, scratch, skip);
     return;
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -199,6 +232,7 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
     const FrameRef r = frame_ref(tables, fa, g0 + i, scratch, q.need_joints, q.local_joints);
     out[i] = partial_approximate_energy(tables.model, *pq, r, t, scratch.state) * q.weight;
   }
+  if (q.require_met) mask_missed(q, skeleton, index, g0, n, out, scratch, skip);
 }
 
 FrameRef database_frame(const SkeletonData& skeleton, const Index& index, std::size_t g,

@@ -28,7 +28,8 @@ namespace mocap::search_detail {
 // != 0 are left alone (partial frames only: full and root-only frames are scanned whole). With
 // `tile` (a whole block in world mode: SkeletonTables::tile), the scan reads the block's tile (the
 // same values, contiguous). Throws what loading the frame arrays or columns throws (InputError for
-// a damaged index).
+// a damaged index). A frame with q.require_met scores +inf on the frames
+// that miss one of its named constraints (frame_meets).
 void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
                 std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
                 const std::optional<GroundPose>& place = std::nullopt,
