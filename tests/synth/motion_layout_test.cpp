@@ -245,6 +245,21 @@ TEST(MotionLayout, UntimedKeyPosesAreWhereTheQueryPutsThem) {
   EXPECT_NEAR(ground_distance(written->result.frames[*at].root_position_m,
                               written->result.frames[0].root_position_m),
               2.0, 0.01);
+  // A heading change too: 1.5 m ahead and turned 90 degrees left, within 1 degree.
+  const auto turned =
+      synthesise(*index, R"({"frames": [{"bvh": ")" + file.string() + R"(", "frame": 20},
+                             {"root_position": [0, null, 1.5], "root_heading_deg": 90}], "top": 3})");
+  ASSERT_TRUE(turned);
+  const auto turned_at = query_output_frame(turned->result, 2);
+  ASSERT_TRUE(turned_at.has_value());
+  const SynthSkeleton& tsk = *turned->result.skeleton;
+  EXPECT_NEAR(ground_distance(turned->result.frames[*turned_at].root_position_m,
+                              turned->result.frames[0].root_position_m),
+              1.5, 0.01);
+  EXPECT_NEAR(std::remainder(root_heading(tsk, turned->result.frames[*turned_at]) -
+                                 root_heading(tsk, turned->result.frames[0]) - M_PI / 2,
+                             2 * M_PI),
+              0.0, M_PI / 180);
   const auto held_out =
       synthesise(*index, R"({"frames": [{"bvh": ")" + file.string() + R"(", "frame": 10},
                                         {"bvh": ")" +
