@@ -57,6 +57,7 @@ struct SynthArgs {
   // A batch (--queries): its folder, summary and reports.
   std::string queries_path, out_dir, summary_path;
   bool reports = false, html_reports = false, quiet = false, allow_empty = false;
+  std::string batch_format = "bvh";
 };
 
 // The exit statuses of a batch (docs/cli.md "Exit status").
@@ -73,6 +74,10 @@ void add_batch_options(CLI::App& app, SynthArgs& a) {
   app.add_option("--out-dir", a.out_dir,
                  "with --queries: the folder of the motions (NAME.bvh per query: its id, "
                  "characters outside [A-Za-z0-9._-] as '_') and summary.jsonl")
+      ->needs(queries);
+  app.add_option("--format", a.batch_format,
+                 "with --queries: the motions' format, bvh (default), glb (glTF binary) or npz "
+                 "(NumPy arrays): NAME.bvh, NAME.glb or NAME.npz (docs/cli.md \"Motion formats\")")
       ->needs(queries);
   app.add_flag("--reports", a.reports, "with --queries: a REPORT.json per query (NAME.json)")
       ->needs(queries);
@@ -316,6 +321,9 @@ void check_batch_flags(const SynthArgs& a) {
           "--queries", 0,
           std::string("excludes ") + flag + " (a batch writes each query's files to --out-dir)");
   if (a.out_dir.empty()) throw mocap::InputError("--queries", 0, "needs --out-dir DIR");
+  if (a.batch_format != "bvh" && a.batch_format != "glb" && a.batch_format != "npz")
+    throw mocap::InputError("--format", 0,
+                            "expected bvh, glb or npz, got '" + a.batch_format + "'");
 }
 
 // "mocap-synth: N/M queries" on stderr, at most about once a second and
@@ -357,6 +365,7 @@ int run_batch(SynthArgs& a) {
        a.summary_path,
        a.reports,
        a.html_reports,
+       mocap::motion_format("x." + a.batch_format),
        a.force,
        a.queries_path,
        {{"--index", a.index_path}, {"--queries", a.queries_path}, {"--results", a.results_path}}});

@@ -430,7 +430,8 @@ class Synthesis:
     parents; frame_time_s, fps, times; segments (the query frames, partial
     motions and transitions it is made of), chosen (the partial motion used
     per pair), step_energies_J ((F - 1,) g of each step); report() the
-    REPORT.json dict, bvh() the BVH text, write_bvh(path), to_bvh() a Bvh.
+    REPORT.json dict, bvh() the BVH text, write_bvh(path), write(path) by
+    extension (.bvh, .glb, .npz), to_bvh() a Bvh.
     """
 
     def __init__(self, raw):
@@ -460,6 +461,14 @@ class Synthesis:
     def write_bvh(self, path):
         """Writes the motion as BVH, as mocap-synth --out does."""
         self._raw.write_bvh(os.fspath(path))
+
+    def write(self, path):
+        """Writes the motion in the format its extension names, as
+        mocap-synth --out does (docs/cli.md "Motion formats"): .glb (glTF
+        binary: Blender, three.js, Unity, Godot), .npz (NumPy arrays:
+        positions, rotations, translations, names, parents, fps), any other
+        BVH. An existing file at `path` is replaced."""
+        self._raw.write_motion(os.fspath(path))
 
     def bvh(self):
         """The motion's BVH text (the file write_bvh writes)."""

@@ -353,6 +353,15 @@ void bind_synthesis_outputs(SynthesisClass& c) {
        },
        py::arg("path"), "Writes the motion as BVH (mocap-synth's writer).")
       .def(
+          "write_motion",
+          [](const Synthesis& s, const std::filesystem::path& path) {
+            py::gil_scoped_release release;
+            write_motion_file(s.result, path);
+          },
+          py::arg("path"),
+          "Writes the motion in the format its extension names (.glb, .npz, else BVH), as "
+          "mocap-synth --out does.")
+      .def(
           "report_json",
           [](const Synthesis& s, const std::string& query_file, const std::string& bvh_path) {
             return synth_report_json(s.clips, s.query, query_file, s.ranked, s.result, s.options,

@@ -11,6 +11,11 @@
 #include "mocap/player/player.hpp"
 
 namespace mocap {
+
+namespace {
+// The file extension of each MotionFormat, in its order.
+constexpr const char* kMotionExtensions[] = {".bvh", ".glb", ".npz"};
+}  // namespace
 namespace {
 
 bool name_byte(char c) {
@@ -76,7 +81,8 @@ void SynthBatchFolder::check_query_files(QueryFiles& f) const {
   if (folder_.reports) outputs.emplace_back("--out-dir", f.report);
   if (folder_.html_reports) outputs.emplace_back("--out-dir", f.html);
   check_outputs_and_inputs(outputs, folder_.inputs);
-  f.bvh_out = checked_output_path(f.bvh, OutputKind::bvh, folder_.force, "--out-dir");
+  f.bvh_out =
+      checked_output_path(f.bvh, motion_output_kind(folder_.format), folder_.force, "--out-dir");
   if (folder_.reports)
     f.report_out = checked_output_path(f.report, OutputKind::json, folder_.force, "--out-dir");
   if (folder_.html_reports)
@@ -102,7 +108,7 @@ void SynthBatchFolder::name(std::vector<SynthBatchQuery>& queries) {
       continue;
     }
     QueryFiles& f = files_[i];
-    f.bvh = folder_.dir / (name + ".bvh");
+    f.bvh = folder_.dir / (name + kMotionExtensions[static_cast<int>(folder_.format)]);
     f.report = folder_.dir / (name + ".json");
     f.html = folder_.dir / (name + ".html");
     try {
@@ -120,7 +126,8 @@ std::string SynthBatchFolder::made_line(const SynthBatchDone& done, const QueryF
   nlohmann::ordered_json j;
   j["id"] = done.query->id;
   j["line"] = done.query->line;
-  j["bvh"] = files.bvh.string();
+  if (folder_.format == MotionFormat::bvh) j["bvh"] = files.bvh.string();
+  j["motion"] = files.bvh.string();
   if (folder_.reports) j["report"] = files.report.string();
   if (folder_.html_reports) j["html"] = files.html.string();
   j["frames"] = r.frames.size();
@@ -147,7 +154,7 @@ void SynthBatchFolder::write(const SynthBatchDone& done) {
   if (!error) try {
       const QueryFiles& f = files_.at(done.index);
       const SynthResult& r = done.motion->result;
-      write_motion_bvh(r, f.bvh_out);
+      write_motion_file(r, f.bvh_out);
       const double ms =
           done.synth_ms +
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -111,7 +111,7 @@ for l in two:
     if l["id"] in ("bad-joint", "missing-bvh"):
         assert set(l) == {"id", "line", "error"}, l
         continue
-    assert list(l) == ["id", "line", "bvh", "report", "html", "frames", "duration_s",
+    assert list(l) == ["id", "line", "bvh", "motion", "report", "html", "frames", "duration_s",
                        "measures", "time_ms"], list(l)
     assert l["bvh"].endswith(".bvh") and l["report"].endswith(".json"), l
     assert list(l["measures"]) == ["w_J", "unsupported_J", "no_contact_ratio",
@@ -121,7 +121,7 @@ timed = two[2]
 assert abs(timed["duration_s"] - 1.0) < 1e-3, timed
 for a, b in zip(one, two):
     for x in (a, b):
-        for k in ("time_ms", "bvh", "report", "html"):
+        for k in ("time_ms", "bvh", "motion", "report", "html"):
             x.pop(k, None)
     assert a == b, (a, b)
 EOF
@@ -173,4 +173,25 @@ grep -q "empty.jsonl: holds no query" "$tmp/err.txt" || fail "unclear: $(cat "$t
 "$synth" --index "$tmp/index.h5" --queries "$tmp/empty.jsonl" --out-dir "$tmp/be" --allow-empty \
   -q >/dev/null || fail "--allow-empty refused an empty batch"
 [ -f "$tmp/be/summary.jsonl" ] && [ ! -s "$tmp/be/summary.jsonl" ] || fail "no empty summary"
+# --format glb / npz: NAME.glb / NAME.npz, byte for byte the single run's
+# --out of that extension; the summary names them under "motion" (and has
+# no "bvh"); a bad format is a usage error.
+expect_usage "--format" --queries "$batch" --out-dir "$tmp/bx" --format fbx
+for fmt in glb npz; do
+  rc=0
+  "$synth" --index "$tmp/index.h5" --queries "$batch" --out-dir "$tmp/b-$fmt" --format "$fmt" -q \
+    >/dev/null 2>&1 || rc=$?
+  [ "$rc" = 1 ] || fail "--format $fmt exited $rc"
+  id="${good[0]}"
+  n="$(name "$id")"
+  "$synth" --index "$tmp/index.h5" --query "$batch" --id "$id" --out "$tmp/single-$n.$fmt" >/dev/null
+  cmp -s "$tmp/single-$n.$fmt" "$tmp/b-$fmt/$n.$fmt" || fail "$id: the batch's .$fmt is not the single run's"
+  [ ! -e "$tmp/b-$fmt/$n.bvh" ] || fail "--format $fmt wrote a BVH"
+  /usr/bin/python3 - "$tmp/b-$fmt/summary.jsonl" "$fmt" <<'PY' || fail "--format $fmt: summary"
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1])]
+made = [l for l in lines if "error" not in l]
+assert made and all(l["motion"].endswith("." + sys.argv[2]) and "bvh" not in l for l in made), made
+PY
+done
 echo "OK"

@@ -177,3 +177,24 @@ def test_motion_arrays(index, data_dir):
     assert bvh.frame_count == F and bvh.joint_names == motion.joint_names
     assert np.allclose(bvh.joint_positions(unit=walk.unit), motion.joint_positions, atol=1e-6)
     assert "data-figure" in motion.report_html()
+
+
+def test_write_by_extension(index, data_dir, scratch):
+    # write(path) as mocap-synth --out: .npz arrays equal the motion's own
+    # world positions, .glb is glTF binary, anything else the BVH write_bvh writes.
+    motion = index.synthesize(example_query(data_dir))
+    npz, glb, bvh = (os.path.join(scratch, "m." + e) for e in ("npz", "glb", "bvh"))
+    motion.write(npz)
+    motion.write(glb)
+    motion.write(bvh)
+    with np.load(npz) as z:
+        names = [str(n) for n in z["names"]]
+        assert z["positions"].shape == (motion.frame_count, len(names), 3)
+        assert abs(float(z["fps"]) - 1.0 / motion.frame_time_s) < 1e-9
+        for j, name in enumerate(motion.joint_names):
+            k = names.index(name)
+            assert np.allclose(z["positions"][:, k], motion.joint_positions[:, j], atol=1e-4), name
+    with open(glb, "rb") as f:
+        assert f.read(4) == b"glTF"
+    with open(bvh, encoding="utf-8") as f:
+        assert f.read() == motion.bvh()

@@ -1,6 +1,7 @@
 #pragma once
 // The files of a batch synthesis in one folder (mocap-synth --queries
-// --out-dir DIR; docs/cli.md "mocap-synth"): per query DIR/NAME.bvh, and
+// --out-dir DIR; docs/cli.md "mocap-synth"): per query DIR/NAME.bvh (or
+// .glb, .npz: --format, docs/cli.md "Motion formats"), and
 // with reports DIR/NAME.json and DIR/NAME.html; at the end the summary,
 // one JSON line per query in batch order.
 //
@@ -11,7 +12,8 @@
 // summary path are checked before any work.
 //
 // Summary line (keys in this order):
-//   {"id", "line", "bvh", "report" (with reports), "html" (with HTML
+//   {"id", "line", "bvh" (BVH batches), "motion" (the motion file, any
+//    format), "report" (with reports), "html" (with HTML
 //    reports), "frames", "duration_s" ((frames - 1) x frame time, seconds),
 //    "measures": {"w_J", "unsupported_J", "no_contact_ratio",
 //    "peak_angular_speed_radps" (the whole motion as one transition,
@@ -30,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "mocap/common/io/motion_file.hpp"
 #include "mocap/common/motion/clip_source.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/synth/synth_batch.hpp"
@@ -53,6 +56,8 @@ struct SynthBatchFolderOptions {
   /// (synth_report_html, with the 3D player when its three.js copy is found).
   bool reports = false;
   bool html_reports = false;
+  /// The motions' format (--format): NAME.bvh, NAME.glb or NAME.npz.
+  MotionFormat format = MotionFormat::bvh;
   /// Replace files of another kind (output_path.hpp).
   bool force = false;
   /// The batch file, as the reports' query.file names it.
