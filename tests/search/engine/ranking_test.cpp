@@ -148,9 +148,8 @@ TEST(Ranking, DeeperLooksEqualRankingEveryMatch) {
         std::vector<SearchResult> reference = all;
         rank_results(reference, policy, top);
         for (std::size_t asked = top; asked <= 2 * n + top; asked *= 2) {
-          std::vector<SearchResult> fetched(all.begin(),
-                                            all.begin() + static_cast<std::ptrdiff_t>(
-                                                              std::min(asked, all.size())));
+          std::vector<SearchResult> fetched(
+              all.begin(), all.begin() + static_cast<std::ptrdiff_t>(std::min(asked, all.size())));
           if (!ranking_settled(fetched, asked, policy, top)) continue;
           settled_early += asked < all.size();
           rank_results(fetched, policy, top);
