@@ -222,6 +222,10 @@ py::dict result_dict(const SearchResult& r) {
   d["h_in_J"] = r.h_in_J;
   d["h_out_J"] = r.h_out_J;
   d["path_cost_J"] = r.path_cost_J;
+  if (r.context) {
+    d["context_in_J"] = r.context_in_J;
+    d["context_out_J"] = r.context_out_J;
+  }
   return d;
 }
 

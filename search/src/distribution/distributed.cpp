@@ -22,8 +22,9 @@ json result_json(const SearchResult& r) {
     from.push_back({c.name, c.residual, c.tolerance, c.metres});
   for (const ConstraintResidual& c : r.residuals_to)
     to.push_back({c.name, c.residual, c.tolerance, c.metres});
-  return {r.rank,    r.clip_index, r.clip,    labels,        r.start_frame, r.end_frame,
-          r.score_J, r.h_in_J,     r.h_out_J, r.path_cost_J, from,          to};
+  return {r.rank,      r.clip_index, r.clip,    labels,         r.start_frame,
+          r.end_frame, r.score_J,    r.h_in_J,  r.h_out_J,      r.path_cost_J,
+          from,        to,           r.context, r.context_in_J, r.context_out_J};
 }
 
 SearchResult result_from(const json& j) {
@@ -43,6 +44,9 @@ SearchResult result_from(const json& j) {
       (side == 10 ? r.residuals_from : r.residuals_to)
           .push_back({x.at(0).get<std::string>(), x.at(1).get<double>(), x.at(2).get<double>(),
                       x.at(3).get<bool>()});
+  r.context = j.at(12).get<bool>();
+  r.context_in_J = j.at(13).get<double>();
+  r.context_out_J = j.at(14).get<double>();
   return r;
 }
 

@@ -234,6 +234,10 @@ std::string query_outcome_json(const QueryOutcome& o) {
       rj["h_in_J"] = r.h_in_J;
       rj["h_out_J"] = r.h_out_J;
       rj["path_cost_J"] = r.path_cost_J;
+      if (r.context) {
+        rj["context_in_J"] = r.context_in_J;
+        rj["context_out_J"] = r.context_out_J;
+      }
       if (!r.residuals_from.empty() || !r.residuals_to.empty()) add_verdicts(r, rj);
       pj["results"].push_back(std::move(rj));
     }

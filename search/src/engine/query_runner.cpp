@@ -17,6 +17,7 @@
 
 #include "bounds/partial_bounds.hpp"
 #include "query/relative_frames.hpp"
+#include "scan/context_energy.hpp"
 #include "scan/frame_energy.hpp"
 #include "scan/subtree_kernel.hpp"
 
@@ -113,6 +114,8 @@ void QueryRunner::prepare() {
         auto& pair = body_[k].emplace_back();
         pair_body_frames(q_, h, resolved_[k][h], resolved_[k][h + 1], skeletons_[k]->tables,
                          q_.transition_time_s, pair[0], pair[1]);
+        pair[0].context = pair[0].context_before.get();
+        pair[1].context = pair[1].context_after.get();
       }
     relative_bounds_.assign(skeletons_.size(), {});
     root_bounds_.assign(skeletons_.size(), {});
@@ -145,6 +148,8 @@ void QueryRunner::prepare_caches() {
   if (q_.relative()) return;
   for (std::size_t k = 0; k < skeletons_.size(); ++k)
     for (std::size_t i = 1; i + 1 < q_.frames.size(); ++i) {
+      // A frame with context scores otherwise as Q^h+1 and as Q^h: not shared.
+      if (q_.frames[i].context_before > 0 || q_.frames[i].context_after > 0) continue;
       const std::size_t n = skeletons_[k]->tables.sk->frame_count;
       cache_[k][i].values.reset(new double[n]);
       cache_[k][i].done.assign(n, 0);
@@ -630,10 +635,36 @@ void QueryRunner::add_residuals(PairResults& pair) const {
   }
 }
 
+void QueryRunner::add_context_energies(PairResults& pair) const {
+  for (SearchResult& r : pair.results) {
+    const IndexClip& clip = engine_.index->clips()[r.clip_index];
+    const SkeletonData& skeleton = *skeletons_[clip.skeleton];
+    const FrameContext* in = resolved_[clip.skeleton][pair.from].context_before.get();
+    const FrameContext* out = resolved_[clip.skeleton][pair.to].context_after.get();
+    r.context = in != nullptr || out != nullptr;
+    if (in != nullptr) {
+      r.context_in_J = in->weight * context_energy(*in, skeleton, *engine_.index,
+                                                   clip.frame_start + r.start_frame);
+      r.h_in_J -= r.context_in_J;
+    }
+    if (out != nullptr) {
+      r.context_out_J = out->weight * context_energy(*out, skeleton, *engine_.index,
+                                                     clip.frame_start + r.end_frame);
+      r.h_out_J -= r.context_out_J;
+    }
+  }
+}
+
 PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
   // A frame weighted below 1 scores below the bounds, which bound the
   // unweighted h: such a pair is evaluated whole (brute, the same values).
   if (q_.frames[h].weight < 1.0 || q_.frames[h + 1].weight < 1.0) mode = SearchMode::brute;
+  // Context: Q^h's frames before it, Q^h+1's after it (docs/queries.md).
+  for (auto& frames : resolved_) {
+    for (ResolvedFrame& f : frames) f.context = nullptr;
+    frames[h].context = frames[h].context_before.get();
+    frames[h + 1].context = frames[h + 1].context_after.get();
+  }
   PairSearch search(*this, h, mode);
   search.collect_candidates(mode);
   search.form_groups();

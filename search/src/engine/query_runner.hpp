@@ -78,6 +78,10 @@ class QueryRunner {
   // named constraints of the pair's query frames measured on F^s and F^e.
   void add_residuals(PairResults& pair) const;
 
+  // Each result's context energies (SearchResult::context_in_J / _out_J),
+  // moved out of h_in_J and h_out_J; nothing for frames without context.
+  void add_context_energies(PairResults& pair) const;
+
  private:
   friend class PairSearch;
 

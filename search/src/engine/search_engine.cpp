@@ -161,6 +161,7 @@ std::vector<SearchResult> settled_results(const Index& index, search_detail::Que
     if (!reuse) add_stats(stats, run.stats);
     PairResults res = pair_results(index, h, run);
     runner.add_residuals(res);
+    runner.add_context_energies(res);
     const std::size_t fetched = res.results.size();
     std::erase_if(res.results,
                   [&](const SearchResult& r) { return exclude.count(r.clip_index) > 0; });
@@ -184,6 +185,7 @@ PairResults ranked_pair(const Index& index, search_detail::QueryRunner& runner, 
   const Query& q = runner.query();
   PairResults res = pair_results(index, h, first);
   runner.add_residuals(res);
+  runner.add_context_energies(res);
   if (!runner.named_constraints(h)) return res;
   const bool masked = q.met != MetPolicy::any;
   res.results = settled_results(index, runner, h, mode, masked ? MetPolicy::only : MetPolicy::any,

@@ -234,12 +234,32 @@ std::filesystem::path resolve(const std::filesystem::path& base, const std::stri
   return out.is_relative() ? base / out : out;
 }
 
+// "context": {"before": K, "after": K, "weight": W} of a file frame.
+void context_entry(const Ctx& c, const json& v, const std::string& path, QueryFrameSpec& f) {
+  if (!v.is_object() || v.empty())
+    c.fail(path, "expected an object {\"before\": 10, \"after\": 0, \"weight\": 1}");
+  check_keys(c, v, path, {"before", "after", "weight"});
+  if (!f.only.empty())
+    c.fail(path, "only with a whole frame (no \"only\"): the context compares whole bodies");
+  for (const char* key : {"before", "after"}) {
+    if (!v.contains(key)) continue;
+    const json& k = v[key];
+    if (!k.is_number_integer() || k.get<long long>() < 0 ||
+        k.get<long long>() > static_cast<long long>(kMaxContextFrames))
+      c.fail(path + "." + key, "expected a number of frames from 0 to " +
+                                   std::to_string(kMaxContextFrames) + ", got " + json_text(k));
+    (std::string(key) == "before" ? f.context_before : f.context_after) =
+        static_cast<std::size_t>(k.get<long long>());
+  }
+  if (v.contains("weight")) f.context_weight = *weight(c, v, path);
+}
+
 QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
                            const std::filesystem::path& base_dir) {
   if (!v.is_object()) c.fail(path, "expected an object, got " + type_name(v));
   check_keys(c, v, path,
              {"root_position", "root_heading_deg", "joints", "angles", "effectors", "weight", "bvh",
-              "amc", "asf", "amc_fps", "frame", "only", "time_s"});
+              "amc", "asf", "amc_fps", "frame", "only", "time_s", "context"});
   QueryFrameSpec f;
   if (v.contains("weight")) f.weight = *weight(c, v, path);
   for (const char* key : {"angles", "effectors"}) {
@@ -327,9 +347,13 @@ QueryFrameSpec query_frame(const Ctx& c, const json& v, const std::string& path,
       c.fail(path + (v.contains("angles") ? ".angles" : ".effectors"),
              "a whole bvh frame gives every joint: with angles or effectors, use \"only\" to keep "
              "some DOFs of the file");
+    if (v.contains("context")) context_entry(c, v["context"], path + ".context", f);
   } else {
     if (v.contains("frame")) c.fail(path + ".frame", "only with bvh");
     if (v.contains("only")) c.fail(path + ".only", "only with bvh");
+    if (v.contains("context"))
+      c.fail(path + ".context",
+             "only with a whole bvh or amc frame: the context is the file's frames around it");
   }
   if (f.empty())
     c.fail(path,

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -453,8 +454,9 @@ std::shared_ptr<const QueryBvhFile> query_frame_file(const Query& q, std::size_t
   if (bvh) return bvh;
   try {
     // The +-2 frame window below is all that is read of the file.
+    const std::size_t radius = std::max<std::size_t>({2, spec.context_before, spec.context_after});
     bvh = spec.asf ? cache.get_amc(*spec.bvh, *spec.asf, 1.0 / spec.amc_fps)
-                   : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, 2);
+                   : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, radius);
   } catch (const InputError& e) {
     fail(q, field(i) + (spec.asf ? ".amc" : ".bvh"), e.what());
   }
@@ -577,6 +579,57 @@ void set_only_dofs(const Query& q, std::size_t i, const StateView& v, std::size_
   }
 }
 
+// Rows of body-frame segment COM velocities of the file's frames [f0, f1]
+// (posed on the index skeleton): row j the difference between frames
+// `from(j)` and `from(j) + 1` over the frame time, turned by -heading.
+void context_rows(const Skeleton& skel, const DynamicsModel& model, const QueryBvhFile& bvh,
+                  const RetargetMap* rig, const std::vector<int>& map, std::size_t f0,
+                  std::size_t f1, std::size_t rows, bool before, double heading,
+                  std::vector<Eigen::Vector3d>& out) {
+  WindowBuffers& b = window_buffers();
+  (void)pose_file_window(skel, bvh, rig, map, f0, f1, f0, b);
+  const std::size_t nj = skel.joint_count();
+  const double dt = bvh.motion.frame_time_s;
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(-heading, Eigen::Vector3d::UnitY()).matrix();
+  auto com = [&](std::size_t f, int j) {
+    const std::size_t at = (f - f0) * nj + static_cast<std::size_t>(j);
+    return Eigen::Vector3d(b.positions[at] +
+                           b.rotations[at] * model.coms_local_m[static_cast<std::size_t>(j)]);
+  };
+  out.clear();
+  for (std::size_t row = 0; row < rows; ++row) {
+    // Before: the difference ending at a - row; after: the one starting at b + row.
+    const std::size_t lo = before ? f1 - row - 1 : f0 + row;
+    for (const int j : model.segments) out.push_back(turn * (com(lo + 1, j) - com(lo, j)) / dt);
+  }
+}
+
+// The context velocities of query frame i (a whole file frame), if asked.
+void set_context(const Query& q, std::size_t i, const Skeleton& skel, const DynamicsModel& model,
+                 const QueryBvhFile& bvh, const RetargetMap* rig, const std::vector<int>& map,
+                 double heading, ResolvedQueryPose& out) {
+  const QueryFrameSpec& spec = q.frames[i];
+  const std::size_t a = spec.bvh_frame, count = bvh.file_frame_count;
+  const std::string path = field(i) + ".context";
+  out.context_frame_time_s = bvh.motion.frame_time_s;
+  if (spec.context_before > 0) {
+    if (a < spec.context_before)
+      fail(q, path + ".before",
+           fmt::format("{} frames before frame {} of {}: the file has {} before it (0-based)",
+                       spec.context_before, a, spec.bvh->string(), a));
+    context_rows(skel, model, bvh, rig, map, a - spec.context_before, a, spec.context_before, true,
+                 heading, out.context_before_mps);
+  }
+  if (spec.context_after > 0) {
+    if (a + spec.context_after >= count)
+      fail(q, path + ".after",
+           fmt::format("{} frames after frame {} of {}: the file has {} after it (0-based)",
+                       spec.context_after, a, spec.bvh->string(), count - 1 - a));
+    context_rows(skel, model, bvh, rig, map, a, a + spec.context_after, spec.context_after, false,
+                 heading, out.context_after_mps);
+  }
+}
+
 // Query frame i given by a BVH or AMC file frame. Returns true for a whole
 // frame (`out` complete: no constraints), false when "only" picks DOFs.
 bool resolve_file_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
@@ -621,6 +674,7 @@ bool resolve_file_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
   }
   if (spec.only.empty()) {
     set_full_pose(v, skel.joint_count(), r, map, locals_at_frame, out);
+    set_context(q, i, skel, model, *bvh, rig.get(), map, heading_rad(v.rotations[r]), out);
     return true;
   }
   set_only_dofs(q, i, v, r, m.skeleton, skel, map, locals_at_frame, out.given);
@@ -701,6 +755,31 @@ void solve_given(const ResolvedQueryPose& pose, const DynamicsModel& model,
 
 namespace search_detail {
 
+namespace {
+
+// One side's FrameContext of a whole file frame, or null when not asked.
+std::shared_ptr<const FrameContext> frame_context(const QueryFrameSpec& spec,
+                                                  const DynamicsModel& model,
+                                                  const std::vector<std::uint8_t>& compared,
+                                                  const ResolvedQueryPose& pose, bool before) {
+  const std::vector<Eigen::Vector3d>& rows =
+      before ? pose.context_before_mps : pose.context_after_mps;
+  if (rows.empty()) return nullptr;
+  auto c = std::make_shared<FrameContext>();
+  c->rows = rows;
+  c->steps = before ? spec.context_before : spec.context_after;
+  c->frame_time_s = pose.context_frame_time_s;
+  c->before = before;
+  c->weight = spec.context_weight;
+  for (const int b : model.segments) {
+    const auto j = static_cast<std::size_t>(b);
+    c->masses_kg.push_back(compared.empty() || compared[j] ? model.masses_kg[j] : 0.0);
+  }
+  return c;
+}
+
+}  // namespace
+
 ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
                             const DynamicsModel& model, double transition_time_s,
                             double index_transition_time_s, BvhCache& cache,
@@ -730,6 +809,8 @@ ResolvedFrame resolve_frame(const Query& q, std::size_t i, const IndexSkeleton& 
     kd_feature(model, out.state.view(), index_transition_time_s, out.kd.data());
     out.root_m = out.state.joint_positions_m[static_cast<std::size_t>(model.root())];
     out.given = {true, true, true};
+    out.context_before = frame_context(q.frames[i], model, out.compared, pose, true);
+    out.context_after = frame_context(q.frames[i], model, out.compared, pose, false);
     return out;
   }
   PartialPoseSpec& partial = pose.given;

@@ -30,6 +30,27 @@ using BvhCache = QueryBvhCache;
 /// How a query frame is evaluated against database frames.
 enum class FrameKind { full, root_only, partial };
 
+/// A key pose's context on one side (docs/queries.md "Context frames"):
+/// what the context energy compares a database frame's neighbours with.
+struct FrameContext {
+  /// `steps` rows of one body-frame segment COM velocity (m/s) per segment
+  /// of the model (model.segments order): ResolvedQueryPose's
+  /// context_before_mps or context_after_mps.
+  std::vector<Eigen::Vector3d> rows;
+  std::size_t steps = 0;
+  /// The query file's frame time (s): row j is j of them from the key pose.
+  double frame_time_s = 0.0;
+  /// Before the key pose (its frame starts a pair: backward differences
+  /// ending at F^s and earlier) or after it (it ends a pair: forward
+  /// differences from F^e on).
+  bool before = true;
+  /// The multiplier of the context energy (QueryFrameSpec::context_weight).
+  double weight = 1.0;
+  /// Per segment: its mass (kg) times 1 where compared (a frame from
+  /// another rig compares only its mapped segments), else 0.
+  std::vector<double> masses_kg;
+};
+
 /// One query frame on one skeleton.
 struct ResolvedFrame {
   FrameKind kind = FrameKind::partial;
@@ -97,6 +118,12 @@ struct ResolvedFrame {
   double weight = 1.0;
   /// The query frame's ResolvedQueryPose as solve_given reads it (solve only).
   std::shared_ptr<const ResolvedQueryPose> pose;
+  /// full frames with "context": each side's context (null: none given),
+  /// shared by the frame's copies; `context` is the side the pair being
+  /// searched reads (the runner sets it: before for Q^h, after for Q^h+1),
+  /// null for none. evaluate_h adds its context energy to h.
+  std::shared_ptr<const FrameContext> context_before, context_after;
+  const FrameContext* context = nullptr;
 };
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`

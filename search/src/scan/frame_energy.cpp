@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "query/relative_frames.hpp"
+#include "scan/context_energy.hpp"
 #include "scan/subtree_kernel.hpp"
 
 namespace mocap::search_detail {
@@ -150,13 +151,11 @@ void mask_missed(const ResolvedFrame& q, const SkeletonData& skeleton, const Ind
   }
 }
 
-}  // namespace
-
-// h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
-void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
-                std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
-                const std::optional<GroundPose>& place, const std::uint8_t* skip,
-                const HScanView* tile) {
+// h(Q -> F) for skeleton frames [g0, g1) into out, without the context energy.
+void evaluate_h_alone(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index,
+                      double t, std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
+                      const std::optional<GroundPose>& place, const std::uint8_t* skip,
+                      const HScanView* tile) {
   const SkeletonTables& tables = skeleton.tables;
   const std::size_t n = g1 - g0;
   if (n == 0) return;
@@ -233,6 +232,18 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
     out[i] = partial_approximate_energy(tables.model, *pq, r, t, scratch.state) * q.weight;
   }
   if (q.require_met) mask_missed(q, skeleton, index, g0, n, out, scratch, skip);
+}
+
+}  // namespace
+
+// h(Q -> F) for skeleton frames [g0, g1) into out (frame_energy.hpp).
+void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Index& index, double t,
+                std::size_t g0, std::size_t g1, double* out, Scratch& scratch,
+                const std::optional<GroundPose>& place, const std::uint8_t* skip,
+                const HScanView* tile) {
+  evaluate_h_alone(q, skeleton, index, t, g0, g1, out, scratch, place, skip, tile);
+  // Context frames are whole frames, evaluated on every frame of the range.
+  if (q.context != nullptr) add_context_energy(*q.context, skeleton, index, g0, g1, out, nullptr);
 }
 
 FrameRef database_frame(const SkeletonData& skeleton, const Index& index, std::size_t g,

@@ -69,6 +69,9 @@ struct EffectorSpec {
   std::optional<double> weight;
 };
 
+/// The most context frames a query frame may give on either side.
+inline constexpr std::size_t kMaxContextFrames = 120;
+
 /// One query frame, as written.
 struct QueryFrameSpec {
   /// Root (pelvis) position per axis, metres, world (or relative, see Query::relative).
@@ -99,6 +102,14 @@ struct QueryFrameSpec {
   /// "weight" (> 0, default 1): multiplier of this frame's h terms in the
   /// scores (docs/queries.md "Weights").
   double weight = 1.0;
+  /// "context": {"before": K, "after": K, "weight": W} (whole BVH or AMC
+  /// frames only; docs/queries.md "Context frames"): how many of the file's
+  /// frames before this key pose (read where it starts a pair) and after it
+  /// (where it ends one) the ranking compares with a partial motion's own
+  /// (0..kMaxContextFrames; 0 = none), and the multiplier (> 0, default 1)
+  /// of that context energy.
+  std::size_t context_before = 0, context_after = 0;
+  double context_weight = 1.0;
   /// The first invalid joint value of `joints` (e.g. euler_deg without its
   /// order), as parsing reported it (query file and line); that joint is
   /// kept by name only (identity rotation, no direction). Resolution reports it once every joint

@@ -155,6 +155,16 @@ struct ResolvedQueryPose {
   std::vector<std::uint8_t> keep_rates;
   /// The frame's "weight": multiplier of its h.
   double weight = 1.0;
+  /// from_bvh with "context" (QueryFrameSpec::context_before / _after): the
+  /// file's segment COM velocities around the key pose, m/s, in the key
+  /// pose's body frame (turned by minus its root heading), on the index
+  /// skeleton with `model`'s body: K rows of model.segments.size() vectors
+  /// each. Before: row j the backward difference at file frame a - j (reading
+  /// frames a - K .. a, none after the key pose); after: row j the forward
+  /// difference at frame b + j (reading b .. b + K). Empty: none given.
+  std::vector<Eigen::Vector3d> context_before_mps, context_after_mps;
+  /// The file's frame time (s): the spacing of the context rows.
+  double context_frame_time_s = 0.0;
   /// from_bvh: the file's skeleton is another rig than the index skeleton
   /// (retarget.hpp same_rig): the frames were retargeted onto it
   /// (make_retarget_map, retarget_pose; docs/queries.md "Across rigs"), so

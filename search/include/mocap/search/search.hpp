@@ -122,6 +122,14 @@ struct SearchResult {
   double h_in_J = 0.0;          // h(Q^h -> F^s)
   double h_out_J = 0.0;         // h(F^e -> Q^h+1)
   double path_cost_J = 0.0;     // P[e] - P[s], the clip's own energy (lambda not applied)
+  /// The context energies in score_J (docs/queries.md "Context frames"),
+  /// weighted: Q^h's frames before it against F^s and before, Q^h+1's after
+  /// it against F^e and after; 0 without context. h_in_J and h_out_J do not
+  /// include them.
+  double context_in_J = 0.0;
+  double context_out_J = 0.0;
+  /// A frame of the pair gives context (the JSON then has both fields).
+  bool context = false;
   /// How far F^s misses each named constraint of Q^h (residuals_from) and
   /// F^e each of Q^h+1 (residuals_to), by name: metres for effectors,
   /// degrees for joint rotations, directions and angles
