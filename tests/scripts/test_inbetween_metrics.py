@@ -451,3 +451,18 @@ def test_script_forward_kinematics_equals_the_per_frame_form(tmp_path):
     assert b.values.shape == (3, 15)
     hips, joints = bench.scored_joints(b)
     assert (hips, joints) == (0, [0, 1, 2])
+
+
+def test_method_query_sets_context_and_transition_time_on_a_copy():
+    loader = SourceFileLoader("inbetween_benchmark", os.path.join(SCRIPTS, "inbetween-benchmark"))
+    bench = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(bench)
+    query = {"frames": [{"bvh": "t.bvh", "frame": 40, "time_s": 0},
+                        {"bvh": "t.bvh", "frame": 71, "time_s": 1.0}]}
+    assert bench.method_query(query, ["--no-warp"]) is query
+    q = bench.method_query(query, ["context=10", "context_weight=2", "transition_time=0.1"])
+    assert q["frames"][0]["context"] == {"before": 10, "weight": 2.0}
+    assert "context" not in q["frames"][1]
+    assert q["transition_time"] == 0.1
+    assert "context" not in query["frames"][0] and "transition_time" not in query
+    assert "context" not in bench.method_query(query, ["context=0"])["frames"][0]
