@@ -411,22 +411,39 @@ synth_detail::WarpSource warp_source(const TargetPieces& source, const SearchRes
   return src;
 }
 
+// Output frames a..b with their swinging feet lifted off the ground
+// (synth_detail::lift_moving_feet); a and b are not changed.
+void lift_pair_feet(SynthResult& res, const RangeOfMotion& rom, std::size_t a, std::size_t b) {
+  if (b < a + 2 || b >= res.frames.size()) return;
+  const auto first = res.frames.begin() + static_cast<std::ptrdiff_t>(a);
+  std::vector<SynthFrame> span(first, res.frames.begin() + static_cast<std::ptrdiff_t>(b + 1));
+  synth_detail::lift_moving_feet(*res.skeleton, &rom, span, res.frame_time_s);
+  std::copy(span.begin() + 1, span.end() - 1, first + 1);
+}
+
 // SynthOptions::warp_fill: each timed pair with a partial motion is filled
 // by a clip played over the whole pair (warp_source) and bent onto both key
 // poses (warp_fill.hpp): of the pair's candidates (warp_candidates), the
 // one with the smallest warp (warp_size_m), placed by balanced_placement.
-// The pair's chosen partial motion becomes that one; the transitions'
-// measures are those of the frames now in their place.
+// The pair's chosen partial motion becomes that one. A pair too short for a
+// partial motion keeps its A* frames with their swinging feet lifted
+// (lift_pair_feet). The transitions' measures are those of the frames now
+// in their place.
 void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPieces& source,
                       const ClipSource& clips, const Query& query,
                       const std::vector<PairResults>& ranked, const SynthOptions& options) {
   const SynthSkeleton& sk = *res.skeleton;
+  std::vector<std::uint8_t> changed(res.timing.size(), 0);
   for (std::size_t h = 0; h < res.timing.size(); ++h) {
     PairTiming& t = res.timing[h];
-    if (t.direct || t.piece_frames < 2) continue;
     const std::size_t a = t.key_frame;
     const std::size_t b =
         h + 1 < res.timing.size() ? res.timing[h + 1].key_frame : res.frames.size() - 1;
+    changed[h] = 1;
+    if (t.direct || t.piece_frames < 2) {  // too short for a partial motion: A* frames
+      lift_pair_feet(res, rom, a, b);
+      continue;
+    }
     const bool picked = std::any_of(options.picks.begin(), options.picks.end(),
                                     [&](const Pick& p) { return p.pair == h + 1; });
     const std::vector<SearchResult> candidates =
@@ -462,7 +479,7 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
   for (const MotionSegment& seg : res.segments) {
     if (seg.kind != "transition") continue;
     TransitionReport& tr = res.transitions[k++];
-    if (!res.timing[seg.pair - 1].warped) continue;
+    if (!changed[seg.pair - 1]) continue;
     tr.measures = measure_span(res, rom, seg.first_frame - 1, seg.frame_count + 2);
   }
 }

@@ -1,5 +1,6 @@
 // Warped fills of timed key poses (warp_fill.hpp): the captured span, the
-// displacement map onto both key poses, the contacts held.
+// displacement map onto both key poses, the contacts held, swinging feet
+// lifted off the floor.
 #include "warp_fill.hpp"
 
 #include <algorithm>
@@ -215,6 +216,35 @@ void hold_contacts(const SynthSkeleton& sk, const RangeOfMotion* rom,
   }
 }
 
+void lift_moving_feet(const SynthSkeleton& sk, const RangeOfMotion* rom,
+                      std::vector<SynthFrame>& frames, double dt) {
+  const std::size_t n = frames.size();
+  if (n < 3 || dt <= 0.0) return;
+  const double ground = sk.model.params.ground_height_m;
+  const std::vector<LegChain> legs = leg_chains(sk);
+  std::vector<WorldPose> w(n);
+  for (std::size_t i = 0; i < n; ++i) synth_world_pose(sk, frames[i], w[i]);
+  auto speed = [&](int f, std::size_t a, std::size_t b) {
+    const Eigen::Vector3d d = w[b].positions_m[static_cast<std::size_t>(f)] -
+                              w[a].positions_m[static_cast<std::size_t>(f)];
+    return std::hypot(d.x(), d.z()) / dt;
+  };
+  WorldPose scratch;
+  for (std::size_t i = 1; i + 1 < n; ++i)
+    for (const LegChain& leg : legs) {
+      double deficit = 0.0;
+      for (int f : leg.feet) {
+        if (std::max(speed(f, i - 1, i), speed(f, i, i + 1)) <= kSkatingSpeedMps) continue;
+        const double y = w[i].positions_m[static_cast<std::size_t>(f)].y() - ground;
+        deficit = std::max(deficit, kSkatingHeightM + kFootClearanceM - y);
+      }
+      if (deficit <= 0.0) continue;
+      const auto a = static_cast<std::size_t>(leg.ankle);
+      const Eigen::Vector3d target = w[i].positions_m[a] + Eigen::Vector3d(0.0, deficit, 0.0);
+      plant_leg(sk, rom, leg, target, w[i].rotations[a], frames[i], scratch);
+    }
+}
+
 std::vector<SynthFrame> warp_fill(const SynthSkeleton& sk, const RangeOfMotion* rom,
                                   const WarpSource& src, const SynthFrame& key_a,
                                   const SynthFrame& key_b, std::size_t steps, double dt) {
@@ -224,6 +254,7 @@ std::vector<SynthFrame> warp_fill(const SynthSkeleton& sk, const RangeOfMotion* 
   displace_onto_keys(frames, key_a, key_b);
   keep_foot_heights(sk, rom, captured, frames);
   hold_contacts(sk, rom, captured, frames, dt);
+  lift_moving_feet(sk, rom, frames, dt);
   return frames;
 }
 

@@ -57,8 +57,24 @@ void hold_contacts(const SynthSkeleton& sk, const RangeOfMotion* rom,
                    const std::vector<SynthFrame>& captured, std::vector<SynthFrame>& frames,
                    double dt);
 
-/// The three passes: steps + 1 frames from key_a to key_b (both included,
-/// exactly).
+/// Margin above kSkatingHeightM to which lift_moving_feet raises a foot (m).
+inline constexpr double kFootClearanceM = 0.005;
+
+/// Swinging feet off the ground: in frames 1 .. n-2 of `frames` (dt s
+/// apart), a leg with a foot joint that moves horizontally faster than
+/// kSkatingSpeedMps (from the frame before or to the frame after) while
+/// below kSkatingHeightM + kFootClearanceM above the ground has its ankle
+/// raised by the largest such shortfall (two-bone inverse kinematics, the
+/// ankle's world rotation kept, so no foot joint moves horizontally). A foot
+/// that moves is off the ground, as in the capture; the displacement map and
+/// the contacts' easing otherwise leave swinging toes skimming the floor.
+/// The first and last frames are not changed; fewer than 3 frames, none.
+void lift_moving_feet(const SynthSkeleton& sk, const RangeOfMotion* rom,
+                      std::vector<SynthFrame>& frames, double dt);
+
+/// The passes above in order (captured_span, displace_onto_keys,
+/// keep_foot_heights, hold_contacts, lift_moving_feet): steps + 1 frames
+/// from key_a to key_b (both included, exactly).
 std::vector<SynthFrame> warp_fill(const SynthSkeleton& sk, const RangeOfMotion* rom,
                                   const WarpSource& src, const SynthFrame& key_a,
                                   const SynthFrame& key_b, std::size_t steps, double dt);

@@ -6,13 +6,16 @@
 // joint distance at both ends; the displacement map meets both key
 // poses exactly and moves the middle by the mean of the two offsets; a real
 // walk bent onto key poses 40-57 cm away keeps its low feet as still as the
-// capture does, where the displacement alone drags them.
+// capture does, where the displacement alone drags them; a walk lowered
+// into the floor has its swinging feet lifted off it, no foot joint moved
+// horizontally, the end frames untouched.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
+#include "measures.hpp"
 #include "mocap/synth/synth.hpp"
 #include "synth_fixtures.hpp"
 #include "test_support.hpp"
@@ -206,6 +209,64 @@ TEST(WarpFill, AWalkBentOntoKeyPosesKeepsItsFeetPlanted) {
   EXPECT_GT(drag, own + 0.2) << "the displacement alone drags the planted feet";
   // Measured: 0.02 m captured, 0.78 m dragged, 0.002 m held.
   EXPECT_LT(held, own + 0.05) << own << " " << drag << " " << held;
+}
+
+// Steps of `frames` in which a foot joint skates (step_skating).
+std::size_t skating_steps(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                          double dt) {
+  std::vector<WorldPose> w(frames.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], w[i]);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i)
+    n += step_skating(sk, w[i], w[i + 1], dt).joints > 0 ? 1 : 0;
+  return n;
+}
+
+TEST(WarpFill, LiftMovingFeetLeavesTooShortSpansAlone) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto w = walk(*index, 60.0);
+  std::vector<SynthFrame> two = captured_span(w->sk, w->src, 1);
+  for (SynthFrame& f : two) f.root_position_m.y() -= 0.1;
+  const std::vector<SynthFrame> before = two;
+  lift_moving_feet(w->sk, &w->rom, two, 1.0 / 30.0);
+  ASSERT_EQ(two.size(), before.size());
+  for (std::size_t i = 0; i < two.size(); ++i)
+    EXPECT_EQ(two[i].root_position_m, before[i].root_position_m);
+  std::vector<SynthFrame> empty;
+  lift_moving_feet(w->sk, &w->rom, empty, 1.0 / 30.0);
+  EXPECT_TRUE(empty.empty());
+}
+
+TEST(WarpFill, AWalkLoweredIntoTheFloorHasItsSwingingFeetLifted) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto w = walk(*index, 60.0);
+  const double dt = index->clips()[w->clip].frame_time_s;
+  std::vector<SynthFrame> frames = captured_span(w->sk, w->src, 30);
+  // The body 4 cm lower between the ends: swinging toes skim the floor.
+  for (std::size_t i = 1; i + 1 < frames.size(); ++i) frames[i].root_position_m.y() -= 0.04;
+  const std::vector<SynthFrame> lowered = frames;
+  ASSERT_GT(skating_steps(w->sk, lowered, dt), 3u);
+  lift_moving_feet(w->sk, &w->rom, frames, dt);
+  EXPECT_EQ(skating_steps(w->sk, frames, dt), 0u);
+  EXPECT_LT(largest_joint_angle(frames.front(), lowered.front()), 1e-15);
+  EXPECT_LT(largest_joint_angle(frames.back(), lowered.back()), 1e-15);
+  // Only heights change: every foot joint where it was across the floor.
+  WorldPose a, b;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    synth_world_pose(w->sk, lowered[i], a);
+    synth_world_pose(w->sk, frames[i], b);
+    EXPECT_EQ(frames[i].root_position_m, lowered[i].root_position_m);
+    for (int j : w->sk.foot_joints) {
+      const Eigen::Vector3d d =
+          b.positions_m[static_cast<std::size_t>(j)] - a.positions_m[static_cast<std::size_t>(j)];
+      EXPECT_LT(std::hypot(d.x(), d.z()), 1e-6) << "frame " << i << " joint " << j;
+      EXPECT_GE(d.y(), -1e-9) << "frame " << i << " joint " << j;
+    }
+  }
 }
 
 }  // namespace
