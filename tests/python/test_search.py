@@ -178,3 +178,16 @@ def test_one_query_in_one_dict_out(index, data_dir):
     numeric["frames"][0]["root_position"][1] = None
     plain = json.loads(json.dumps(numeric, default=float))
     assert results(index.search(numeric)) == results(index.search(plain))
+
+
+def test_context_frames_as_mocap_search_gives_them(index, scratch, cli):
+    walk = set1("dataset-1_walk_normal_001")
+    q = {"id": "ctx", "top": 3, "filter": {"exclude": ["*_walk_normal_001*"]},
+         "frames": [{"bvh": walk, "frame": 20, "context": {"before": 5}},
+                    {"bvh": walk, "frame": 50, "context": {"after": 3, "weight": 2}}]}
+    ours = index.search(q, threads=1)
+    assert strip_time(ours) == strip_time(cli([q], scratch, "--threads", "1")[0])
+    for r in ours["pairs"][0]["results"]:
+        assert r["context_in_J"] > 0 and r["context_out_J"] > 0
+    plain = dict(q, frames=[{k: v for k, v in f.items() if k != "context"} for f in q["frames"]])
+    assert "context_in_J" not in index.search(plain)["pairs"][0]["results"][0]

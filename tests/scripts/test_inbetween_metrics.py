@@ -1,5 +1,6 @@
 """LaFAN1's in-betweening measures (scripts/lafan1_metrics.py) and the
-benchmark script's forward kinematics (scripts/inbetween-benchmark).
+benchmark script's forward kinematics and queries (scripts/inbetween-benchmark:
+methods' flags, --strict-keys' excerpts).
 
 Run by Debian's Python 3 with numpy and pytest (scripts/setup); CTest runs it
 as scripts.test_inbetween_metrics (tests/CMakeLists.txt). Without numpy the
@@ -466,3 +467,30 @@ def test_method_query_sets_context_and_transition_time_on_a_copy():
     assert q["transition_time"] == 0.1
     assert "context" not in query["frames"][0] and "transition_time" not in query
     assert "context" not in bench.method_query(query, ["context=0"])["frames"][0]
+
+
+def test_strict_keys_read_past_frames_and_a_lone_target(tmp_path):
+    loader = SourceFileLoader("inbetween_benchmark", os.path.join(SCRIPTS, "inbetween-benchmark"))
+    bench = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(bench)
+    take = tmp_path / "take.bvh"
+    rows = [f"{f} 0 0 0 0 {f * 2}" for f in range(40)]
+    take.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition "
+                    "Zposition Zrotation Xrotation Yrotation\n  End Site\n  {\n    OFFSET 0 1 0\n"
+                    "  }\n}\nMOTION\nFrames: 40\nFrame Time: 0.0333333\n" + "\n".join(rows) + "\n")
+    query = {"id": "q", "frames": [{"bvh": str(take), "frame": 25, "time_s": 0},
+                                   {"bvh": str(take), "frame": 31, "time_s": 0.2}]}
+    q = bench.strict_query(query, str(take), 25, 31, str(tmp_path))
+    assert query["frames"][0]["bvh"] == str(take)  # the original is left alone
+    k1, k2 = q["frames"][0], q["frames"][1]
+    assert (k1["frame"], k2["frame"]) == (10, 0)
+    assert (k1["time_s"], k2["time_s"]) == (0, 0.2)
+    first = open(k1["bvh"]).read().split("Frame Time: 0.0333333\n")
+    assert first[0].endswith("MOTION\nFrames: 11\n")
+    assert first[1].split("\n")[:-1] == rows[15:26]
+    second = open(k2["bvh"]).read()
+    assert "Frames: 1\n" in second and second.endswith(rows[31] + "\n")
+    # Near the start of the take the first excerpt has what there is.
+    q = bench.strict_query(query, str(take), 4, 10, str(tmp_path))
+    assert q["frames"][0]["frame"] == 4
+    assert "Frames: 5\n" in open(q["frames"][0]["bvh"]).read()
