@@ -39,6 +39,7 @@
 #include "mocap/indexer/index_builder.hpp"
 #include "mocap/indexer/inspect.hpp"
 #include "mocap/indexer/sharded_build.hpp"
+#include "style_model_command.hpp"
 
 namespace {
 
@@ -563,11 +564,12 @@ struct IndexerArgs {
   BuildArgs build;
   ConvertArgs convert;
   IndexFileArgs verify, info;
+  mocap::StyleModelArgs style_model;
 };
 
 // The subcommands (the one given is the one that tests true after parsing).
 struct IndexerCommands {
-  CLI::App *inspect, *summary, *build, *convert, *verify, *info;
+  CLI::App *inspect, *summary, *build, *convert, *verify, *info, *style_model;
 };
 
 CLI::App* add_inspect_command(CLI::App& app, InspectArgs& a) {
@@ -684,6 +686,7 @@ IndexerCommands add_indexer_commands(CLI::App& app, IndexerArgs& a) {
   c.convert = add_convert_command(app, a.convert);
   c.verify = add_verify_command(app, a.verify);
   c.info = add_info_command(app, a.info);
+  c.style_model = mocap::add_style_model_command(app, a.style_model);
   // Input limits of the subcommands that read capture or character files.
   mocap::add_input_limit_options(*c.inspect, a.inspect.limits);
   mocap::add_input_limit_options(*c.summary, a.summary.limits);
@@ -713,6 +716,7 @@ int run_indexer(const IndexerCommands& c, const IndexerArgs& a) {
     if (*c.convert) rc = run_convert(a.convert.in, a.convert.out, a.convert.amc, a.convert.force);
     if (*c.verify) rc = run_verify(a.verify.file, a.verify.json);
     if (*c.info) rc = run_info(a.info.file, a.info.json);
+    if (*c.style_model) rc = mocap::run_style_model(a.style_model);
     // What the command printed must have been written (a full disk, a
     // closed pipe, /dev/full): otherwise the run failed.
     std::cout.flush();

@@ -15,6 +15,8 @@
 //   mocap-search export --index I (--clip NAME --frames S-E | --results R.jsonl --id Q
 //                --pair P --rank K) --out X.bvh [--force]
 //       writes one partial motion as BVH (export_command.hpp).
+//   mocap-search style --model STYLE.json FILE.bvh[:S-E] [--index I] [--content C] [--json]
+//       the recognised style of a file or frames of it (style_command.hpp, docs/style.md).
 //   mocap-search view --index INDEX.h5 --results R.jsonl --out R.html [--id Q ...]
 //       the 3D player of a results file (also --html on a search;
 //       mocap/player/player.hpp, docs/cli.md).
@@ -55,6 +57,7 @@
 #include "mocap/search/results_file.hpp"
 #include "mocap/search/results_page.hpp"
 #include "mocap/search/search.hpp"
+#include "style_command.hpp"
 #ifdef MOCAP_HAVE_MPI
 #include "mpi_search.hpp"
 #endif
@@ -468,9 +471,11 @@ struct CommandLine {
   EnergyArgs energy;
   SearchArgs search;
   mocap::ExportArgs exporting;
+  mocap::StyleArgs style;
   ViewArgs view;
   CLI::App* export_command = nullptr;
-  mocap::InputLimitFlags search_limits, energy_limits, view_limits, export_limits;
+  CLI::App* style_command = nullptr;
+  mocap::InputLimitFlags search_limits, energy_limits, view_limits, export_limits, style_limits;
 };
 
 // The CLI11 declaration of the search options and the subcommands.
@@ -481,7 +486,9 @@ void add_command_line(CLI::App& app, CommandLine& c) {
   add_energy_command(app, c.energy);
   add_view_command(app, c.view);
   c.export_command = mocap::add_export_command(app, c.exporting);
+  c.style_command = mocap::add_style_command(app, c.style);
   mocap::add_input_limit_options(app, c.search_limits);
+  mocap::add_input_limit_options(*c.style_command, c.style_limits);
   mocap::add_input_limit_options(*app.get_subcommand("energy"), c.energy_limits);
   mocap::add_input_limit_options(*app.get_subcommand("view"), c.view_limits);
   mocap::add_input_limit_options(*c.export_command, c.export_limits);
@@ -502,6 +509,10 @@ int run_command(const CLI::App& app, const CommandLine& c, const MpiSession* ses
     if (c.export_command->parsed()) {
       mocap::apply_input_limits(c.export_limits);
       return mocap::run_export(c.exporting);
+    }
+    if (c.style_command->parsed()) {
+      mocap::apply_input_limits(c.style_limits);
+      return mocap::run_style(c.style);
     }
     mocap::apply_input_limits(c.search_limits);
     return run_search(c.search, session);

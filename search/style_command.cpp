@@ -1,0 +1,145 @@
+// mocap-search style (style_command.hpp).
+#include "style_command.hpp"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <sstream>
+
+#include "mocap/common/io/bvh.hpp"
+#include "mocap/common/io/index.hpp"
+#include "mocap/common/io/units.hpp"
+#include "mocap/common/motion/style.hpp"
+#include "mocap/common/util/error.hpp"
+#include "mocap/common/util/json_text.hpp"
+
+namespace mocap {
+namespace {
+
+// FILE or FILE:S-E (0-based, inclusive): the path and the range, if any.
+struct FileRange {
+  std::string path;
+  std::optional<std::pair<std::size_t, std::size_t>> frames;
+};
+
+FileRange file_range(const std::string& arg) {
+  const std::size_t colon = arg.rfind(':');
+  if (colon != std::string::npos) {
+    const std::string tail = arg.substr(colon + 1);
+    const std::size_t dash = tail.find('-');
+    std::size_t s = 0, e = 0;
+    const auto num = [](std::string_view t, std::size_t& v) {
+      const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+      return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
+    };
+    if (dash != std::string::npos && num(std::string_view(tail).substr(0, dash), s) &&
+        num(std::string_view(tail).substr(dash + 1), e)) {
+      if (s > e) throw InputError("FILE", 0, "frames " + tail + ": the first is after the last");
+      return {arg.substr(0, colon), std::pair{s, e}};
+    }
+  }
+  return {arg, std::nullopt};
+}
+
+StyleModel read_model(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot read the style model");
+  std::stringstream text;
+  text << in.rdbuf();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text.str());
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path, 0, std::string("not JSON: ") + e.what());
+  }
+  return style_model_from_json(j, path);
+}
+
+}  // namespace
+
+CLI::App* add_style_command(CLI::App& app, StyleArgs& a) {
+  CLI::App* cmd = app.add_subcommand(
+      "style",
+      "The recognised style of a capture file or frames S-E of it, by a model of `mocap-index "
+      "style-model` (docs/style.md): the style, its probability and the others'");
+  cmd->add_option("FILE", a.file, "BVH file, or FILE.bvh:S-E for frames S to E (0-based)")
+      ->required();
+  cmd->add_option("--model", a.model, "Style model (JSON, mocap-index style-model)")->required();
+  cmd->add_option("--index", a.index,
+                  "The index the model was learned from: a FILE that is one of its clips is read "
+                  "from it, and its content label standardises the features");
+  cmd->add_option("--content", a.content,
+                  "The motion's content (a content label of the model's index); default: "
+                  "recognised");
+  cmd->add_option("--up", a.up, "Up axis of the file: y, z or auto (default: detected)");
+  cmd->add_flag("--json", a.json,
+                "Print one JSON object: {\"style\", \"probabilities\": {STYLE: p}, \"content\", "
+                "...}");
+  return cmd;
+}
+
+int run_style(const StyleArgs& a) {
+  const StyleModel model = read_model(a.model);
+  const FileRange fr = file_range(a.file);
+  std::optional<UpAxis> up;
+  if (!a.up.empty() && a.up != "auto") {
+    up = parse_up_axis(a.up);
+    if (!up) throw InputError("--up", 0, "expected y, z or auto, got \"" + a.up + "\"");
+  }
+  std::string content = a.content;
+  std::optional<StyleMotion> motion;
+  std::size_t first = 0;
+  if (!a.index.empty()) {
+    const Index index = Index::open(a.index);
+    std::error_code ec;
+    const std::filesystem::path want = std::filesystem::weakly_canonical(fr.path, ec);
+    for (std::size_t c = 0; c < index.clips().size() && !motion; ++c) {
+      if (std::filesystem::path(index.clips()[c].path) != want) continue;
+      const std::size_t n = index.clips()[c].frame_count;
+      const auto [s, e] = fr.frames.value_or(std::pair<std::size_t, std::size_t>{0, n ? n - 1 : 0});
+      motion = index_style_motion(index, c, s, e);
+      first = s;
+      if (content.empty()) content = index.label(c, "content");
+    }
+  }
+  if (!motion) {
+    RawClip clip = read_bvh_file(fr.path);
+    normalise_up_axis(clip, up);
+    const std::size_t n = clip.frame_count;
+    const auto [s, e] = fr.frames.value_or(std::pair<std::size_t, std::size_t>{0, n ? n - 1 : 0});
+    motion = raw_style_motion(clip, s, e);
+    first = s;
+  }
+  std::vector<double> features;
+  try {
+    features = style_features(*motion, model.joints);
+  } catch (const InputError& e) {
+    throw InputError(fr.path, 0, e.detail());
+  }
+  const StylePrediction p = recognise_style(model, features, content);
+  double best = 0.0;
+  nlohmann::json probs = nlohmann::json::object();
+  for (const auto& [style, prob] : p.probabilities) {
+    probs[style] = prob;
+    if (style == p.style) best = prob;
+  }
+  if (a.json) {
+    std::cout << json_text(nlohmann::json{{"file", fr.path},
+                                          {"frames", {first, first + motion->frame_count - 1}},
+                                          {"style", p.style},
+                                          {"probabilities", probs},
+                                          {"content", p.content},
+                                          {"content_recognised", p.content_recognised}})
+              << "\n";
+  } else {
+    std::cout << fmt::format("{}: {} (p = {:.2f}); content {} ({})\n", a.file, p.style, best,
+                             p.content, p.content_recognised ? "recognised" : "given");
+  }
+  return 0;
+}
+
+}  // namespace mocap

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# mocap-index style-model and mocap-search style on set 1 (docs/style.md):
+# invalid inputs first (an index without labels, a missing or broken model,
+# a file of another rig, frames out of range: exit 2 and a message naming
+# the file or option, nothing written), then a model learned from set 1
+# (--evaluate: leave one take out, at least 0.7 of the takes named right),
+# the style of a file and of a frame range (text and JSON: the style is the
+# most probable, the probabilities sum to 1), the same through --index
+# (the clip read from the index, its content label used), and the output
+# path rules (a model replaced, another file refused without --force).
+#   bash tests/cli/style.sh BUILD_DIR DATA_DIR
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
+cli_setup style "$@"
+d="$data/bandai-namco-1/data"
+"$indexer" build -q --out "$tmp/set1.h5" "$d" >/dev/null 2>&1 || fail "indexing set 1 failed"
+"$indexer" build -q --out "$tmp/cmu.h5" "$data/cmu" >/dev/null 2>&1 || fail "indexing cmu failed"
+
+expect_error() {  # expect_error PATTERN COMMAND...
+  local pattern="$1" rc=0
+  shift
+  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt" || rc=$?
+  [ "$rc" = 2 ] || { cat "$tmp/err.txt" >&2; fail "exit $rc (expected 2) for: $*"; }
+  grep -qF -- "$pattern" "$tmp/err.txt" || { cat "$tmp/err.txt" >&2; fail "message '$pattern' missing for: $*"; }
+}
+expect_error 'no clip has both a "content" and a "style" label' \
+  "$indexer" style-model "$tmp/cmu.h5" --out "$tmp/cmu-style.json"
+[ ! -e "$tmp/cmu-style.json" ] || fail "a model was written for an index without labels"
+expect_error "nothing.h5" "$indexer" style-model "$tmp/nothing.h5" --out "$tmp/x.json"
+echo "not a model" >"$tmp/notes.txt"
+expect_error "--out" "$indexer" style-model "$tmp/set1.h5" --out "$tmp/notes.txt"
+grep -q "not a model" "$tmp/notes.txt" || fail "another file was replaced"
+
+"$indexer" style-model "$tmp/set1.h5" --out "$tmp/style.json" --evaluate --json >"$tmp/model.json"
+python3 - "$tmp/model.json" <<'PY' || fail "style-model --json"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["clips"] == 174 and len(r["styles"]) == 15, r
+e = r["evaluation"]
+assert e["takes"] + e["alone"] == 174 and e["accuracy"] >= 0.7, e
+assert sum(sum(row.values()) for row in e["confusion"].values()) == e["takes"]
+PY
+# Replacing its own model is allowed.
+"$indexer" style-model "$tmp/set1.h5" --out "$tmp/style.json" >"$tmp/out.txt"
+grep -q "style model: .*style.json (174 clips, 15 styles" "$tmp/out.txt" || fail "style-model text"
+
+expect_error "cannot read the style model" "$search" style --model "$tmp/none.json" "$d/dataset-1_walk_old_001.bvh"
+expect_error "not JSON" "$search" style --model "$tmp/notes.txt" "$d/dataset-1_walk_old_001.bvh"
+expect_error 'no joint "Spine"' "$search" style --model "$tmp/style.json" "$data/cmu/131_01.bvh"
+expect_error "outside the clip" "$search" style --model "$tmp/style.json" "$d/dataset-1_walk_old_001.bvh:10-99999"
+expect_error "need at least 4" "$search" style --model "$tmp/style.json" "$d/dataset-1_walk_old_001.bvh:10-11"
+expect_error "no content" "$search" style --model "$tmp/style.json" --content swim "$d/dataset-1_walk_old_001.bvh"
+
+"$search" style --model "$tmp/style.json" "$d/dataset-1_walk_old_001.bvh" >"$tmp/out.txt"
+grep -q "dataset-1_walk_old_001.bvh: old (p = " "$tmp/out.txt" || { cat "$tmp/out.txt"; fail "style text"; }
+"$search" style --model "$tmp/style.json" "$d/dataset-1_walk_old_001.bvh:10-80" --json >"$tmp/a.json"
+"$search" style --model "$tmp/style.json" --index "$tmp/set1.h5" "$d/dataset-1_walk_old_001.bvh:10-80" --json >"$tmp/b.json"
+python3 - "$tmp/a.json" "$tmp/b.json" <<'PY' || fail "style --json"
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+for r in (a, b):
+    assert r["frames"] == [10, 80] and r["style"] == max(r["probabilities"], key=r["probabilities"].get), r
+    assert abs(sum(r["probabilities"].values()) - 1) < 1e-9 and len(r["probabilities"]) == 15
+assert a["content_recognised"] and not b["content_recognised"] and b["content"] == "walk", b
+PY
+echo "style: ok"
