@@ -36,6 +36,7 @@ __all__ = [
     "Synthesis",
     "parse_bvh",
     "read_bvh",
+    "recognise_style",
     "write_bvh",
 ]
 
@@ -314,6 +315,16 @@ class Index:
                 if accepts(c.content, content) and accepts(c.style, style)
                 and (name is None or fnmatch.fnmatchcase(c.name, name))]
 
+    def style_model(self, *, shrinkage=0.3, evaluate=False, folds=0):
+        """The style model `mocap-index style-model` learns from this index's
+        clips labelled with a content and a style (docs/style.md), as a
+        dict: json.dump it to a file for `mocap-search style --model`, or
+        pass it to mocap.recognise_style. With evaluate=True, returns
+        (model, evaluation): the cross-validation of --evaluate (folds 0:
+        leave one take out) as its --json prints it."""
+        out = json.loads(self._raw.style_model(shrinkage, evaluate, folds))
+        return (out["model"], out["evaluation"]) if evaluate else out["model"]
+
     def search(self, queries, *, base_dir=None, mode="exact", min_length_s=0.2,
                max_length_s=4.0, checks=256, trees=4, recall=True, threads=0):
         """Answers queries (docs/queries.md) on the shared search engine.
@@ -420,6 +431,21 @@ class Index:
     def __repr__(self):
         return (f"<mocap.Index {self.path}: {len(self.clips)} clips, "
                 f"{len(self.skeletons)} skeletons, {self.frame_count} frames>")
+
+
+def recognise_style(model, file, *, frames=None, content=None):
+    """The style of a BVH file, or of frames (S, E) of it (0-based,
+    inclusive), by a style model (a dict from Index.style_model, or the path
+    of a model file of mocap-index style-model): mocap-search style --json's
+    object {"file", "frames", "style", "probabilities", "content",
+    "content_recognised"} (docs/style.md). `content` names the motion's
+    content; otherwise it is recognised."""
+    if isinstance(model, (str, os.PathLike)):
+        with open(model, encoding="utf-8") as f:
+            model = json.load(f)
+    first, last = (None, None) if frames is None else (int(frames[0]), int(frames[1]))
+    return json.loads(_mocap.recognise_style(json.dumps(model), os.fspath(file), first, last,
+                                             content or ""))
 
 
 class Synthesis:

@@ -71,5 +71,6 @@ void bind_index(py::module_& m);
 void bind_search(py::module_& m);
 void bind_synth(py::module_& m);
 void bind_bvh(py::module_& m);
+void bind_style(py::module_& m);
 
 }  // namespace mocap::python

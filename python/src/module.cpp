@@ -29,4 +29,5 @@ PYBIND11_MODULE(_mocap, m) {
   mocap::python::bind_search(m);
   mocap::python::bind_synth(m);
   mocap::python::bind_bvh(m);
+  mocap::python::bind_style(m);
 }

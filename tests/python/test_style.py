@@ -1,0 +1,48 @@
+"""Index.style_model and mocap.recognise_style (docs/style.md): bad input
+raises mocap.InputError naming the file; the model is the one mocap-index
+style-model writes and the recognition what mocap-search style --json
+prints (same fields, same numbers), from a model dict or a model file."""
+import json
+import os
+import subprocess
+
+import pytest
+
+import mocap
+from conftest import set1, tool
+
+
+def test_bad_input_raises_input_error(index, data_dir):
+    model = index.style_model()
+    cmu = os.path.join(data_dir, "cmu", "131_01.bvh")
+    with pytest.raises(mocap.InputError, match='no joint "Spine"') as e:
+        mocap.recognise_style(model, cmu)
+    assert e.value.source == cmu
+    with pytest.raises(mocap.InputError, match="outside the clip"):
+        mocap.recognise_style(model, set1("dataset-1_walk_old_001"), frames=(10, 99999))
+    with pytest.raises(mocap.InputError, match="at least 4"):
+        mocap.recognise_style(model, set1("dataset-1_walk_old_001"), frames=(10, 11))
+    with pytest.raises(mocap.InputError, match="no content"):
+        mocap.recognise_style(model, set1("dataset-1_walk_old_001"), content="swim")
+
+
+def test_same_model_and_answers_as_the_commands(index, index_path, scratch):
+    model, evaluation = index.style_model(evaluate=True)
+    path = os.path.join(scratch, "style.json")
+    subprocess.run([tool("mocap-index"), "style-model", index_path, "--out", path], check=True,
+                   stdout=subprocess.DEVNULL)
+    with open(path) as f:
+        assert json.load(f) == model
+    assert evaluation["takes"] + evaluation["alone"] == model["clips"]
+    assert 0.0 <= evaluation["accuracy"] <= 1.0
+    take = set1("dataset-1_run_tired_001")
+    ours = mocap.recognise_style(model, take, frames=(5, 40))
+    theirs = json.loads(subprocess.run(
+        [tool("mocap-search"), "style", "--model", path, take + ":5-40", "--json"], check=True,
+        capture_output=True, text=True).stdout)
+    assert ours == theirs
+    assert mocap.recognise_style(path, take, frames=(5, 40)) == ours
+    assert ours["frames"] == [5, 40]
+    assert ours["style"] == max(ours["probabilities"], key=ours["probabilities"].get)
+    given = mocap.recognise_style(model, take, content="run")
+    assert given["content"] == "run" and not given["content_recognised"]
