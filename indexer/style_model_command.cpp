@@ -44,11 +44,12 @@ int run_style_model(const StyleModelArgs& a) {
   const Index index = Index::open(a.index);
   std::vector<std::string> joints;
   const std::vector<StyleSample> samples = index_style_samples(index, joints);
-  const StyleModel model = train_style_model(samples, joints, a.shrinkage);
+  const StyleModel model = learn_style_model(samples, joints, a.shrinkage);
   nlohmann::json report{{"index", a.index},
                         {"model", std::filesystem::absolute(out).string()},
                         {"clips", samples.size()},
                         {"joints", joints.size()},
+                        {"temperature", model.temperature},
                         {"styles", model.style.classes},
                         {"contents", model.content.classes}};
   if (a.evaluate) {

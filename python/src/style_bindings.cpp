@@ -25,7 +25,7 @@ std::string style_model(const std::shared_ptr<OpenIndex>& self, double shrinkage
   py::gil_scoped_release release;
   std::vector<std::string> joints;
   const std::vector<StyleSample> samples = index_style_samples(self->index(), joints);
-  nlohmann::json out{{"model", style_model_json(train_style_model(samples, joints, shrinkage))}};
+  nlohmann::json out{{"model", style_model_json(learn_style_model(samples, joints, shrinkage))}};
   if (evaluate) {
     const StyleEvaluation e = evaluate_style(samples, joints, folds, shrinkage);
     std::map<std::string, std::map<std::string, std::size_t>> confusion;

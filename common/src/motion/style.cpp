@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <set>
 #include <string>
@@ -355,7 +356,7 @@ StylePrediction recognise_style(const StyleModel& model, const std::vector<doubl
       ((x - model.content_mean.row(row).transpose()).array() /
        model.content_sd.row(row).transpose().array() / model.style_scale.array())
           .matrix();
-  const Eigen::VectorXd s = model.style.scores(z);
+  const Eigen::VectorXd s = model.style.scores(z) / model.temperature;
   Eigen::Index best = 0;
   const double top = s.maxCoeff(&best);
   const Eigen::VectorXd e = (s.array() - top).exp();
@@ -437,6 +438,7 @@ nlohmann::json style_model_json(const StyleModel& m) {
           {"joints", m.joints},
           {"shrinkage", m.shrinkage},
           {"clips", m.clips},
+          {"temperature", m.temperature},
           {"all_mean", vec(m.all_mean)},
           {"all_sd", vec(m.all_sd)},
           {"style_scale", vec(m.style_scale)},
@@ -473,6 +475,12 @@ StyleModel style_model_from_json(const nlohmann::json& j, const std::string& sou
     throw InputError(source, 0, "\"shrinkage\" and \"clips\" must be numbers");
   m.shrinkage = shrink.get<double>();
   m.clips = clips.get<std::size_t>();
+  if (j.contains("temperature")) {  // absent: 1 (a model without calibration)
+    const nlohmann::json& t = j.at("temperature");
+    if (!t.is_number() || !(t.get<double>() > 0.0))
+      throw InputError(source, 0, "\"temperature\" must be a positive number");
+    m.temperature = t.get<double>();
+  }
   m.content = discriminant_from(field(j, "content", "", source), "content", dims, source);
   m.style = discriminant_from(field(j, "style", "", source), "style", dims, source);
   const auto k = static_cast<Eigen::Index>(m.content.classes.size());
@@ -482,10 +490,16 @@ StyleModel style_model_from_json(const nlohmann::json& j, const std::string& sou
   return m;
 }
 
-StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
-                               const std::vector<std::string>& joints, std::size_t folds,
-                               double shrinkage) {
-  StyleEvaluation e;
+namespace {
+
+// Cross-validation: fn(model, sample) for each sample held out of a model
+// learned without it (sample i in fold i % k; k = 0: one fold a sample)
+// whose content the model knows; returns how many it did not know.
+std::size_t for_held_out(const std::vector<StyleSample>& samples,
+                         const std::vector<std::string>& joints, std::size_t folds,
+                         double shrinkage,
+                         const std::function<void(const StyleModel&, const StyleSample&)>& fn) {
+  std::size_t alone = 0;
   const std::size_t k = folds == 0 ? samples.size() : folds;
   for (std::size_t fold = 0; fold < k; ++fold) {
     std::vector<StyleSample> train;
@@ -497,16 +511,91 @@ StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
     for (const StyleSample* s : test) {
       if (std::find(m.content.classes.begin(), m.content.classes.end(), s->content) ==
           m.content.classes.end()) {
-        ++e.alone;
+        ++alone;
         continue;
       }
-      const StylePrediction p = recognise_style(m, s->features, s->content);
-      ++e.takes;
-      e.right += p.style == s->style ? 1 : 0;
-      ++e.confusion[{s->style, p.style}];
+      fn(m, *s);
     }
   }
+  return alone;
+}
+
+// Mean log-probability of the true classes of score rows at temperature t.
+double mean_log_probability(const std::vector<std::pair<Eigen::VectorXd, Eigen::Index>>& rows,
+                            double t) {
+  double sum = 0.0;
+  for (const auto& [s, truth] : rows) {
+    const Eigen::VectorXd z = s / t;
+    const double top = z.maxCoeff();
+    sum += z(truth) - top - std::log((z.array() - top).exp().sum());
+  }
+  return sum / static_cast<double>(rows.size());
+}
+
+}  // namespace
+
+StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
+                               const std::vector<std::string>& joints, std::size_t folds,
+                               double shrinkage) {
+  StyleEvaluation e;
+  e.alone = for_held_out(samples, joints, folds, shrinkage,
+                         [&](const StyleModel& m, const StyleSample& s) {
+                           const StylePrediction p = recognise_style(m, s.features, s.content);
+                           ++e.takes;
+                           e.right += p.style == s.style ? 1 : 0;
+                           ++e.confusion[{s.style, p.style}];
+                         });
   return e;
+}
+
+double calibrate_style_temperature(const std::vector<StyleSample>& samples,
+                                   const std::vector<std::string>& joints, std::size_t folds,
+                                   double shrinkage) {
+  std::map<std::string, std::size_t> takes;
+  for (const StyleSample& s : samples) ++takes[s.content];
+  std::vector<std::pair<Eigen::VectorXd, Eigen::Index>> rows;
+  for_held_out(samples, joints, folds, shrinkage, [&](const StyleModel& m, const StyleSample& s) {
+    const auto truth = std::find(m.style.classes.begin(), m.style.classes.end(), s.style);
+    if (truth == m.style.classes.end()) return;  // a style no training take has
+    if (takes[s.content] < kStyleCalibrationTakes) return;
+    const auto c = static_cast<Eigen::Index>(
+        std::find(m.content.classes.begin(), m.content.classes.end(), s.content) -
+        m.content.classes.begin());
+    const Eigen::VectorXd z = ((as_vector(s.features) - m.content_mean.row(c).transpose()).array() /
+                               m.content_sd.row(c).transpose().array() / m.style_scale.array())
+                                  .matrix();
+    rows.emplace_back(m.style.scores(z), truth - m.style.classes.begin());
+  });
+  if (rows.empty()) return 1.0;
+  // Golden-section search of the concave mean log-probability over log T.
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = std::log(0.01), b = std::log(1e4);
+  double x1 = b - g * (b - a), x2 = a + g * (b - a);
+  double f1 = mean_log_probability(rows, std::exp(x1)),
+         f2 = mean_log_probability(rows, std::exp(x2));
+  for (int it = 0; it < 80; ++it) {
+    if (f1 < f2) {
+      a = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = a + g * (b - a);
+      f2 = mean_log_probability(rows, std::exp(x2));
+    } else {
+      b = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = b - g * (b - a);
+      f1 = mean_log_probability(rows, std::exp(x1));
+    }
+  }
+  return std::exp(0.5 * (a + b));
+}
+
+StyleModel learn_style_model(const std::vector<StyleSample>& samples,
+                             const std::vector<std::string>& joints, double shrinkage) {
+  StyleModel m = train_style_model(samples, joints, shrinkage);
+  m.temperature = calibrate_style_temperature(samples, joints, 5, shrinkage);
+  return m;
 }
 
 }  // namespace mocap

@@ -89,6 +89,9 @@ struct StyleModel {
   std::vector<std::string> joints;
   double shrinkage = 0.3;
   std::size_t clips = 0;
+  /// The style scores are divided by it before the softmax
+  /// (calibrate_style_temperature; 1 = the discriminant's own).
+  double temperature = 1.0;
   /// Per content: the mean and spread of its clips' features (rows in
   /// content.classes order).
   Eigen::MatrixXd content_mean, content_sd;
@@ -118,7 +121,8 @@ struct StylePrediction {
   std::string content;
   bool content_recognised = false;
   /// Every style of the model with its probability (softmax of the
-  /// discriminant's scores), in the model's style order.
+  /// discriminant's scores over the model's temperature), in the model's
+  /// style order.
   std::vector<std::pair<std::string, double>> probabilities;
 };
 /// The style of features from style_features(motion, model.joints); an
@@ -145,5 +149,26 @@ struct StyleEvaluation {
 StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
                                const std::vector<std::string>& joints, std::size_t folds,
                                double shrinkage = 0.3);
+
+inline constexpr std::size_t kStyleCalibrationTakes = 10;
+
+/// What `mocap-index style-model` and Python's Index.style_model learn:
+/// train_style_model, its temperature from calibrate_style_temperature
+/// with 5 folds.
+StyleModel learn_style_model(const std::vector<StyleSample>& samples,
+                             const std::vector<std::string>& joints, double shrinkage = 0.3);
+
+/// The temperature T that makes the style probabilities honest: the style
+/// scores of held-out takes (sample i held out in fold i % folds, its
+/// content given, as evaluate_style) divided by T, T maximising the mean
+/// log-probability of their true styles (golden-section search on log T in
+/// [0.01, 10^4]). A linear discriminant in many dimensions is
+/// overconfident: T > 1. Only takes of contents with at least
+/// kStyleCalibrationTakes takes count (a content of 2 takes, one held out,
+/// is standardised by a spread of nothing, and one such take would drive T
+/// to its bound); with none, 1.
+double calibrate_style_temperature(const std::vector<StyleSample>& samples,
+                                   const std::vector<std::string>& joints, std::size_t folds = 5,
+                                   double shrinkage = 0.3);
 
 }  // namespace mocap
