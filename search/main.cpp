@@ -102,6 +102,7 @@ struct SearchArgs {
   std::string distribute = "auto";
   std::string html;
   bool allow_empty = false;
+  std::string style_model;
 };
 
 struct ViewArgs {
@@ -130,6 +131,10 @@ void add_search_options(CLI::App& app, SearchArgs& a) {
                             "Query batch: one JSON query per line (docs/queries.md)");
   auto* q1 = app.add_option("--query", a.query, "A single query (one JSON object in a file)");
   qs->excludes(q1);
+  app.add_option("--style-model", a.style_model,
+                 "A style model (mocap-index style-model): every result gets the style its "
+                 "partial motion is recognised as (\"recognised_style\": {label, p}; "
+                 "docs/style.md)");
   app.add_flag("--allow-empty", a.allow_empty,
                "Accept a --queries batch with no query (exit 0, nothing answered); without it "
                "an empty batch is an error (exit 2)");
@@ -419,6 +424,8 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   else
 #endif
     prepare();
+  std::optional<mocap::StyleModel> style_model;
+  if (!a.style_model.empty()) style_model = mocap::read_style_model(a.style_model);
   const auto t0 = std::chrono::steady_clock::now();
   const bool collection = mocap::is_collection_manifest(a.index);
   std::optional<mocap::Index> index;
@@ -454,6 +461,10 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
 #endif
     outcomes = collection ? mocap::run_collection_batch(a.index, in.batch, opt, progress)
                           : mocap::run_query_batch(*engine, in.batch, opt, progress);
+  if (style_model)
+    mocap::add_recognised_styles(
+        *style_model, index ? mocap::ClipSource(*index) : mocap::ClipSource::open(a.index),
+        outcomes);
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   const std::size_t failed = write_search_results(a, outcomes, in);
   if (in.player) write_search_player(a, outcomes, index, in);

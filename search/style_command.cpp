@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <filesystem>
 #include <fstream>
@@ -45,7 +46,9 @@ FileRange file_range(const std::string& arg) {
   return {arg, std::nullopt};
 }
 
-StyleModel read_model(const std::string& path) {
+}  // namespace
+
+StyleModel read_style_model(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path, 0, "cannot read the style model");
   std::stringstream text;
@@ -59,7 +62,29 @@ StyleModel read_model(const std::string& path) {
   return style_model_from_json(j, path);
 }
 
-}  // namespace
+void add_recognised_styles(const StyleModel& model, const ClipSource& clips,
+                           std::vector<QueryOutcome>& outcomes) {
+  for (QueryOutcome& o : outcomes)
+    for (PairResults& pair : o.pairs)
+      for (SearchResult& r : pair.results) {
+        if (r.end_frame < r.start_frame + 3) continue;
+        const ClipSource::Location at = clips.locate(r.clip_index);
+        const StyleMotion m = index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame);
+        const std::vector<std::string> has = m.joint_names;
+        if (!std::all_of(model.joints.begin(), model.joints.end(), [&](const std::string& j) {
+              return std::find(has.begin(), has.end(), j) != has.end();
+            }))
+          continue;
+        std::string content = at.index->label(at.clip, "content");
+        if (std::find(model.content.classes.begin(), model.content.classes.end(), content) ==
+            model.content.classes.end())
+          content.clear();
+        const StylePrediction p = recognise_style(model, style_features(m, model.joints), content);
+        r.recognised_style = p.style;
+        for (const auto& [style, prob] : p.probabilities)
+          if (style == p.style) r.recognised_style_p = prob;
+      }
+}
 
 CLI::App* add_style_command(CLI::App& app, StyleArgs& a) {
   CLI::App* cmd = app.add_subcommand(
@@ -83,7 +108,7 @@ CLI::App* add_style_command(CLI::App& app, StyleArgs& a) {
 }
 
 int run_style(const StyleArgs& a) {
-  const StyleModel model = read_model(a.model);
+  const StyleModel model = read_style_model(a.model);
   const FileRange fr = file_range(a.file);
   std::optional<UpAxis> up;
   if (!a.up.empty() && a.up != "auto") {

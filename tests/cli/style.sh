@@ -6,8 +6,9 @@
 # (--evaluate: leave one take out, at least 0.7 of the takes named right),
 # the style of a file and of a frame range (text and JSON: the style is the
 # most probable, the probabilities sum to 1), the same through --index
-# (the clip read from the index, its content label used), and the output
-# path rules (a model replaced, another file refused without --force).
+# (the clip read from the index, its content label used), the output path
+# rules (a model replaced, another file refused without --force), and
+# search results carrying their recognised style (--style-model).
 #   bash tests/cli/style.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -63,4 +64,27 @@ for r in (a, b):
     assert abs(sum(r["probabilities"].values()) - 1) < 1e-9 and len(r["probabilities"]) == 15
 assert a["content_recognised"] and not b["content_recognised"] and b["content"] == "walk", b
 PY
+# Search results with their recognised style (--style-model): every result
+# of a walk query carries one of the model's styles; on the clips the model
+# learned from, their own label in at least 8 of 10.
+w="$d/dataset-1_walk_old_001.bvh"
+cat >"$tmp/q.jsonl" <<Q
+{"id": "oldwalk", "top": 10, "filter": {"exclude": ["dataset-1_walk_old_001*"]}, "frames": [{"bvh": "$w", "frame": 20}, {"bvh": "$w", "frame": 60}]}
+Q
+expect_error "cannot read the style model" "$search" --index "$tmp/set1.h5" --queries "$tmp/q.jsonl" --style-model "$tmp/none.json" --out "$tmp/none.jsonl"
+[ ! -e "$tmp/none.jsonl" ] || fail "results were written with a missing style model"
+"$search" --index "$tmp/set1.h5" --queries "$tmp/q.jsonl" --style-model "$tmp/style.json" --out "$tmp/r.jsonl" -q
+python3 - "$tmp/r.jsonl" "$tmp/a.json" <<'PY' || fail "--style-model results"
+import json, sys
+line = json.loads(open(sys.argv[1]).readline())
+styles = json.load(open(sys.argv[2]))["probabilities"].keys()
+results = line["pairs"][0]["results"]
+assert len(results) == 10
+for r in results:
+    s = r["recognised_style"]
+    assert s["label"] in styles and 0 < s["p"] <= 1, r
+assert sum(r["recognised_style"]["label"] == r["labels"]["style"] for r in results) >= 8, results
+PY
+"$search" --index "$tmp/set1.h5" --queries "$tmp/q.jsonl" --out "$tmp/plain.jsonl" -q
+grep -q recognised_style "$tmp/plain.jsonl" && fail "recognised_style without --style-model"
 echo "style: ok"

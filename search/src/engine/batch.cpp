@@ -239,6 +239,8 @@ std::string query_outcome_json(const QueryOutcome& o) {
         rj["context_out_J"] = r.context_out_J;
       }
       if (!r.residuals_from.empty() || !r.residuals_to.empty()) add_verdicts(r, rj);
+      if (!r.recognised_style.empty())
+        rj["recognised_style"] = {{"label", r.recognised_style}, {"p", r.recognised_style_p}};
       pj["results"].push_back(std::move(rj));
     }
     j["pairs"].push_back(std::move(pj));

@@ -130,6 +130,11 @@ struct SearchResult {
   double context_out_J = 0.0;
   /// A frame of the pair gives context (the JSON then has both fields).
   bool context = false;
+  /// The style the partial motion is recognised as, and its probability
+  /// (mocap-search --style-model; docs/style.md); empty: not asked, or the
+  /// motion could not be read as the model's (fewer than 4 frames, another rig).
+  std::string recognised_style;
+  double recognised_style_p = 0.0;
   /// How far F^s misses each named constraint of Q^h (residuals_from) and
   /// F^e each of Q^h+1 (residuals_to), by name: metres for effectors,
   /// degrees for joint rotations, directions and angles
