@@ -54,6 +54,7 @@
 #include "mocap/search/collection_search.hpp"
 #include "mocap/search/distributed.hpp"
 #include "mocap/search/energy_command.hpp"
+#include "mocap/search/recognised_styles.hpp"
 #include "mocap/search/results_file.hpp"
 #include "mocap/search/results_page.hpp"
 #include "mocap/search/search.hpp"

@@ -326,7 +326,8 @@ class Index:
         return (out["model"], out["evaluation"]) if evaluate else out["model"]
 
     def search(self, queries, *, base_dir=None, mode="exact", min_length_s=0.2,
-               max_length_s=4.0, checks=256, trees=4, recall=True, threads=0):
+               max_length_s=4.0, checks=256, trees=4, recall=True, threads=0,
+               style_model=None):
         """Answers queries (docs/queries.md) on the shared search engine.
 
         `queries`: one query (a dict or JSON text) or a list of them. Returns,
@@ -340,12 +341,19 @@ class Index:
         others are still answered. Relative "bvh" / "character" paths
         resolve against base_dir (default: the current folder). The options
         are mocap-search's (--mode, --min-length, --max-length, --checks,
-        --trees, --no-recall, --threads; threads=0: all cores).
+        --trees, --no-recall, --threads; threads=0: all cores). style_model
+        (a dict from style_model() or a model file's path): every result
+        also gets "recognised_style": {"label", "p"}, as with --style-model
+        (docs/style.md).
         """
         single = not isinstance(queries, (list, tuple))
         texts = [_query_text(q) for q in ([queries] if single else queries)]
+        if isinstance(style_model, (str, os.PathLike)):
+            with open(style_model, encoding="utf-8") as f:
+                style_model = json.load(f)
         lines = self._raw.search(texts, _base_dir(base_dir), mode, min_length_s, max_length_s,
-                                 checks, trees, recall, threads, raise_errors=single)
+                                 checks, trees, recall, threads, raise_errors=single,
+                                 style_model=json.dumps(style_model) if style_model else "")
         out = [json.loads(line) for line in lines]
         return out[0] if single else out
 

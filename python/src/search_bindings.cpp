@@ -12,8 +12,10 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "mocap/common/motion/clip_source.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/search/batch_entry.hpp"
+#include "mocap/search/recognised_styles.hpp"
 #include "mocap/search/search.hpp"
 
 namespace mocap::python {
@@ -25,7 +27,7 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
                                 const std::filesystem::path& base_dir, const std::string& mode,
                                 double min_length_s, double max_length_s, int approx_checks,
                                 int approx_trees, bool compute_recall, int threads,
-                                bool raise_errors) {
+                                bool raise_errors, const std::string& style_model) {
   SearchOptions options;
   const auto m = parse_search_mode(mode);
   if (!m) throw InputError("mode", 0, "expected exact, approx or brute, got '" + mode + "'");
@@ -39,6 +41,13 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
   options.approx_trees = approx_trees;
   options.compute_recall = compute_recall;
   validate_search_options(options, "min_length_s", "max_length_s");
+  std::optional<StyleModel> styles;
+  if (!style_model.empty())
+    styles = style_model_from_json(nlohmann::json::parse(style_model), "style_model");
+  const auto labelled = [&](std::vector<QueryOutcome> outcomes) {
+    if (styles) add_recognised_styles(*styles, ClipSource(self->index()), outcomes);
+    return outcomes;
+  };
 
   std::vector<std::string> lines;
   {
@@ -58,9 +67,10 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
     // not returned as an error line.
     if (raise_errors && batch.size() == 1) {
       if (batch[0].failure) throw *batch[0].failure;
-      return {query_outcome_json(self->engine().run(*batch[0].query, options))};
+      return {query_outcome_json(labelled({self->engine().run(*batch[0].query, options)})[0])};
     }
-    const std::vector<QueryOutcome> outcomes = run_query_batch(self->engine(), batch, options);
+    const std::vector<QueryOutcome> outcomes =
+        labelled(run_query_batch(self->engine(), batch, options));
     lines.reserve(outcomes.size());
     for (const QueryOutcome& o : outcomes) lines.push_back(query_outcome_json(o));
   }
@@ -78,7 +88,7 @@ void bind_search(py::module_& m) {
             py::arg("max_length_s") = defaults.max_length_s,
             py::arg("checks") = defaults.approx_checks, py::arg("trees") = defaults.approx_trees,
             py::arg("recall") = defaults.compute_recall, py::arg("threads") = 0,
-            py::arg("raise_errors") = false,
+            py::arg("raise_errors") = false, py::arg("style_model") = "",
             "Answers a batch of queries (JSON texts, docs/queries.md); returns one mocap-search "
             "output line (JSON text) per query, in order. Relative paths in the queries resolve "
             "against base_dir; a query without an id gets 'query N' (1-based). With "

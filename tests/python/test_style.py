@@ -46,3 +46,28 @@ def test_same_model_and_answers_as_the_commands(index, index_path, scratch):
     assert ours["style"] == max(ours["probabilities"], key=ours["probabilities"].get)
     given = mocap.recognise_style(model, take, content="run")
     assert given["content"] == "run" and not given["content_recognised"]
+
+
+def test_search_results_with_their_style_as_mocap_search_gives_them(index, index_path, scratch,
+                                                                   data_dir):
+    model = index.style_model()
+    path = os.path.join(scratch, "style.json")
+    with open(path, "w") as f:
+        json.dump(model, f)
+    walk = set1("dataset-1_walk_old_001")
+    q = {"id": "oldwalk", "top": 5, "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+         "frames": [{"bvh": walk, "frame": 20}, {"bvh": walk, "frame": 60}]}
+    ours = index.search(q, threads=1, style_model=model)
+    qpath = os.path.join(scratch, "q.jsonl")
+    with open(qpath, "w") as f:
+        f.write(json.dumps(q) + "\n")
+    out = subprocess.run([tool("mocap-search"), "--index", index_path, "--queries", qpath,
+                          "--style-model", path, "--threads", "1", "-q"], check=True,
+                         capture_output=True, text=True).stdout
+    theirs = json.loads(out)
+    for a, b in zip(ours["pairs"][0]["results"], theirs["pairs"][0]["results"]):
+        assert a == b
+        assert a["recognised_style"]["label"] in model["style"]["classes"]
+    assert index.search(q, threads=1, style_model=path)["pairs"] == ours["pairs"]
+    assert "recognised_style" not in index.search(q, threads=1)["pairs"][0]["results"][0]
+
