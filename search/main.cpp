@@ -414,7 +414,7 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   check_search_inputs(a);
   std::optional<tbb::global_control> threads;
   if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
-  const mocap::SearchOptions opt = search_options(a);
+  mocap::SearchOptions opt = search_options(a);
   SearchInputs in;
   // Under MPI every rank reads the batch, rank 0 alone checks and opens the
   // output; any rank's failure ends every rank (mpi_search.hpp).
@@ -425,8 +425,10 @@ int run_search(const SearchArgs& a, const MpiSession* mpi) {
   else
 #endif
     prepare();
-  std::optional<mocap::StyleModel> style_model;
-  if (!a.style_model.empty()) style_model = mocap::read_style_model(a.style_model);
+  std::shared_ptr<const mocap::StyleModel> style_model;
+  if (!a.style_model.empty())
+    style_model = std::make_shared<const mocap::StyleModel>(mocap::read_style_model(a.style_model));
+  opt.style_model = style_model;
   const auto t0 = std::chrono::steady_clock::now();
   const bool collection = mocap::is_collection_manifest(a.index);
   std::optional<mocap::Index> index;

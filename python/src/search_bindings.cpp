@@ -41,9 +41,11 @@ std::vector<std::string> search(const std::shared_ptr<OpenIndex>& self,
   options.approx_trees = approx_trees;
   options.compute_recall = compute_recall;
   validate_search_options(options, "min_length_s", "max_length_s");
-  std::optional<StyleModel> styles;
+  std::shared_ptr<const StyleModel> styles;
   if (!style_model.empty())
-    styles = style_model_from_json(nlohmann::json::parse(style_model), "style_model");
+    styles = std::make_shared<const StyleModel>(
+        style_model_from_json(nlohmann::json::parse(style_model), "style_model"));
+  options.style_model = styles;
   const auto labelled = [&](std::vector<QueryOutcome> outcomes) {
     if (styles) add_recognised_styles(*styles, ClipSource(self->index()), outcomes);
     return outcomes;

@@ -226,6 +226,7 @@ py::dict result_dict(const SearchResult& r) {
     d["context_in_J"] = r.context_in_J;
     d["context_out_J"] = r.context_out_J;
   }
+  if (r.style) d["style_J"] = r.style_J;
   return d;
 }
 

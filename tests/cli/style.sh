@@ -8,7 +8,8 @@
 # most probable, the probabilities sum to 1), the same through --index
 # (the clip read from the index, its content label used), the output path
 # rules (a model replaced, another file refused without --force), and
-# search results carrying their recognised style (--style-model).
+# search results carrying their recognised style (--style-model), and a
+# query asking for a style.
 #   bash tests/cli/style.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -87,4 +88,20 @@ assert sum(r["recognised_style"]["label"] == r["labels"]["style"] for r in resul
 PY
 "$search" --index "$tmp/set1.h5" --queries "$tmp/q.jsonl" --out "$tmp/plain.jsonl" -q
 grep -q recognised_style "$tmp/plain.jsonl" && fail "recognised_style without --style-model"
+# A query asking for a style: style_J on every result, the old takes first;
+# without --style-model the query fails (exit 1, its error line).
+cat >"$tmp/qs.jsonl" <<Q
+{"id": "asked", "top": 5, "filter": {"exclude": ["dataset-1_walk_old_001*"]}, "style": {"label": "old", "weight": 20}, "frames": [{"bvh": "$w", "frame": 20}, {"bvh": "$w", "frame": 60}]}
+Q
+"$search" --index "$tmp/set1.h5" --queries "$tmp/qs.jsonl" --style-model "$tmp/style.json" --out "$tmp/rs.jsonl" -q
+python3 - "$tmp/rs.jsonl" <<'PY' || fail "a query with style"
+import json, sys
+results = json.loads(open(sys.argv[1]).readline())["pairs"][0]["results"]
+assert all(r["style_J"] >= 0 for r in results), results
+assert [r["labels"]["style"] for r in results[:3]] == ["old"] * 3, results
+PY
+rc=0
+"$search" --index "$tmp/set1.h5" --queries "$tmp/qs.jsonl" --out "$tmp/rs2.jsonl" -q 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] || fail "a style query without --style-model: exit $rc (expected 1)"
+grep -q "needs a style model" "$tmp/rs2.jsonl" || fail "the error line of a style query without a model"
 echo "style: ok"

@@ -22,9 +22,9 @@ json result_json(const SearchResult& r) {
     from.push_back({c.name, c.residual, c.tolerance, c.metres});
   for (const ConstraintResidual& c : r.residuals_to)
     to.push_back({c.name, c.residual, c.tolerance, c.metres});
-  return {r.rank,      r.clip_index, r.clip,    labels,         r.start_frame,
-          r.end_frame, r.score_J,    r.h_in_J,  r.h_out_J,      r.path_cost_J,
-          from,        to,           r.context, r.context_in_J, r.context_out_J};
+  return {r.rank,    r.clip_index,   r.clip,          labels,        r.start_frame, r.end_frame,
+          r.score_J, r.h_in_J,       r.h_out_J,       r.path_cost_J, from,          to,
+          r.context, r.context_in_J, r.context_out_J, r.style,       r.style_J};
 }
 
 SearchResult result_from(const json& j) {
@@ -47,6 +47,8 @@ SearchResult result_from(const json& j) {
   r.context = j.at(12).get<bool>();
   r.context_in_J = j.at(13).get<double>();
   r.context_out_J = j.at(14).get<double>();
+  r.style = j.at(15).get<bool>();
+  r.style_J = j.at(16).get<double>();
   return r;
 }
 

@@ -238,6 +238,7 @@ std::string query_outcome_json(const QueryOutcome& o) {
         rj["context_in_J"] = r.context_in_J;
         rj["context_out_J"] = r.context_out_J;
       }
+      if (r.style) rj["style_J"] = r.style_J;
       if (!r.residuals_from.empty() || !r.residuals_to.empty()) add_verdicts(r, rj);
       if (!r.recognised_style.empty())
         rj["recognised_style"] = {{"label", r.recognised_style}, {"p", r.recognised_style_p}};

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "bounds/partial_bounds.hpp"
+#include "mocap/search/recognised_styles.hpp"
 #include "query/relative_frames.hpp"
 #include "scan/context_energy.hpp"
 #include "scan/frame_energy.hpp"
@@ -103,6 +104,7 @@ void QueryRunner::prepare() {
       set_subtree_plan(resolved_[k].back(), skeleton, *m.index, q_.transition_time_s);
       bounds_[k].push_back(make_bound_query(resolved_[k].back(), skeleton.tables));
     }
+  if (q_.style) prepare_style();
   // Resolution reported a deferred joint value after the frame's names; an
   // index without skeletons has no names to check first.
   for (const QueryFrameSpec& f : q_.frames)
@@ -116,6 +118,8 @@ void QueryRunner::prepare() {
                          q_.transition_time_s, pair[0], pair[1]);
         pair[0].context = pair[0].context_before.get();
         pair[1].context = pair[1].context_after.get();
+        pair[0].style_rows = style_rows_.empty() ? nullptr : style_rows_[k].data();
+        pair[1].style_rows = nullptr;
       }
     relative_bounds_.assign(skeletons_.size(), {});
     root_bounds_.assign(skeletons_.size(), {});
@@ -145,7 +149,8 @@ void QueryRunner::prepare_caches() {
     cache_.emplace_back();
     cache_.back().resize(q_.frames.size());
   }
-  if (q_.relative()) return;
+  // With "style" a frame scores otherwise as Q^h than as Q^h+1: not shared.
+  if (q_.relative() || q_.style) return;
   for (std::size_t k = 0; k < skeletons_.size(); ++k)
     for (std::size_t i = 1; i + 1 < q_.frames.size(); ++i) {
       // A frame with context scores otherwise as Q^h+1 and as Q^h: not shared.
@@ -655,15 +660,58 @@ void QueryRunner::add_context_energies(PairResults& pair) const {
   }
 }
 
+void QueryRunner::prepare_style() {
+  const std::string src = "<query " + q_.id + ">";
+  if (!options_.style_model)
+    throw InputError(src, 0,
+                     "style: needs a style model (mocap-search --style-model, Python "
+                     "style_model=; docs/style.md)");
+  std::shared_ptr<const std::vector<std::vector<double>>> probs;
+  {
+    std::lock_guard<std::mutex> lock(engine_.style_mutex);
+    auto& entry = engine_.clip_styles[options_.style_model.get()];
+    if (!entry.probabilities) {
+      entry.model = options_.style_model;
+      entry.probabilities = std::make_shared<const std::vector<std::vector<double>>>(
+          clip_style_probabilities(*options_.style_model, *engine_.index));
+    }
+    probs = entry.probabilities;
+  }
+  const std::vector<double> asked = asked_style(*options_.style_model, *q_.style, src);
+  style_rows_.assign(skeletons_.size(), {});
+  for (std::size_t k = 0; k < skeletons_.size(); ++k) {
+    const SkeletonTables& tables = skeletons_[k]->tables;
+    for (const ClipInfo& ci : tables.clips)
+      style_rows_[k].push_back(q_.style->weight * style_distance(asked, (*probs)[ci.clip]));
+  }
+}
+
+void QueryRunner::add_style_energies(PairResults& pair) const {
+  if (style_rows_.empty()) return;
+  for (SearchResult& r : pair.results) {
+    const IndexClip& clip = engine_.index->clips()[r.clip_index];
+    const SkeletonTables& tables = skeletons_[clip.skeleton]->tables;
+    r.style = true;
+    r.style_J = style_rows_[clip.skeleton][tables.frame_row[clip.frame_start + r.start_frame]];
+    r.h_in_J -= r.style_J;
+  }
+}
+
 PairRun QueryRunner::run_pair(std::size_t h, SearchMode mode) {
   // A frame weighted below 1 scores below the bounds, which bound the
   // unweighted h: such a pair is evaluated whole (brute, the same values).
   if (q_.frames[h].weight < 1.0 || q_.frames[h + 1].weight < 1.0) mode = SearchMode::brute;
   // Context: Q^h's frames before it, Q^h+1's after it (docs/queries.md).
-  for (auto& frames : resolved_) {
-    for (ResolvedFrame& f : frames) f.context = nullptr;
+  for (std::size_t k = 0; k < resolved_.size(); ++k) {
+    std::vector<ResolvedFrame>& frames = resolved_[k];
+    for (ResolvedFrame& f : frames) {
+      f.context = nullptr;
+      f.style_rows = nullptr;
+    }
     frames[h].context = frames[h].context_before.get();
     frames[h + 1].context = frames[h + 1].context_after.get();
+    // The style term: once a result, with its start (docs/style.md).
+    if (!style_rows_.empty()) frames[h].style_rows = style_rows_[k].data();
   }
   PairSearch search(*this, h, mode);
   search.collect_candidates(mode);

@@ -82,6 +82,10 @@ class QueryRunner {
   // moved out of h_in_J and h_out_J; nothing for frames without context.
   void add_context_energies(PairResults& pair) const;
 
+  // Each result's style term (SearchResult::style_J), moved out of h_in_J;
+  // nothing for a query without "style".
+  void add_style_energies(PairResults& pair) const;
+
  private:
   friend class PairSearch;
 
@@ -103,6 +107,9 @@ class QueryRunner {
   // Whether every pair is placed relatively (no per-frame world bounds needed).
   bool all_relative() const;
   void prepare_caches();
+  // A query with "style": style_rows_ from the options' style model
+  // (InputError without one, or for a style the model lacks).
+  void prepare_style();
   // Adds frame i's joint_name_warnings on skeleton k (and its file's, if any).
   void add_name_warnings(std::size_t k, std::size_t i, const QueryBvhFile* file);
   void compute_frame_bounds();
@@ -132,6 +139,9 @@ class QueryRunner {
   std::vector<std::string> warnings_;
   // resolved_[k][i]: query frame i on skeleton k; bounds_[k][i] its box-bound form.
   std::vector<std::vector<ResolvedFrame>> resolved_;
+  // style_rows_[k][row]: the style term of the clip in row `row` of
+  // skeleton k (weight x style distance, J); empty without "style".
+  std::vector<std::vector<double>> style_rows_;
   std::vector<std::vector<BoundQuery>> bounds_;
   // cache_[k][i]: values of query frame i shared by pairs i-1 and i (world
   // mode, interior frames of queries with 3 or more frames); empty otherwise.

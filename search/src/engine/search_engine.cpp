@@ -162,6 +162,7 @@ std::vector<SearchResult> settled_results(const Index& index, search_detail::Que
     PairResults res = pair_results(index, h, run);
     runner.add_residuals(res);
     runner.add_context_energies(res);
+    runner.add_style_energies(res);
     const std::size_t fetched = res.results.size();
     std::erase_if(res.results,
                   [&](const SearchResult& r) { return exclude.count(r.clip_index) > 0; });
@@ -186,6 +187,7 @@ PairResults ranked_pair(const Index& index, search_detail::QueryRunner& runner, 
   PairResults res = pair_results(index, h, first);
   runner.add_residuals(res);
   runner.add_context_energies(res);
+  runner.add_style_energies(res);
   if (!runner.named_constraints(h)) return res;
   const bool masked = q.met != MetPolicy::any;
   res.results = settled_results(index, runner, h, mode, masked ? MetPolicy::only : MetPolicy::any,

@@ -2,6 +2,8 @@
 // Internal to mocap_search: the state of a SearchEngine (search.hpp), shared
 // read-only by its queries (the caches inside are thread-safe).
 #include <tbb/enumerable_thread_specific.h>
+#include <map>
+#include <mutex>
 
 #include <memory>
 #include <vector>
@@ -32,6 +34,16 @@ struct SearchEngine::Impl {
   // Per-thread scratch, used only between blocking points (no task of
   // another query can run on the thread while a reference to it is held).
   mutable tbb::enumerable_thread_specific<search_detail::Scratch> scratch;
+  // Per style model (SearchOptions::style_model): every clip's style
+  // probabilities (clip_style_probabilities), computed on the first query
+  // that asks for a style, then shared.
+  mutable std::mutex style_mutex;
+  // (The model is kept with its probabilities: the key stays its own.)
+  struct ClipStyles {
+    std::shared_ptr<const StyleModel> model;
+    std::shared_ptr<const std::vector<std::vector<double>>> probabilities;
+  };
+  mutable std::map<const StyleModel*, ClipStyles> clip_styles;
 };
 
 }  // namespace mocap

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -443,6 +444,48 @@ MetPolicy met_policy(const Ctx& c, const json& v) {
   c.fail("met", "expected \"first\", \"only\" or \"any\", got " + json_text(v));
 }
 
+// "style": {"label": L | "like": {"bvh": F, "frames": "S-E"}, "weight": W}.
+QueryStyle query_style(const Ctx& c, const json& v, const std::filesystem::path& base_dir) {
+  if (!v.is_object()) c.fail("style", "expected an object, got " + type_name(v));
+  check_keys(c, v, "style", {"label", "like", "weight"});
+  QueryStyle s;
+  if (v.contains("label") == v.contains("like"))
+    c.fail("style", "give either \"label\" (a style of the model) or \"like\" (a file's frames)");
+  if (v.contains("label")) {
+    if (!v["label"].is_string() || v["label"].get<std::string>().empty())
+      c.fail("style.label", "expected a style name");
+    s.label = v["label"].get<std::string>();
+  } else {
+    const json& like = v["like"];
+    if (!like.is_object()) c.fail("style.like", "expected {\"bvh\": FILE, \"frames\": \"S-E\"}");
+    check_keys(c, like, "style.like", {"bvh", "frames"});
+    if (!like.contains("bvh") || !like["bvh"].is_string() || like["bvh"].get<std::string>().empty())
+      c.fail("style.like.bvh", "expected a BVH file path");
+    s.like_bvh = resolve(base_dir, like["bvh"].get<std::string>());
+    if (like.contains("frames")) {
+      const std::string f = like["frames"].is_string() ? like["frames"].get<std::string>() : "";
+      const std::size_t dash = f.find('-');
+      std::size_t a = 0, b = 0;
+      const auto num = [](std::string_view t, std::size_t& out) {
+        const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
+        return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
+      };
+      if (dash == std::string::npos || !num(std::string_view(f).substr(0, dash), a) ||
+          !num(std::string_view(f).substr(dash + 1), b) || a > b)
+        c.fail("style.like.frames",
+               "expected \"S-E\" (0-based, S <= E), got " + json_text(like["frames"]));
+      s.like_first = a;
+      s.like_last = b;
+      s.like_whole = false;
+    }
+  }
+  if (v.contains("weight")) {
+    s.weight = number(c, v["weight"], "style.weight");
+    if (!(s.weight > 0.0)) c.fail("style.weight", "must be > 0 (joules per nat)");
+  }
+  return s;
+}
+
 }  // namespace
 
 Query parse_query(const json& j, const std::string& source, std::size_t line,
@@ -451,7 +494,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
   check_keys(c, j, "",
              {"id", "frames", "relative", "character", "transition_time", "top", "path_weight",
-              "filter", "min_length_s", "max_length_s", "met"});
+              "filter", "min_length_s", "max_length_s", "met", "style"});
   Query q;
   q.id = default_id;
   if (j.contains("id")) {
@@ -533,6 +576,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     if (f.contains("clips")) q.filter.clips = string_list(c, f["clips"], "filter.clips");
     if (f.contains("exclude")) q.filter.exclude = string_list(c, f["exclude"], "filter.exclude");
   }
+  if (j.contains("style")) q.style = query_style(c, j["style"], base_dir);
   return q;
 }
 

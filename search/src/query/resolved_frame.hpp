@@ -124,6 +124,11 @@ struct ResolvedFrame {
   /// null for none. evaluate_h adds its context energy to h.
   std::shared_ptr<const FrameContext> context_before, context_after;
   const FrameContext* context = nullptr;
+  /// The query's style term per clip row of the skeleton (weighted, joules;
+  /// docs/style.md "Asking for a style"), which evaluate_h adds where the
+  /// frame starts the pair being searched (the runner sets it for Q^h);
+  /// null: none.
+  const double* style_rows = nullptr;
 };
 
 /// Resolves query frame `i` of `q` on skeleton `sk` with model `model`

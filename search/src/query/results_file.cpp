@@ -83,6 +83,8 @@ std::vector<PairResults> parse_result_pairs(const nlohmann::json& j, const std::
         r.context = jr.contains("context_in_J") || jr.contains("context_out_J");
         r.context_in_J = jr.value("context_in_J", 0.0);
         r.context_out_J = jr.value("context_out_J", 0.0);
+        r.style = jr.contains("style_J");
+        r.style_J = jr.value("style_J", 0.0);
         if (jr.contains("verdicts")) read_verdicts(jr.at("verdicts"), r);
         if (r.clip_index >= clips.clip_count() ||
             (clips.clip(r.clip_index).path != r.clip &&

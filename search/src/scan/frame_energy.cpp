@@ -244,6 +244,10 @@ void evaluate_h(const ResolvedFrame& q, const SkeletonData& skeleton, const Inde
   evaluate_h_alone(q, skeleton, index, t, g0, g1, out, scratch, place, skip, tile);
   // Context frames are whole frames, evaluated on every frame of the range.
   if (q.context != nullptr) add_context_energy(*q.context, skeleton, index, g0, g1, out, nullptr);
+  // The query's style term: a constant per clip (docs/style.md).
+  if (q.style_rows != nullptr)
+    for (std::size_t g = g0; g < g1; ++g)
+      if (std::isfinite(out[g - g0])) out[g - g0] += q.style_rows[skeleton.tables.frame_row[g]];
 }
 
 FrameRef database_frame(const SkeletonData& skeleton, const Index& index, std::size_t g,

@@ -174,6 +174,18 @@ enum class MetPolicy : std::uint8_t {
 /// "any", "first", "only".
 const char* met_policy_name(MetPolicy p);
 
+/// A query's "style" (docs/style.md "Asking for a style"): the style its
+/// results should have, by label or like a file's frames; every result's
+/// score gains weight x the clip's style distance (nats), which needs a
+/// style model (mocap-search --style-model, Python style_model=).
+struct QueryStyle {
+  std::string label;                              // a style of the model, or
+  std::optional<std::filesystem::path> like_bvh;  // frames like_first..like_last of a BVH file
+  std::size_t like_first = 0, like_last = 0;
+  bool like_whole = true;  // no "frames": the whole file
+  double weight = 1.0;     // J per nat, > 0
+};
+
 struct Query {
   std::string id;  // default "<line N>" / file stem
   std::vector<QueryFrameSpec> frames;
@@ -192,6 +204,7 @@ struct Query {
   double path_weight = 0.0;        // lambda >= 0
   MetPolicy met = MetPolicy::first;
   QueryFilter filter;
+  std::optional<QueryStyle> style;
 };
 
 /// Parses one query object. `base_dir` resolves relative "bvh" and

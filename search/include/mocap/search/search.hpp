@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "mocap/common/io/index.hpp"
+#include "mocap/common/motion/style.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_validation.hpp"
@@ -77,6 +78,9 @@ struct SearchOptions {
   double max_length_s = 4.0;
   /// Parallelise over clips inside one query (TBB); results do not depend on it.
   bool parallel_clips = true;
+  /// The style model queries with a "style" need (docs/style.md "Asking for
+  /// a style"); null: such a query fails.
+  std::shared_ptr<const StyleModel> style_model;
 };
 
 /// Checks the options' ranges (0 < min_length_s <= max_length_s): values a
@@ -135,6 +139,11 @@ struct SearchResult {
   /// motion could not be read as the model's (fewer than 4 frames, another rig).
   std::string recognised_style;
   double recognised_style_p = 0.0;
+  /// The query's style term in score_J (weight x the clip's style distance,
+  /// docs/style.md "Asking for a style"), with `style` set; h_in_J does not
+  /// include it.
+  double style_J = 0.0;
+  bool style = false;
   /// How far F^s misses each named constraint of Q^h (residuals_from) and
   /// F^e each of Q^h+1 (residuals_to), by name: metres for effectors,
   /// degrees for joint rotations, directions and angles
