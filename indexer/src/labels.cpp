@@ -60,10 +60,21 @@ std::optional<std::string> cfg_label(const fs::path& bvh, const std::string& key
   return std::nullopt;
 }
 
+// Labels of a file name PREFIX_CONTENT_STYLE_TAKE (take numeric): content
+// and style; none otherwise.
+std::vector<std::pair<std::string, std::string>> file_name_labels(const fs::path& bvh) {
+  const auto parts = split(bvh.stem().string(), '_');
+  if (parts.size() < 4 || !all_digits(parts.back())) return {};
+  std::string content = parts[1];
+  for (std::size_t i = 2; i + 2 < parts.size(); ++i) content += "_" + parts[i];
+  return {{"content", content}, {"style", parts[parts.size() - 2]}};
+}
+
 }  // namespace
 
 ClipLabels resolve_clip_labels(const fs::path& bvh) {
   ClipLabels out;
+  const auto from_name = file_name_labels(bvh);
   fs::path sidecar = bvh;
   sidecar.replace_extension(".json");
   std::error_code ec;
@@ -75,9 +86,13 @@ ClipLabels resolve_clip_labels(const fs::path& bvh) {
       for (const auto& [key, value] : j.items()) {
         std::string label;
         if (value.is_number_integer()) {
+          const auto named = std::find_if(from_name.begin(), from_name.end(),
+                                          [&](const auto& kv) { return kv.first == key; });
           if (auto l = cfg_label(bvh, key, value.get<long long>())) {
             label = *l;
             out.source = LabelSource::sidecar_cfg;
+          } else if (named != from_name.end()) {
+            label = named->second;  // no cfg file to read the number: the file name's
           } else {
             label = std::to_string(value.get<long long>());
           }
@@ -92,12 +107,9 @@ ClipLabels resolve_clip_labels(const fs::path& bvh) {
       return out;
     }
   }
-  const auto parts = split(bvh.stem().string(), '_');
-  if (parts.size() >= 4 && all_digits(parts.back())) {
-    std::string content = parts[1];
-    for (std::size_t i = 2; i + 2 < parts.size(); ++i) content += "_" + parts[i];
+  if (!from_name.empty()) {
     out.source = LabelSource::file_name;
-    out.labels = {{"content", content}, {"style", parts[parts.size() - 2]}};
+    out.labels = from_name;
   }
   return out;
 }

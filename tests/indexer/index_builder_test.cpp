@@ -312,6 +312,16 @@ TEST(IndexBuilder, LabelsFromSidecarsCfgFilesAndFileNames) {
       {"content", "run"}, {"style", "sad"}, {"take", "7"}};
   EXPECT_EQ(l.labels, want);
 
+  // A sidecar whose numbers no cfg file reads (a partial copy of a
+  // collection): the file name's labels for its keys, numbers for the rest.
+  fs::create_directories(dir / "copy");
+  const fs::path copy = dir / "copy" / "coll-1_run_sad_001.bvh";
+  fs::copy_file(golden_dir() / kWalk, copy);
+  write_text(dir / "copy" / "coll-1_run_sad_001.json", R"({"content": 1, "style": 4, "take": 7})");
+  l = resolve_clip_labels(copy);
+  EXPECT_EQ(l.source, LabelSource::sidecar);
+  EXPECT_EQ(l.labels, want);
+
   l = resolve_clip_labels(golden_dir() / kWalk);
   EXPECT_EQ(l.source, LabelSource::file_name);
   EXPECT_EQ(l.labels, (std::vector<std::pair<std::string, std::string>>{{"content", "walk"},
