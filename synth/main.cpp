@@ -33,6 +33,7 @@
 #include "mocap/player/player.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/query_file.hpp"
+#include "mocap/search/recognised_styles.hpp"
 #include "mocap/search/search.hpp"
 #include "mocap/synth/synth_batch.hpp"
 #include "mocap/synth/synth_batch_folder.hpp"
@@ -58,6 +59,7 @@ struct SynthArgs {
   std::string queries_path, out_dir, summary_path;
   bool reports = false, html_reports = false, quiet = false, allow_empty = false;
   std::string batch_format = "bvh";
+  std::string style_model;
 };
 
 // The exit statuses of a batch (docs/cli.md "Exit status").
@@ -157,6 +159,9 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                             "more work and faster joints (docs/synthesis.md \"Stepping\")");
   app.add_flag("--no-step-feet", a.no_step, "no stepping pass after the A* search (the default)")
       ->excludes(step);
+  app.add_option("--style-model", a.style_model,
+                 "a style model (mocap-index style-model): the report gives the recognised style "
+                 "of the output and of every partial motion (\"styles\"; docs/style.md)");
   app.add_option("--threads", a.threads,
                  "worker threads: the gaps (with --queries, the queries too) are made in "
                  "parallel (default: all cores); the output does not depend on it");
@@ -186,6 +191,9 @@ void check_synth_options(SynthArgs& a) {
   if (a.options.params.max_states < 1) throw mocap::InputError("--max-states", 0, "must be >= 1");
   mocap::check_supplement_options(a.options.params);
   for (const auto& p : a.picks) a.options.picks.push_back(mocap::parse_pick(p));
+  if (!a.style_model.empty())
+    a.options.style_model =
+        std::make_shared<const mocap::StyleModel>(mocap::read_style_model(a.style_model));
 }
 
 // The checked output files (empty: not asked for).

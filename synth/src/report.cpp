@@ -196,6 +196,12 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
     trs.push_back(tj);
   }
   j["transitions"] = trs;
+  if (!result.styles.empty()) {
+    nlohmann::json styles = nlohmann::json::array();
+    for (const auto& s : result.styles)
+      styles.push_back({{"of", s.of}, {"label", s.label}, {"p", s.p}});
+    j["styles"] = styles;
+  }
   const nlohmann::json segs = segments_json(result);
   double total = 0.0;
   for (double e : result.step_energies_J) total += e;

@@ -411,6 +411,48 @@ synth_detail::WarpSource warp_source(const TargetPieces& source, const SearchRes
   return src;
 }
 
+// SynthOptions::style_model: the output's style and each chosen partial
+// motion's (SynthResult::styles; too short or another rig: left out).
+void recognise_styles(const ClipSource& clips, const StyleModel& model, SynthResult& res) {
+  const auto has_joints = [&](const StyleMotion& m) {
+    return std::all_of(model.joints.begin(), model.joints.end(), [&](const std::string& j) {
+      return std::find(m.joint_names.begin(), m.joint_names.end(), j) != m.joint_names.end();
+    });
+  };
+  const auto add = [&](const std::string& of, const StyleMotion& m, const std::string& content) {
+    if (m.frame_count < 4 || !has_joints(m)) return;
+    const StylePrediction p = recognise_style(model, style_features(m, model.joints), content);
+    for (const auto& [style, prob] : p.probabilities)
+      if (style == p.style) res.styles.push_back({of, p.style, prob});
+  };
+  const SynthSkeleton& sk = *res.skeleton;
+  StyleMotion out;
+  out.joint_names = sk.skeleton.names;
+  out.parents = sk.skeleton.parents;
+  out.pelvis = sk.root_joint;
+  out.frame_time_s = res.frame_time_s;
+  out.frame_count = res.frames.size();
+  WorldPose w;
+  for (const SynthFrame& f : res.frames) {
+    synth_world_pose(sk, f, w);
+    out.local_rotations.insert(out.local_rotations.end(), f.local_rotations.begin(),
+                               f.local_rotations.end());
+    out.pelvis_rotations.push_back(w.rotations[static_cast<std::size_t>(sk.root_joint)]);
+    out.pelvis_positions.push_back(w.positions_m[static_cast<std::size_t>(sk.root_joint)]);
+  }
+  add("motion", out, "");
+  for (std::size_t h = 0; h < res.chosen.size(); ++h) {
+    const SearchResult& r = res.chosen[h];
+    const ClipSource::Location at = clips.locate(r.clip_index);
+    std::string content = at.index->label(at.clip, "content");
+    if (std::find(model.content.classes.begin(), model.content.classes.end(), content) ==
+        model.content.classes.end())
+      content.clear();
+    add("partial " + std::to_string(h + 1),
+        index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame), content);
+  }
+}
+
 // Output frames a..b with their swinging feet lifted off the ground
 // (synth_detail::lift_moving_feet); a and b are not changed.
 void lift_pair_feet(SynthResult& res, const RangeOfMotion& rom, std::size_t a, std::size_t b) {
@@ -668,6 +710,7 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
   res.step_energies_J = motion_step_energies(sk, res.frames, out_dt);
   res.motion_measures = measure_motion(sk, res.frames, out_dt);
   measure_pieces(res, rom);
+  if (options.style_model) recognise_styles(clips, *options.style_model, res);
   res.synth_ms = ms_since(t0);
   return res;
 }

@@ -8,8 +8,9 @@
 # most probable, the probabilities sum to 1), the same through --index
 # (the clip read from the index, its content label used), the output path
 # rules (a model replaced, another file refused without --force), and
-# search results carrying their recognised style (--style-model), and a
-# query asking for a style.
+# search results carrying their recognised style (--style-model), a query
+# asking for a style, and a synthesis report's styles (mocap-synth
+# --style-model).
 #   bash tests/cli/style.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -104,4 +105,27 @@ rc=0
 "$search" --index "$tmp/set1.h5" --queries "$tmp/qs.jsonl" --out "$tmp/rs2.jsonl" -q 2>"$tmp/err.txt" || rc=$?
 [ "$rc" = 1 ] || fail "a style query without --style-model: exit $rc (expected 1)"
 grep -q "needs a style model" "$tmp/rs2.jsonl" || fail "the error line of a style query without a model"
+# A synthesis report with the styles of the output and its partial motion.
+python3 - "$w" "$tmp/synth-q.json" <<'PY'
+import json, sys
+json.dump({"id": "oldwalk", "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+           "frames": [{"bvh": sys.argv[1], "frame": 20, "time_s": 0},
+                      {"bvh": sys.argv[1], "frame": 50, "time_s": 1.0}]}, open(sys.argv[2], "w"))
+PY
+# (mocap-synth --query has no partial success: any error exits 1, docs/cli.md)
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/m.bvh" \
+  --style-model "$tmp/none.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q "cannot read the style model" "$tmp/err.txt" ||
+  fail "mocap-synth with a missing style model: exit $rc"
+[ ! -e "$tmp/m.bvh" ] || fail "a motion was written with a missing style model"
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/m.bvh" \
+  --report "$tmp/report.json" --style-model "$tmp/style.json" >/dev/null 2>&1
+python3 - "$tmp/report.json" "$tmp/a.json" <<'PY' || fail "the report's styles"
+import json, sys
+styles = json.load(open(sys.argv[1]))["styles"]
+known = json.load(open(sys.argv[2]))["probabilities"].keys()
+assert [s["of"] for s in styles] == ["motion", "partial 1"], styles
+assert all(s["label"] in known and 0 < s["p"] <= 1 for s in styles), styles
+PY
 echo "style: ok"

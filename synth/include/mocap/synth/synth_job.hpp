@@ -12,6 +12,7 @@
 // into the transitions.
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -19,6 +20,7 @@
 
 #include "mocap/common/io/raw_clip.hpp"
 #include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/motion/style.hpp"
 #include "mocap/search/query.hpp"
 #include "mocap/search/results_file.hpp"
 #include "mocap/search/search.hpp"
@@ -56,6 +58,10 @@ struct SynthOptions {
   /// warp is smallest (warp_size_m, docs/synthesis.md "Warped fills"); 1:
   /// the ranking's best. A pair whose rank the user picked takes it.
   std::size_t warp_candidates = 5;
+  /// With a style model (mocap-synth --style-model; docs/style.md): the
+  /// recognised style of the output and of every chosen partial motion
+  /// (SynthResult::styles).
+  std::shared_ptr<const StyleModel> style_model;
 };
 
 /// The transition time a warped fill searches with (SynthOptions::warp_fill),
@@ -136,6 +142,15 @@ struct SynthResult {
   std::vector<SynthFrame> query_frames;  // completed Q^h, as placed
   /// Per pair, for a timed query (empty otherwise).
   std::vector<PairTiming> timing;
+  /// With SynthOptions::style_model: the style each is recognised as, the
+  /// output first ("motion"), then each pair's partial motion ("partial
+  /// H") of at least 4 frames; empty otherwise.
+  struct RecognisedStyle {
+    std::string of;
+    std::string label;
+    double p = 0.0;
+  };
+  std::vector<RecognisedStyle> styles;
   double synth_ms = 0.0;
 };
 
