@@ -84,6 +84,16 @@ def _input_error(failure):
     return error
 
 
+def _style_model_text(model):
+    """A style model (a dict, or a model file's path; None: none) as JSON text."""
+    if model is None:
+        return ""
+    if isinstance(model, (str, os.PathLike)):
+        with open(model, encoding="utf-8") as f:
+            return f.read()
+    return json.dumps(model)
+
+
 def _base_dir(base_dir):
     return os.fspath(base_dir) if base_dir is not None else os.getcwd()
 
@@ -361,7 +371,7 @@ class Index:
                    cost_threshold_J=5.0, step_feet=False, fps=None, refine=0,
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
-                   base_dir=None, energy="w", warp=None, warp_candidates=5):
+                   base_dir=None, energy="w", warp=None, warp_candidates=5, style_model=None):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         A list of queries is synthesize_batch's (the same keywords but
@@ -376,8 +386,9 @@ class Index:
         the work energy, or "g", the paper's: the energy the A* search
         minimises; warp: None, the default, warps the pairs of a timed
         query; True, --warp (an untimed query is then an error); False,
-        --no-warp; --warp-candidates: warp_candidates). Returns a
-        Synthesis.
+        --no-warp; --warp-candidates: warp_candidates; style_model, a dict
+        from style_model() or a model file's path: --style-model, the
+        report's "styles"). Returns a Synthesis.
         """
         if isinstance(query, (list, tuple)):
             if picks:
@@ -390,7 +401,7 @@ class Index:
                 refine_polish=refine_polish, refine_polish_window=refine_polish_window,
                 refine_polish_segments=refine_polish_segments,
                 refine_polish_smoothing_J=refine_polish_smoothing_J, energy=energy, warp=warp,
-                warp_candidates=warp_candidates)
+                warp_candidates=warp_candidates, style_model=style_model)
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
         args = dict(method=method, picks=pick_texts, max_states=max_states,
@@ -399,7 +410,8 @@ class Index:
                     refine_polish=refine_polish, refine_polish_window=refine_polish_window,
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
-                    energy=energy, warp=warp, warp_candidates=warp_candidates)
+                    energy=energy, warp=warp, warp_candidates=warp_candidates,
+                    style_model=_style_model_text(style_model))
         return Synthesis(_with_results_file(
             results, lambda path: self._raw.synthesize(text, _base_dir(base_dir), results=path,
                                                        **args)))
@@ -409,7 +421,7 @@ class Index:
                          fps=None, refine=0, refine_smoothing_J=0.0, refine_polish=0,
                          refine_polish_window=1, refine_polish_segments=False,
                          refine_polish_smoothing_J=0.0, energy="w", warp=None,
-                         warp_candidates=5):
+                         warp_candidates=5, style_model=None):
         """Synthesises a batch of queries, as mocap-synth --queries does.
 
         `queries`: a list of queries (dicts or JSON texts). They are searched
@@ -430,7 +442,8 @@ class Index:
                     refine_polish_window=refine_polish_window,
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
-                    energy=energy, warp=warp, warp_candidates=warp_candidates)
+                    energy=energy, warp=warp, warp_candidates=warp_candidates,
+                    style_model=_style_model_text(style_model))
         items = _with_results_file(
             results, lambda path: self._raw.synthesize_batch(texts, _base_dir(base_dir),
                                                              results=path, **args))

@@ -17,6 +17,7 @@
 #include "bindings.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/motion/style.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/search/batch_entry.hpp"
 #include "mocap/search/query.hpp"
@@ -65,6 +66,7 @@ struct SynthArgs {
   std::size_t refine_polish_window = 1;
   bool refine_polish_segments = false;
   double refine_polish_smoothing_J = 0.0;
+  std::string style_model;  // JSON text of a style model; empty: none
 };
 
 // The options as mocap-synth builds them from its flags (the names are the
@@ -98,6 +100,9 @@ SynthOptions synth_options(const SynthArgs& a) {
   if (a.energy != "g" && a.energy != "w")
     throw InputError("energy", 0, "expected g or w, got '" + a.energy + "'");
   o.params.energy = a.energy == "w" ? SearchEnergy::work : SearchEnergy::g;
+  if (!a.style_model.empty())
+    o.style_model = std::make_shared<const StyleModel>(
+        style_model_from_json(nlohmann::json::parse(a.style_model), "style_model"));
   o.params.refine.iterations = a.refine;
   o.params.refine.smoothing_J = a.refine_smoothing_J;
   o.params.refine.polish_sweeps = a.refine_polish;
@@ -393,8 +398,9 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
          std::optional<double> fps, std::size_t refine, double refine_smoothing_J,
          std::size_t refine_polish, std::size_t refine_polish_window, bool refine_polish_segments,
          double refine_polish_smoothing_J, int threads, const std::string& energy,
-         std::optional<bool> warp, std::size_t warp_candidates) {
+         std::optional<bool> warp, std::size_t warp_candidates, const std::string& style_model) {
         SynthArgs a;
+        a.style_model = style_model;
         a.method = method;
         a.max_states = max_states;
         a.cost_threshold_J = cost_threshold_J;
@@ -419,6 +425,7 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
+      py::arg("style_model") = "",
       "Synthesises a batch of queries (JSON texts) as mocap-synth --queries does: one search "
       "(or `results`, a mocap-search JSONL file), the queries in parallel. Per query, in input "
       "order, a Synthesis or, for a query that failed, a dict {message, source, line, detail}.");
@@ -436,8 +443,10 @@ void bind_index_synthesize(py::module_& m) {
          double cost_threshold_J, bool step_feet, std::optional<double> fps, std::size_t refine,
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
          bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
-         const std::string& energy, std::optional<bool> warp, std::size_t warp_candidates) {
+         const std::string& energy, std::optional<bool> warp, std::size_t warp_candidates,
+         const std::string& style_model) {
         SynthArgs a;
+        a.style_model = style_model;
         a.method = method;
         a.picks = picks;
         a.max_states = max_states;
@@ -464,6 +473,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
+      py::arg("style_model") = "",
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

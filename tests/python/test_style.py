@@ -71,3 +71,17 @@ def test_search_results_with_their_style_as_mocap_search_gives_them(index, index
     assert index.search(q, threads=1, style_model=path)["pairs"] == ours["pairs"]
     assert "recognised_style" not in index.search(q, threads=1)["pairs"][0]["results"][0]
 
+
+def test_synthesis_reports_styles_as_mocap_synth_does(index, scratch):
+    model = index.style_model()
+    walk = set1("dataset-1_walk_old_001")
+    q = {"id": "oldwalk", "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+         "frames": [{"bvh": walk, "frame": 20, "time_s": 0},
+                    {"bvh": walk, "frame": 50, "time_s": 1.0}]}
+    one = index.synthesize(q, style_model=model).report()
+    assert [s["of"] for s in one["styles"]] == ["motion", "partial 1"]
+    assert all(s["label"] in model["style"]["classes"] for s in one["styles"])
+    [batch] = index.synthesize_batch([q], style_model=model)
+    assert batch.report()["styles"] == one["styles"]
+    assert "styles" not in index.synthesize(q).report()
+
