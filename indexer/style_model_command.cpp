@@ -5,8 +5,6 @@
 
 #include <filesystem>
 #include <iostream>
-#include <map>
-#include <set>
 
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/motion/style.hpp"
@@ -53,12 +51,8 @@ int run_style_model(const StyleModelArgs& a) {
                         {"styles", model.style.classes},
                         {"contents", model.content.classes}};
   if (a.evaluate) {
-    const StyleEvaluation e = evaluate_style(samples, joints, a.folds, a.shrinkage);
-    std::map<std::string, std::map<std::string, std::size_t>> confusion;
-    for (const auto& [pair, n] : e.confusion) confusion[pair.first][pair.second] = n;
-    report["evaluation"] = {{"folds", a.folds}, {"takes", e.takes},
-                            {"right", e.right}, {"accuracy", e.accuracy()},
-                            {"alone", e.alone}, {"confusion", confusion}};
+    report["evaluation"] =
+        style_evaluation_json(evaluate_style(samples, joints, a.folds, a.shrinkage), a.folds);
   }
   write_file_atomically(out, json_text(style_model_json(model)) + "\n");
   if (a.json) {

@@ -4,16 +4,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <charconv>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <optional>
-#include <sstream>
 
-#include "mocap/common/io/bvh.hpp"
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/io/units.hpp"
+#include "mocap/common/motion/export.hpp"
 #include "mocap/common/motion/style.hpp"
 #include "mocap/common/util/error.hpp"
 #include "mocap/common/util/json_text.hpp"
@@ -28,23 +25,21 @@ struct FileRange {
   std::optional<std::pair<std::size_t, std::size_t>> frames;
 };
 
+// A tail "S-E" after the last colon is a frame range (parse_frame_range);
+// anything else there is part of the path.
 FileRange file_range(const std::string& arg) {
   const std::size_t colon = arg.rfind(':');
-  if (colon != std::string::npos) {
-    const std::string tail = arg.substr(colon + 1);
-    const std::size_t dash = tail.find('-');
-    std::size_t s = 0, e = 0;
-    const auto num = [](std::string_view t, std::size_t& v) {
-      const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-      return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
-    };
-    if (dash != std::string::npos && num(std::string_view(tail).substr(0, dash), s) &&
-        num(std::string_view(tail).substr(dash + 1), e)) {
-      if (s > e) throw InputError("FILE", 0, "frames " + tail + ": the first is after the last");
-      return {arg.substr(0, colon), std::pair{s, e}};
-    }
-  }
-  return {arg, std::nullopt};
+  if (colon == std::string::npos) return {arg, std::nullopt};
+  const std::string tail = arg.substr(colon + 1);
+  const std::size_t dash = tail.find('-');
+  const auto digits = [](const std::string& t) {
+    return !t.empty() &&
+           std::all_of(t.begin(), t.end(), [](unsigned char c) { return c >= '0' && c <= '9'; });
+  };
+  if (dash == std::string::npos || !digits(tail.substr(0, dash)) || !digits(tail.substr(dash + 1)))
+    return {arg, std::nullopt};
+  const FrameRange r = parse_frame_range(tail, "FILE");
+  return {arg.substr(0, colon), std::pair{r.first, r.last}};
 }
 
 }  // namespace
@@ -95,12 +90,8 @@ int run_style(const StyleArgs& a) {
     }
   }
   if (!motion) {
-    RawClip clip = read_bvh_file(fr.path);
-    normalise_up_axis(clip, up);
-    const std::size_t n = clip.frame_count;
-    const auto [s, e] = fr.frames.value_or(std::pair<std::size_t, std::size_t>{0, n ? n - 1 : 0});
-    motion = raw_style_motion(clip, s, e);
-    first = s;
+    motion = bvh_style_motion(fr.path, fr.frames, up);
+    first = fr.frames ? fr.frames->first : 0;
   }
   std::vector<double> features;
   try {
@@ -109,23 +100,14 @@ int run_style(const StyleArgs& a) {
     throw InputError(fr.path, 0, e.detail());
   }
   const StylePrediction p = recognise_style(model, features, content);
-  double best = 0.0;
-  nlohmann::json probs = nlohmann::json::object();
-  for (const auto& [style, prob] : p.probabilities) {
-    probs[style] = prob;
-    if (style == p.style) best = prob;
-  }
   if (a.json) {
-    std::cout << json_text(nlohmann::json{{"file", fr.path},
-                                          {"frames", {first, first + motion->frame_count - 1}},
-                                          {"style", p.style},
-                                          {"probabilities", probs},
-                                          {"content", p.content},
-                                          {"content_recognised", p.content_recognised}})
+    std::cout << json_text(
+                     style_prediction_json(fr.path, first, first + motion->frame_count - 1, p))
               << "\n";
   } else {
-    std::cout << fmt::format("{}: {} (p = {:.2f}); content {} ({})\n", a.file, p.style, best,
-                             p.content, p.content_recognised ? "recognised" : "given");
+    std::cout << fmt::format("{}: {} (p = {:.2f}); content {} ({})\n", a.file, p.style,
+                             p.probability, p.content,
+                             p.content_recognised ? "recognised" : "given");
   }
   return 0;
 }

@@ -464,8 +464,8 @@ def recognise_style(model, file, *, frames=None, content=None):
     if isinstance(model, (str, os.PathLike)):
         with open(model, encoding="utf-8") as f:
             model = json.load(f)
-    first, last = (None, None) if frames is None else (int(frames[0]), int(frames[1]))
-    return json.loads(_mocap.recognise_style(json.dumps(model), os.fspath(file), first, last,
+    span = None if frames is None else (int(frames[0]), int(frames[1]))
+    return json.loads(_mocap.recognise_style(json.dumps(model), os.fspath(file), span,
                                              content or ""))
 
 

@@ -414,16 +414,9 @@ synth_detail::WarpSource warp_source(const TargetPieces& source, const SearchRes
 // SynthOptions::style_model: the output's style and each chosen partial
 // motion's (SynthResult::styles; too short or another rig: left out).
 void recognise_styles(const ClipSource& clips, const StyleModel& model, SynthResult& res) {
-  const auto has_joints = [&](const StyleMotion& m) {
-    return std::all_of(model.joints.begin(), model.joints.end(), [&](const std::string& j) {
-      return std::find(m.joint_names.begin(), m.joint_names.end(), j) != m.joint_names.end();
-    });
-  };
   const auto add = [&](const std::string& of, const StyleMotion& m, const std::string& content) {
-    if (m.frame_count < 4 || !has_joints(m)) return;
-    const StylePrediction p = recognise_style(model, style_features(m, model.joints), content);
-    for (const auto& [style, prob] : p.probabilities)
-      if (style == p.style) res.styles.push_back({of, p.style, prob});
+    if (const auto p = recognise_motion_style(model, m, content))
+      res.styles.push_back({of, p->style, p->probability});
   };
   const SynthSkeleton& sk = *res.skeleton;
   StyleMotion out;
@@ -444,12 +437,9 @@ void recognise_styles(const ClipSource& clips, const StyleModel& model, SynthRes
   for (std::size_t h = 0; h < res.chosen.size(); ++h) {
     const SearchResult& r = res.chosen[h];
     const ClipSource::Location at = clips.locate(r.clip_index);
-    std::string content = at.index->label(at.clip, "content");
-    if (std::find(model.content.classes.begin(), model.content.classes.end(), content) ==
-        model.content.classes.end())
-      content.clear();
     add("partial " + std::to_string(h + 1),
-        index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame), content);
+        index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame),
+        at.index->label(at.clip, "content"));
   }
 }
 
@@ -475,13 +465,11 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
                       const ClipSource& clips, const Query& query,
                       const std::vector<PairResults>& ranked, const SynthOptions& options) {
   const SynthSkeleton& sk = *res.skeleton;
-  std::vector<std::uint8_t> changed(res.timing.size(), 0);
   for (std::size_t h = 0; h < res.timing.size(); ++h) {
     PairTiming& t = res.timing[h];
     const std::size_t a = t.key_frame;
     const std::size_t b =
         h + 1 < res.timing.size() ? res.timing[h + 1].key_frame : res.frames.size() - 1;
-    changed[h] = 1;
     if (t.direct || t.piece_frames < 2) {  // too short for a partial motion: A* frames
       lift_pair_feet(res, rom, a, b);
       continue;
@@ -516,12 +504,12 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
     t.warped = true;
     t.warp_candidates = candidates.size();
   }
-  // The transitions' measures: of the frames now in their place.
+  // The transitions' measures: of the frames now in their place (every
+  // pair was warped or had its feet lifted).
   std::size_t k = 0;
   for (const MotionSegment& seg : res.segments) {
     if (seg.kind != "transition") continue;
     TransitionReport& tr = res.transitions[k++];
-    if (!changed[seg.pair - 1]) continue;
     tr.measures = measure_span(res, rom, seg.first_frame - 1, seg.frame_count + 2);
   }
 }

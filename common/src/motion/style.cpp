@@ -15,6 +15,7 @@
 #include "mocap/common/body/skeleton.hpp"
 #include "mocap/common/dynamics/dynamics.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
+#include "mocap/common/io/bvh.hpp"
 #include "mocap/common/util/error.hpp"
 
 namespace mocap {
@@ -121,6 +122,13 @@ StyleDiscriminant fit_discriminant(const Eigen::MatrixXd& z, const std::vector<s
 
 Eigen::VectorXd as_vector(const std::vector<double>& f) {
   return Eigen::Map<const Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(f.size()));
+}
+
+// Whether the motion's skeleton has every one of `joints`.
+bool has_joints(const StyleMotion& m, const std::vector<std::string>& joints) {
+  return std::all_of(joints.begin(), joints.end(), [&](const std::string& j) {
+    return std::find(m.joint_names.begin(), m.joint_names.end(), j) != m.joint_names.end();
+  });
 }
 
 std::size_t feature_count(const std::vector<std::string>& joints) {
@@ -256,9 +264,7 @@ std::vector<StyleSample> index_style_samples(const Index& index, std::vector<std
     if (s.content.empty() || s.style.empty() || index.clips()[c].frame_count < 4) continue;
     const StyleMotion m = index_style_motion(index, c, 0, index.clips()[c].frame_count - 1);
     if (joints.empty()) joints = style_joints(m);
-    const std::set<std::string> has(m.joint_names.begin(), m.joint_names.end());
-    if (!std::all_of(joints.begin(), joints.end(), [&](const auto& j) { return has.count(j); }))
-      continue;
+    if (!has_joints(m, joints)) continue;
     s.features = style_features(m, joints);
     s.clip = c;
     out.push_back(std::move(s));
@@ -362,9 +368,39 @@ StylePrediction recognise_style(const StyleModel& model, const std::vector<doubl
   const Eigen::VectorXd e = (s.array() - top).exp();
   const double total = e.sum();
   p.style = model.style.classes[static_cast<std::size_t>(best)];
+  p.probability = e(best) / total;
   for (std::size_t i = 0; i < model.style.classes.size(); ++i)
     p.probabilities.emplace_back(model.style.classes[i], e(static_cast<Eigen::Index>(i)) / total);
   return p;
+}
+
+std::optional<StylePrediction> recognise_motion_style(const StyleModel& model,
+                                                      const StyleMotion& motion,
+                                                      const std::string& content_label) {
+  if (motion.frame_count < 4 || !has_joints(motion, model.joints)) return std::nullopt;
+  const bool known = std::find(model.content.classes.begin(), model.content.classes.end(),
+                               content_label) != model.content.classes.end();
+  return recognise_style(model, style_features(motion, model.joints),
+                         known ? content_label : std::string());
+}
+
+StyleMotion bvh_style_motion(const std::filesystem::path& file,
+                             std::optional<std::pair<std::size_t, std::size_t>> frames,
+                             std::optional<UpAxis> up) {
+  RawClip clip = read_bvh_file(file);
+  normalise_up_axis(clip, up);
+  const std::size_t last = clip.frame_count ? clip.frame_count - 1 : 0;
+  const auto [s, e] = frames.value_or(std::pair<std::size_t, std::size_t>{0, last});
+  return raw_style_motion(clip, s, e);
+}
+
+nlohmann::json style_prediction_json(const std::string& file, std::size_t first, std::size_t last,
+                                     const StylePrediction& p) {
+  nlohmann::json probs = nlohmann::json::object();
+  for (const auto& [style, prob] : p.probabilities) probs[style] = prob;
+  return {{"file", file},         {"frames", {first, last}},
+          {"style", p.style},     {"probabilities", probs},
+          {"content", p.content}, {"content_recognised", p.content_recognised}};
 }
 
 namespace {
@@ -546,6 +582,13 @@ StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
                            ++e.confusion[{s.style, p.style}];
                          });
   return e;
+}
+
+nlohmann::json style_evaluation_json(const StyleEvaluation& e, std::size_t folds) {
+  std::map<std::string, std::map<std::string, std::size_t>> confusion;
+  for (const auto& [pair, n] : e.confusion) confusion[pair.first][pair.second] = n;
+  return {{"folds", folds},           {"takes", e.takes}, {"right", e.right},
+          {"accuracy", e.accuracy()}, {"alone", e.alone}, {"confusion", confusion}};
 }
 
 double calibrate_style_temperature(const std::vector<StyleSample>& samples,

@@ -33,20 +33,12 @@ void add_recognised_styles(const StyleModel& model, const ClipSource& clips,
       for (SearchResult& r : pair.results) {
         if (r.end_frame < r.start_frame + 3) continue;
         const ClipSource::Location at = clips.locate(r.clip_index);
-        const StyleMotion m = index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame);
-        const std::vector<std::string> has = m.joint_names;
-        if (!std::all_of(model.joints.begin(), model.joints.end(), [&](const std::string& j) {
-              return std::find(has.begin(), has.end(), j) != has.end();
-            }))
-          continue;
-        std::string content = at.index->label(at.clip, "content");
-        if (std::find(model.content.classes.begin(), model.content.classes.end(), content) ==
-            model.content.classes.end())
-          content.clear();
-        const StylePrediction p = recognise_style(model, style_features(m, model.joints), content);
-        r.recognised_style = p.style;
-        for (const auto& [style, prob] : p.probabilities)
-          if (style == p.style) r.recognised_style_p = prob;
+        const std::optional<StylePrediction> p = recognise_motion_style(
+            model, index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame),
+            at.index->label(at.clip, "content"));
+        if (!p) continue;
+        r.recognised_style = p->style;
+        r.recognised_style_p = p->probability;
       }
 }
 
@@ -56,18 +48,10 @@ std::vector<std::vector<double>> clip_style_probabilities(const StyleModel& mode
   for (std::size_t c = 0; c < index.clips().size(); ++c) {
     const IndexClip& clip = index.clips()[c];
     if (clip.frame_count < 4) continue;
-    const StyleMotion m = index_style_motion(index, c, 0, clip.frame_count - 1);
-    if (!std::all_of(model.joints.begin(), model.joints.end(), [&](const std::string& j) {
-          return std::find(m.joint_names.begin(), m.joint_names.end(), j) != m.joint_names.end();
-        }))
-      continue;
-    std::string content = index.label(c, "content");
-    if (std::find(model.content.classes.begin(), model.content.classes.end(), content) ==
-        model.content.classes.end())
-      content.clear();
-    for (const auto& [style, p] :
-         recognise_style(model, style_features(m, model.joints), content).probabilities)
-      out[c].push_back(p);
+    const std::optional<StylePrediction> p = recognise_motion_style(
+        model, index_style_motion(index, c, 0, clip.frame_count - 1), index.label(c, "content"));
+    if (!p) continue;
+    for (const auto& [style, prob] : p->probabilities) out[c].push_back(prob);
   }
   return out;
 }
@@ -88,13 +72,12 @@ std::vector<double> asked_style(const StyleModel& model, const QueryStyle& style
     asked[static_cast<std::size_t>(it - styles.begin())] = 1.0;
     return asked;
   }
-  RawClip clip = read_bvh_file(*style.like_bvh);
-  normalise_up_axis(clip, std::nullopt);
-  const std::size_t last =
-      style.like_whole ? (clip.frame_count ? clip.frame_count - 1 : 0) : style.like_last;
   std::vector<double> asked;
   try {
-    const StyleMotion m = raw_style_motion(clip, style.like_whole ? 0 : style.like_first, last);
+    const StyleMotion m = bvh_style_motion(
+        *style.like_bvh, style.like_whole
+                             ? std::nullopt
+                             : std::optional(std::pair{style.like_first, style.like_last}));
     for (const auto& [s, p] : recognise_style(model, style_features(m, model.joints)).probabilities)
       asked.push_back(p);
   } catch (const InputError& e) {

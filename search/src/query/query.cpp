@@ -1,4 +1,5 @@
 #include "mocap/search/query.hpp"
+#include "mocap/common/motion/export.hpp"
 #include "mocap/common/util/input_limits.hpp"
 #include "mocap/common/util/json_text.hpp"
 
@@ -6,7 +7,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -463,19 +463,17 @@ QueryStyle query_style(const Ctx& c, const json& v, const std::filesystem::path&
       c.fail("style.like.bvh", "expected a BVH file path");
     s.like_bvh = resolve(base_dir, like["bvh"].get<std::string>());
     if (like.contains("frames")) {
-      const std::string f = like["frames"].is_string() ? like["frames"].get<std::string>() : "";
-      const std::size_t dash = f.find('-');
-      std::size_t a = 0, b = 0;
-      const auto num = [](std::string_view t, std::size_t& out) {
-        const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
-        return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
-      };
-      if (dash == std::string::npos || !num(std::string_view(f).substr(0, dash), a) ||
-          !num(std::string_view(f).substr(dash + 1), b) || a > b)
+      if (!like["frames"].is_string())
         c.fail("style.like.frames",
                "expected \"S-E\" (0-based, S <= E), got " + json_text(like["frames"]));
-      s.like_first = a;
-      s.like_last = b;
+      FrameRange r;
+      try {
+        r = parse_frame_range(like["frames"].get<std::string>(), "style.like.frames");
+      } catch (const InputError& e) {
+        c.fail("style.like.frames", e.detail());
+      }
+      s.like_first = r.first;
+      s.like_last = r.last;
       s.like_whole = false;
     }
   }

@@ -453,7 +453,7 @@ std::shared_ptr<const QueryBvhFile> query_frame_file(const Query& q, std::size_t
   std::shared_ptr<const QueryBvhFile> bvh = file != nullptr ? *file : nullptr;
   if (bvh) return bvh;
   try {
-    // The +-2 frame window below is all that is read of the file.
+    // A window of +-2 frames (or the context frames) is all that is read of the file.
     const std::size_t radius = std::max<std::size_t>({2, spec.context_before, spec.context_after});
     bvh = spec.asf ? cache.get_amc(*spec.bvh, *spec.asf, 1.0 / spec.amc_fps)
                    : cache.get_frames(*spec.bvh, unit_option, spec.bvh_frame, radius);

@@ -9,14 +9,17 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/io/raw_clip.hpp"
+#include "mocap/common/io/units.hpp"
 
 namespace mocap {
 
@@ -124,12 +127,33 @@ struct StylePrediction {
   /// discriminant's scores over the model's temperature), in the model's
   /// style order.
   std::vector<std::pair<std::string, double>> probabilities;
+  /// The probability of `style`.
+  double probability = 0.0;
 };
 /// The style of features from style_features(motion, model.joints); an
 /// empty `content` is recognised first. Throws InputError for a content the
 /// model does not know or features of the wrong length.
 StylePrediction recognise_style(const StyleModel& model, const std::vector<double>& features,
                                 const std::string& content = "");
+
+/// The style of a motion the model may not be able to read: nullopt for
+/// fewer than 4 frames or a skeleton lacking one of the model's joints.
+/// `content_label` (a clip's label; may be empty) standardises the features
+/// when the model knows that content; otherwise the content is recognised.
+std::optional<StylePrediction> recognise_motion_style(const StyleModel& model,
+                                                      const StyleMotion& motion,
+                                                      const std::string& content_label);
+
+/// Frames `frames` (default: all) of a BVH file, Y up (`up`: declared, or
+/// detected), as raw_style_motion reads them.
+StyleMotion bvh_style_motion(const std::filesystem::path& file,
+                             std::optional<std::pair<std::size_t, std::size_t>> frames,
+                             std::optional<UpAxis> up = std::nullopt);
+
+/// What `mocap-search style --json` prints for frames first..last of `file`
+/// (docs/style.md "Recognising a motion").
+nlohmann::json style_prediction_json(const std::string& file, std::size_t first, std::size_t last,
+                                     const StylePrediction& p);
 
 nlohmann::json style_model_json(const StyleModel& model);
 /// Throws InputError(source, 0, ...) naming the field that is missing or wrong.
@@ -149,6 +173,8 @@ struct StyleEvaluation {
 StyleEvaluation evaluate_style(const std::vector<StyleSample>& samples,
                                const std::vector<std::string>& joints, std::size_t folds,
                                double shrinkage = 0.3);
+/// The "evaluation" object of `mocap-index style-model --evaluate --json`.
+nlohmann::json style_evaluation_json(const StyleEvaluation& e, std::size_t folds);
 
 inline constexpr std::size_t kStyleCalibrationTakes = 10;
 
