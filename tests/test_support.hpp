@@ -1,5 +1,6 @@
 #pragma once
 // Helpers shared by the tests: where the real data is, temporary folders.
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -24,6 +25,22 @@ std::filesystem::path temp_dir(const std::string& tag);
 /// several test processes ask at once), or an
 /// empty path when the archive or tar is unavailable.
 std::filesystem::path bandai_namco_2_dir();
+
+// `out`, an index of the BVH files in `dir` built with the mocap-index binary
+// (with `character` when not empty); empty path on failure.
+inline std::filesystem::path build_index_with_binary(const std::filesystem::path& dir,
+                                                     const std::filesystem::path& out,
+                                                     const std::filesystem::path& character) {
+  const char* bin = std::getenv("MOCAP_BIN_DIR");
+  const std::filesystem::path exe =
+      std::filesystem::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
+  std::string cmd =
+      "'" + exe.string() + "' build -q --out '" + out.string() + "' '" + dir.string() + "'";
+  if (!character.empty()) cmd += " --character '" + character.string() + "'";
+  cmd += " > /dev/null";
+  if (!std::filesystem::exists(exe) || std::system(cmd.c_str()) != 0) return {};
+  return out;
+}
 
 }  // namespace mocap::test
 

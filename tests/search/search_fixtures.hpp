@@ -25,20 +25,14 @@ inline Query parse(const std::string& text) {
                           std::filesystem::path(MOCAP_SOURCE_DIR) / "tests/data/index", "q");
 }
 
-// `out`, an index of the BVH files in `dir` built with the mocap-index binary
-// (with `character` when not empty); empty path on failure.
-inline std::filesystem::path build_index_with_binary(const std::filesystem::path& dir,
-                                                     const std::filesystem::path& out,
-                                                     const std::filesystem::path& character) {
-  const char* bin = std::getenv("MOCAP_BIN_DIR");
-  const std::filesystem::path exe =
-      std::filesystem::path(bin ? bin : MOCAP_BINARY_DIR) / "indexer/mocap-index";
-  std::string cmd =
-      "'" + exe.string() + "' build -q --out '" + out.string() + "' '" + dir.string() + "'";
-  if (!character.empty()) cmd += " --character '" + character.string() + "'";
-  cmd += " > /dev/null";
-  if (!std::filesystem::exists(exe) || std::system(cmd.c_str()) != 0) return {};
-  return out;
+// parse(text) fails with a message holding `part`.
+inline void expect_parse_error(const std::string& text, const std::string& part) {
+  try {
+    (void)parse(text);
+    ADD_FAILURE() << "no error for " << text;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+  }
 }
 
 // A set-1 index (with `character` when not empty) in a folder named by

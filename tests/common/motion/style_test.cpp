@@ -10,8 +10,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <map>
 #include <memory>
 #include <string>
 
@@ -26,16 +24,12 @@ namespace fs = std::filesystem;
 
 // Set 1, indexed once per test binary.
 const Index* set1() {
-  static std::unique_ptr<Index> index;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    const fs::path out = test::temp_dir("style-index") / "set1.h5";
-    const std::string cmd =
-        std::string(MOCAP_BINARY_DIR) + "/indexer/mocap-index build -q --out '" + out.string() +
-        "' '" + (test::data_dir() / "bandai-namco-1" / "data").string() + "' >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) index = std::make_unique<Index>(Index::open(out));
-  }
+  static const std::unique_ptr<Index> index = [] {
+    const fs::path out =
+        test::build_index_with_binary(test::data_dir() / "bandai-namco-1" / "data",
+                                      test::temp_dir("style-index") / "set1.h5", {});
+    return out.empty() ? nullptr : std::make_unique<Index>(Index::open(out));
+  }();
   return index.get();
 }
 
