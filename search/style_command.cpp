@@ -10,9 +10,9 @@
 
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/io/units.hpp"
-#include "mocap/common/motion/export.hpp"
 #include "mocap/common/motion/style.hpp"
 #include "mocap/common/util/error.hpp"
+#include "mocap/common/util/frame_range.hpp"
 #include "mocap/common/util/json_text.hpp"
 #include "mocap/search/recognised_styles.hpp"
 

@@ -3,10 +3,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <filesystem>
 #include <stdexcept>
-#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -63,25 +61,6 @@ std::vector<std::size_t> same_files(const ClipSource& clips, const std::string& 
 }
 
 }  // namespace
-
-FrameRange parse_frame_range(const std::string& text, const std::string& option) {
-  const auto dash = text.find('-');
-  FrameRange r;
-  auto num = [](std::string_view s, std::size_t& v) {
-    const auto res = std::from_chars(s.data(), s.data() + s.size(), v);
-    return !s.empty() && res.ec == std::errc() && res.ptr == s.data() + s.size();
-  };
-  if (dash == std::string::npos || !num(std::string_view(text).substr(0, dash), r.first) ||
-      !num(std::string_view(text).substr(dash + 1), r.last))
-    throw InputError(
-        option, 0,
-        "expected S-E (the first and last frame, 0-based, inclusive), got \"" + text + "\"");
-  if (r.first > r.last)
-    throw InputError(option, 0,
-                     "first frame " + std::to_string(r.first) + " is after last frame " +
-                         std::to_string(r.last) + " (S-E needs S <= E)");
-  return r;
-}
 
 std::size_t find_clip(const ClipSource& clips, const std::string& name) {
   // A full path: as stored, or relative to the working folder.

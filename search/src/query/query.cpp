@@ -1,5 +1,5 @@
 #include "mocap/search/query.hpp"
-#include "mocap/common/motion/export.hpp"
+#include "mocap/common/util/frame_range.hpp"
 #include "mocap/common/util/input_limits.hpp"
 #include "mocap/common/util/json_text.hpp"
 

@@ -1,4 +1,4 @@
-// Tests for common/src/motion/export.cpp: frame ranges and clip names refused with
+// Tests for common/src/motion/export.cpp: clip names refused with
 // what was expected, and a clip's partial motion written so that the file's
 // own forward kinematics (the BVH reader's, the slow reference) gives the
 // index's joint positions of those frames, from one index and from a
@@ -31,22 +31,6 @@ std::string message(const auto& f) {
     return e.what();
   }
   return "";
-}
-
-TEST(FrameRangeTest, RefusesWhatIsNotSE) {
-  for (const char* bad : {"", "5", "-", "a-b", "5-", "-5", "1-2-3", " 1-2", "1-2 ", "+1-2", "1--2",
-                          "99999999999999999999999-1"}) {
-    const std::string e = message([&] { (void)parse_frame_range(bad, "--frames"); });
-    EXPECT_NE(e.find("--frames: expected S-E"), std::string::npos) << bad << ": " << e;
-  }
-  const std::string e = message([] { (void)parse_frame_range("40-10", "--frames"); });
-  EXPECT_NE(e.find("first frame 40 is after last frame 10"), std::string::npos) << e;
-  const FrameRange one = parse_frame_range("7-7", "--frames");
-  EXPECT_EQ(one.first, 7u);
-  EXPECT_EQ(one.last, 7u);
-  const FrameRange r = parse_frame_range("10-40", "--frames");
-  EXPECT_EQ(r.first, 10u);
-  EXPECT_EQ(r.last, 40u);
 }
 
 // Set-1 clips (among them the four takes whose joint_Root, above the

@@ -17,18 +17,9 @@
 
 #include "mocap/common/io/raw_clip.hpp"
 #include "mocap/common/motion/clip_source.hpp"
+#include "mocap/common/util/frame_range.hpp"
 
 namespace mocap {
-
-/// Frames first..last of a clip, 0-based, inclusive (first <= last).
-struct FrameRange {
-  std::size_t first = 0;
-  std::size_t last = 0;
-};
-
-/// "S-E" (decimal, S <= E; E = S gives one frame) -> {S, E}. Anything else
-/// throws InputError(option, 0, ...) saying what was expected.
-FrameRange parse_frame_range(const std::string& text, const std::string& option);
 
 /// The clip (number in `clips`) named `name`: its path as the index stores
 /// it (absolute, as built), that path given relative to the working folder,
