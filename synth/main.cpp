@@ -154,6 +154,12 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
                  "one with the smallest warp (1: the ranking's best)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  app.add_option("--warp-work-weight", a.options.warp_work_weight_m_per_J,
+                 "warped fills: the choice among candidates weighs the warp's size (m) plus this "
+                 "many metres per joule of the warped fill's work energy W (0: the smallest warp "
+                 "alone; docs/synthesis.md \"Warped fills\")")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   auto* step = app.add_flag("--step-feet", a.step,
                             "the stepping pass after the A* search: no skating, at the price of "
                             "more work and faster joints (docs/synthesis.md \"Stepping\")");

@@ -300,7 +300,9 @@ class Index:
     @staticmethod
     def fields(group="frames"):
         """The fields of a group (frames, blocks16, blocks64, clip_bounds):
-        name, dtype, unit, description (docs/index-format.md)."""
+        name, dtype, unit, description and stored (False: not in an index
+        file of the current schema, derived on load; docs/index-format.md
+        "Versions")."""
         return _mocap.Index.fields(group)
 
     def clip(self, key):
@@ -371,7 +373,8 @@ class Index:
                    cost_threshold_J=5.0, step_feet=False, fps=None, refine=0,
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
-                   base_dir=None, energy="w", warp=None, warp_candidates=5, style_model=None):
+                   base_dir=None, energy="w", warp=None, warp_candidates=5,
+                   warp_work_weight_m_per_J=3e-4, style_model=None):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         A list of queries is synthesize_batch's (the same keywords but
@@ -386,7 +389,8 @@ class Index:
         the work energy, or "g", the paper's: the energy the A* search
         minimises; warp: None, the default, warps the pairs of a timed
         query; True, --warp (an untimed query is then an error); False,
-        --no-warp; --warp-candidates: warp_candidates; style_model, a dict
+        --no-warp; --warp-candidates: warp_candidates; --warp-work-weight:
+        warp_work_weight_m_per_J; style_model, a dict
         from style_model() or a model file's path: --style-model, the
         report's "styles"). Returns a Synthesis.
         """
@@ -401,7 +405,8 @@ class Index:
                 refine_polish=refine_polish, refine_polish_window=refine_polish_window,
                 refine_polish_segments=refine_polish_segments,
                 refine_polish_smoothing_J=refine_polish_smoothing_J, energy=energy, warp=warp,
-                warp_candidates=warp_candidates, style_model=style_model)
+                warp_candidates=warp_candidates,
+                warp_work_weight_m_per_J=warp_work_weight_m_per_J, style_model=style_model)
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
         args = dict(method=method, picks=pick_texts, max_states=max_states,
@@ -411,6 +416,7 @@ class Index:
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
                     energy=energy, warp=warp, warp_candidates=warp_candidates,
+                    warp_work_weight_m_per_J=warp_work_weight_m_per_J,
                     style_model=_style_model_text(style_model))
         return Synthesis(_with_results_file(
             results, lambda path: self._raw.synthesize(text, _base_dir(base_dir), results=path,
@@ -421,7 +427,7 @@ class Index:
                          fps=None, refine=0, refine_smoothing_J=0.0, refine_polish=0,
                          refine_polish_window=1, refine_polish_segments=False,
                          refine_polish_smoothing_J=0.0, energy="w", warp=None,
-                         warp_candidates=5, style_model=None):
+                         warp_candidates=5, warp_work_weight_m_per_J=3e-4, style_model=None):
         """Synthesises a batch of queries, as mocap-synth --queries does.
 
         `queries`: a list of queries (dicts or JSON texts). They are searched
@@ -443,6 +449,7 @@ class Index:
                     refine_polish_segments=refine_polish_segments,
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
                     energy=energy, warp=warp, warp_candidates=warp_candidates,
+                    warp_work_weight_m_per_J=warp_work_weight_m_per_J,
                     style_model=_style_model_text(style_model))
         items = _with_results_file(
             results, lambda path: self._raw.synthesize_batch(texts, _base_dir(base_dir),

@@ -58,6 +58,7 @@ struct SynthArgs {
   bool step_feet = false;
   std::optional<bool> warp;  // unset: the default (timed queries warped)
   std::size_t warp_candidates = SynthOptions{}.warp_candidates;
+  double warp_work_weight_m_per_J = SynthOptions{}.warp_work_weight_m_per_J;
   std::string energy = "w";
   std::optional<double> fps;
   std::size_t refine = 0;
@@ -97,6 +98,10 @@ SynthOptions synth_options(const SynthArgs& a) {
   o.warp_required = a.warp.value_or(false);
   if (a.warp_candidates < 1) throw InputError("warp_candidates", 0, "must be >= 1");
   o.warp_candidates = a.warp_candidates;
+  if (!(std::isfinite(a.warp_work_weight_m_per_J) && a.warp_work_weight_m_per_J >= 0.0))
+    throw InputError("warp_work_weight_m_per_J", 0,
+                     "must be a finite number of metres per joule >= 0");
+  o.warp_work_weight_m_per_J = a.warp_work_weight_m_per_J;
   if (a.energy != "g" && a.energy != "w")
     throw InputError("energy", 0, "expected g or w, got '" + a.energy + "'");
   o.params.energy = a.energy == "w" ? SearchEnergy::work : SearchEnergy::g;
@@ -398,7 +403,8 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
          std::optional<double> fps, std::size_t refine, double refine_smoothing_J,
          std::size_t refine_polish, std::size_t refine_polish_window, bool refine_polish_segments,
          double refine_polish_smoothing_J, int threads, const std::string& energy,
-         std::optional<bool> warp, std::size_t warp_candidates, const std::string& style_model) {
+         std::optional<bool> warp, std::size_t warp_candidates, double warp_work_weight_m_per_J,
+         const std::string& style_model) {
         SynthArgs a;
         a.style_model = style_model;
         a.method = method;
@@ -408,6 +414,7 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
         a.energy = energy;
         a.warp = warp;
         a.warp_candidates = warp_candidates;
+        a.warp_work_weight_m_per_J = warp_work_weight_m_per_J;
         a.fps = fps;
         a.refine = refine;
         a.refine_smoothing_J = refine_smoothing_J;
@@ -425,6 +432,7 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
+      py::arg("warp_work_weight_m_per_J") = SynthOptions{}.warp_work_weight_m_per_J,
       py::arg("style_model") = "",
       "Synthesises a batch of queries (JSON texts) as mocap-synth --queries does: one search "
       "(or `results`, a mocap-search JSONL file), the queries in parallel. Per query, in input "
@@ -444,7 +452,7 @@ void bind_index_synthesize(py::module_& m) {
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
          bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
          const std::string& energy, std::optional<bool> warp, std::size_t warp_candidates,
-         const std::string& style_model) {
+         double warp_work_weight_m_per_J, const std::string& style_model) {
         SynthArgs a;
         a.style_model = style_model;
         a.method = method;
@@ -455,6 +463,7 @@ void bind_index_synthesize(py::module_& m) {
         a.energy = energy;
         a.warp = warp;
         a.warp_candidates = warp_candidates;
+        a.warp_work_weight_m_per_J = warp_work_weight_m_per_J;
         a.fps = fps;
         a.refine = refine;
         a.refine_smoothing_J = refine_smoothing_J;
@@ -473,6 +482,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("refine_polish_window") = 1, py::arg("refine_polish_segments") = false,
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
+      py::arg("warp_work_weight_m_per_J") = SynthOptions{}.warp_work_weight_m_per_J,
       py::arg("style_model") = "",
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "

@@ -241,6 +241,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
                        {"warped", t.warped}});
       if (t.warped) {
         pairs.back()["warp_size_m"] = t.warp_size_m;
+        pairs.back()["warp_work_J"] = t.warp_work_J;
         pairs.back()["warp_candidates"] = t.warp_candidates;
       }
     }
@@ -251,6 +252,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
   j["parameters"]["transition"] = transition_method_name(options.method);
   j["parameters"]["warp"] = options.warp_fill;
   j["parameters"]["warp_candidates"] = options.warp_candidates;
+  j["parameters"]["warp_work_weight_m_per_J"] = options.warp_work_weight_m_per_J;
   j["timings_ms"] = {{"search", search_ms}, {"synthesis", result.synth_ms}, {"total", total_ms}};
   return json_text(j, 2) + "\n";
 }

@@ -453,10 +453,41 @@ void lift_pair_feet(SynthResult& res, const RangeOfMotion& rom, std::size_t a, s
   std::copy(span.begin() + 1, span.end() - 1, first + 1);
 }
 
+// A warped pair's fill from one candidate (`src`, placed here by
+// balanced_placement) and what the choice among candidates weighs: the
+// warp's size and the fill's W from key pose a to key pose b (the output
+// frames beside them as the rates' neighbours).
+struct WarpedCandidate {
+  synth_detail::WarpSource source;
+  std::vector<SynthFrame> fill;
+  double size_m = 0.0;
+  double work_J = 0.0;
+};
+
+WarpedCandidate warp_candidate(const SynthResult& res, const RangeOfMotion& rom,
+                               synth_detail::WarpSource src, std::size_t a, std::size_t b) {
+  const SynthSkeleton& sk = *res.skeleton;
+  const std::vector<SynthFrame>& f = res.frames;
+  const std::vector<SynthFrame> unplaced = synth_detail::captured_span(sk, src, b - a);
+  src.placement = synth_detail::balanced_placement(sk, unplaced, f[a], f[b]);
+  WarpedCandidate c;
+  c.size_m = synth_detail::warp_size_m(sk, place_frame(sk, unplaced.front(), src.placement),
+                                       place_frame(sk, unplaced.back(), src.placement), f[a], f[b]);
+  c.fill = synth_detail::warp_fill(sk, &rom, src, f[a], f[b], b - a, res.frame_time_s);
+  const GapProblem gap{
+      res.skeleton,    &rom, f[a > 0 ? a - 1 : 0], f[a], f[b], f[std::min(b + 1, f.size() - 1)],
+      res.frame_time_s};
+  c.work_J = measure_transition(gap, std::vector<SynthFrame>(c.fill.begin() + 1, c.fill.end() - 1))
+                 .work_energy_J;
+  c.source = std::move(src);
+  return c;
+}
+
 // SynthOptions::warp_fill: each timed pair with a partial motion is filled
 // by a clip played over the whole pair (warp_source) and bent onto both key
 // poses (warp_fill.hpp): of the pair's candidates (warp_candidates), the
-// one with the smallest warp (warp_size_m), placed by balanced_placement.
+// one whose warp_size_m + warp_work_weight_m_per_J x warp_work_J is least
+// (warp_candidate; the first of equals).
 // The pair's chosen partial motion becomes that one. A pair too short for a
 // partial motion keeps its A* frames with their swinging feet lifted
 // (lift_pair_feet). The transitions' measures are those of the frames now
@@ -464,7 +495,8 @@ void lift_pair_feet(SynthResult& res, const RangeOfMotion& rom, std::size_t a, s
 void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPieces& source,
                       const ClipSource& clips, const Query& query,
                       const std::vector<PairResults>& ranked, const SynthOptions& options) {
-  const SynthSkeleton& sk = *res.skeleton;
+  if (!(std::isfinite(options.warp_work_weight_m_per_J) && options.warp_work_weight_m_per_J >= 0.0))
+    throw InputError("--warp-work-weight", 0, "must be a finite number of metres per joule >= 0");
   for (std::size_t h = 0; h < res.timing.size(); ++h) {
     PairTiming& t = res.timing[h];
     const std::size_t a = t.key_frame;
@@ -479,26 +511,22 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
     const std::vector<SearchResult> candidates =
         warp_candidates(clips, query, ranked[h], res.chosen[h], picked, source,
                         std::max<std::size_t>(1, options.warp_candidates));
-    std::optional<synth_detail::WarpSource> best;
+    std::optional<WarpedCandidate> best;
     const SearchResult* taken = nullptr;
+    const double weight = options.warp_work_weight_m_per_J;
     for (const SearchResult& c : candidates) {
-      synth_detail::WarpSource src = warp_source(source, c, t);
-      const std::vector<SynthFrame> unplaced = synth_detail::captured_span(sk, src, b - a);
-      src.placement = synth_detail::balanced_placement(sk, unplaced, res.frames[a], res.frames[b]);
-      const double size = synth_detail::warp_size_m(
-          sk, place_frame(sk, unplaced.front(), src.placement),
-          place_frame(sk, unplaced.back(), src.placement), res.frames[a], res.frames[b]);
-      if (best && size >= t.warp_size_m) continue;
-      best = std::move(src);
+      WarpedCandidate w = warp_candidate(res, rom, warp_source(source, c, t), a, b);
+      if (best && w.size_m + weight * w.work_J >= best->size_m + weight * best->work_J) continue;
+      best = std::move(w);
       taken = &c;
-      t.warp_size_m = size;
     }
+    t.warp_size_m = best->size_m;
+    t.warp_work_J = best->work_J;
     // The played-over-captured factor of the partial motion taken.
     t.warp *= static_cast<double>(res.chosen[h].end_frame - res.chosen[h].start_frame) /
               static_cast<double>(taken->end_frame - taken->start_frame);
     res.chosen[h] = *taken;
-    const std::vector<SynthFrame> fill = synth_detail::warp_fill(
-        sk, &rom, *best, res.frames[a], res.frames[b], b - a, res.frame_time_s);
+    const std::vector<SynthFrame>& fill = best->fill;
     std::copy(fill.begin() + 1, fill.end() - 1,
               res.frames.begin() + static_cast<std::ptrdiff_t>(a + 1));
     t.warped = true;

@@ -67,6 +67,9 @@ def test_invalid_options(index, data_dir):
         index.synthesize(q, warp=True)
     with pytest.raises(mocap.InputError, match="warp_candidates"):
         index.synthesize(q, warp_candidates=0)
+    for bad in (-1e-4, float("inf"), float("nan")):
+        with pytest.raises(mocap.InputError, match="warp_work_weight_m_per_J"):
+            index.synthesize(q, warp_work_weight_m_per_J=bad)
     other = index.search(dict(q, id="another-query"))
     with pytest.raises(mocap.InputError, match="no results for query"):
         index.synthesize(q, results=other)
@@ -135,7 +138,9 @@ def test_timed_pairs_are_warped_by_default_as_mocap_synth(index, index_path, dat
         json.dump(query, f)
     for flags, kwargs, warped in (([], {}, True), (["--warp"], {"warp": True}, True),
                                   (["--no-warp"], {"warp": False}, False),
-                                  (["--warp-candidates", "1"], {"warp_candidates": 1}, True)):
+                                  (["--warp-candidates", "1"], {"warp_candidates": 1}, True),
+                                  (["--warp-work-weight", "0"],
+                                   {"warp_work_weight_m_per_J": 0.0}, True)):
         theirs = mocap_synth(index_path, query_file, os.path.join(scratch, "t.bvh"), *flags)
         motion = index.synthesize(query, **kwargs)
         assert motion.bvh() == theirs, flags
@@ -145,6 +150,9 @@ def test_timed_pairs_are_warped_by_default_as_mocap_synth(index, index_path, dat
         if warped:
             assert report["timing"]["pairs"][0]["warp_candidates"] == kwargs.get(
                 "warp_candidates", 5), flags
+            assert report["timing"]["pairs"][0]["warp_work_J"] > 0, flags
+            assert report["parameters"]["warp_work_weight_m_per_J"] == kwargs.get(
+                "warp_work_weight_m_per_J", 3e-4), flags
 
 
 # The motion as arrays.

@@ -219,11 +219,12 @@ namespace {
 
 // The choice among candidates against its brute reference: every candidate
 // picked by its rank alone (the pair then warps that one, placed the same
-// way); the chosen one has the smallest warp of the first five that can be
-// picked, and its motion is the picked run's, frame for frame (to 1e-5: the
-// target skeleton's root offset comes from the first chosen clip's frame 0,
-// the ranking's best before the choice, the picked one alone).
-TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
+// way); the chosen one has the least score (warp size + weight x W of the
+// warped fill) of the first five that can be picked, and its motion is the
+// picked run's, frame for frame (to 1e-5: the target skeleton's root offset
+// comes from the first chosen clip's frame 0, the ranking's best before the
+// choice, the picked one alone). `weight` 0 is the smallest warp alone.
+void expect_least_score_taken(double weight) {
   MOCAP_REQUIRE_DATA();
   const Index* index = shared_index();
   ASSERT_NE(index, nullptr);
@@ -234,6 +235,7 @@ TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
   SynthOptions warp;
   warp.warp_fill = true;
   warp.warp_candidates = 5;
+  warp.warp_work_weight_m_per_J = weight;
   const Query q =
       query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), warp);
   const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
@@ -243,8 +245,9 @@ TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
   ASSERT_EQ(chosen.timing.size(), 1u);
   ASSERT_TRUE(chosen.timing[0].warped);
   EXPECT_EQ(chosen.timing[0].warp_candidates, 5u);
-  double smallest = std::numeric_limits<double>::infinity();
+  double least = std::numeric_limits<double>::infinity();
   std::size_t picked = 0;
+  const auto score = [&](const PairTiming& t) { return t.warp_size_m + weight * t.warp_work_J; };
   for (const SearchResult& m : found.pairs[0].results) {
     if (picked == 5) break;
     SynthOptions one = warp;
@@ -258,8 +261,11 @@ TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
     }
     ++picked;
     EXPECT_EQ(r.timing[0].warp_candidates, 1u);
-    smallest = std::min(smallest, r.timing[0].warp_size_m);
+    EXPECT_GT(r.timing[0].warp_work_J, 0.0);
+    least = std::min(least, score(r.timing[0]));
     if (m.rank != chosen.chosen[0].rank) continue;
+    EXPECT_NEAR(r.timing[0].warp_work_J, chosen.timing[0].warp_work_J,
+                1e-6 * chosen.timing[0].warp_work_J);
     ASSERT_EQ(r.frames.size(), chosen.frames.size());
     for (std::size_t i = 0; i < r.frames.size(); ++i) {
       EXPECT_LT((r.frames[i].root_position_m - chosen.frames[i].root_position_m).norm(), 1e-5) << i;
@@ -271,15 +277,42 @@ TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarp) {
     }
   }
   EXPECT_EQ(picked, 5u);
-  EXPECT_NEAR(chosen.timing[0].warp_size_m, smallest, 1e-6);
+  EXPECT_NEAR(score(chosen.timing[0]), least, 1e-6);
   // One candidate: the ranking's best.
   warp.warp_candidates = 1;
   const SynthResult first = synthesize(*index, q, found.pairs, warp, sk);
   EXPECT_EQ(first.timing[0].warp_candidates, 1u);
-  EXPECT_GE(first.timing[0].warp_size_m, chosen.timing[0].warp_size_m);
-  // Here the choice matters: the ranking's best is not the smallest warp.
+  EXPECT_GE(score(first.timing[0]), score(chosen.timing[0]));
+  // Here the choice matters: the ranking's best is not the least score.
   EXPECT_NE(first.chosen[0].rank, chosen.chosen[0].rank)
-      << first.timing[0].warp_size_m << " " << chosen.timing[0].warp_size_m;
+      << score(first.timing[0]) << " " << score(chosen.timing[0]);
+}
+
+TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheSmallestWarpWithoutTheWorkWeight) {
+  expect_least_score_taken(0.0);
+}
+
+TEST(TimedKeyPoses, AWarpedPairTakesTheCandidateWithTheLeastWarpAndWork) {
+  expect_least_score_taken(SynthOptions{}.warp_work_weight_m_per_J);
+}
+
+TEST(TimedKeyPoses, RefusesAWorkWeightThatIsNotAFiniteNonNegativeNumber) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const double dt =
+      index->clips()[test::clip_named(*index, kWalk.filename().string())].frame_time_s;
+  for (const double bad :
+       {-1e-4, std::numeric_limits<double>::infinity(), std::numeric_limits<double>::quiet_NaN()}) {
+    SynthOptions o;
+    o.warp_work_weight_m_per_J = bad;
+    try {
+      (void)synthesise(*index, timed_walk({100, 140}, {0.0, 40 * dt}), o);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("--warp-work-weight"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

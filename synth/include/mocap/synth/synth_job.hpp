@@ -55,9 +55,15 @@ struct SynthOptions {
   bool warp_required = false;
   /// With warp_fill: each warped pair chooses, among this many partial
   /// motions of its ranking (the best long enough first), the one whose
-  /// warp is smallest (warp_size_m, docs/synthesis.md "Warped fills"); 1:
-  /// the ranking's best. A pair whose rank the user picked takes it.
+  /// warped fill scores least (docs/synthesis.md "Warped fills"): its
+  /// warp's size plus warp_work_weight_m_per_J times its W
+  /// (PairTiming::warp_size_m, warp_work_J); 1: the ranking's best. A pair
+  /// whose rank the user picked takes it.
   std::size_t warp_candidates = 5;
+  /// The choice's price of work, metres of warp per joule of the warped
+  /// fill's W (finite, >= 0; 0: the smallest warp alone). 3e-4 makes
+  /// 1,000 J weigh as 30 cm of warp.
+  double warp_work_weight_m_per_J = 3e-4;
   /// With a style model (mocap-synth --style-model; docs/style.md): the
   /// recognised style of the output and of every chosen partial motion
   /// (SynthResult::styles).
@@ -91,9 +97,12 @@ struct PairTiming {
   /// motion, bent like it.
   bool warped = false;
   /// A warped pair: its warp's size (metres; the mean joint displacement at
-  /// both key poses before the displacement map) and how many partial
-  /// motions it chose among (SynthOptions::warp_candidates).
+  /// both key poses before the displacement map), the W of its warped fill
+  /// over the steps from key pose to key pose (joules; work_energy.hpp,
+  /// the frames beside the pair as the rates' neighbours) and how many
+  /// partial motions it chose among (SynthOptions::warp_candidates).
   double warp_size_m = 0.0;
+  double warp_work_J = 0.0;
   std::size_t warp_candidates = 0;
 };
 
