@@ -53,7 +53,11 @@ PreviousIndexChoice choose_previous_index(const fs::path& out, const IndexInfo& 
   if (full || !fs::exists(out, ec)) return choice;
   try {
     Index old = Index::open(out);
-    if (old.info().build_tool != info.build_tool)
+    if (old.info().schema_version != kIndexSchemaVersion)
+      choice.note = "index schema version " + std::to_string(old.info().schema_version) +
+                    " (this build writes " + std::to_string(kIndexSchemaVersion) +
+                    "): everything re-parsed";
+    else if (old.info().build_tool != info.build_tool)
       choice.note = "built by " + old.info().build_tool + ": everything re-parsed";
     else if (build_parameters(old.info()) != build_parameters(info))
       choice.note =

@@ -119,7 +119,10 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   d.frame_count = K;
   d.joint_count = J;
   d.segment_count = S;
+  // The fields the index stores; the others (kIndexDerivedFrameFields) a
+  // reader derives from the local rotations and joint positions.
   for (std::size_t i = 0; i < kFrameFieldCount; ++i) {
+    if (!frame_field_stored(kFrameFields[i].name, kIndexSchemaVersion)) continue;
     if (kFrameFields[i].dtype == IndexDType::f32)
       d.frames[i].resize(K * row_elements(kFrameFields[i].shape, J, S));
     else
@@ -130,11 +133,7 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   };
   std::vector<float>& root = frame("root_position_m");
   std::vector<float>& lrot = frame("local_rotations");
-  std::vector<float>& wrot = frame("world_rotations");
   std::vector<float>& jpos = frame("joint_positions_m");
-  std::vector<float>& com = frame("segment_com_m");
-  std::vector<float>& vel = frame("segment_com_velocity_mps");
-  std::vector<float>& omega = frame("segment_angular_velocity_radps");
   std::vector<float>& hscan = frame("h_scan");
   std::vector<float>& kd = frame("kd_features");
 
@@ -144,11 +143,7 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
     for (std::size_t j = 0; j < J; ++j) {
       const std::size_t i = f * J + j;
       put_quaternion(local[i], &lrot[i * 4]);
-      put_quaternion(dyn.rotations[i], &wrot[i * 4]);
       put_vec3(dyn.joint_positions_m[i], &jpos[i * 3]);
-      put_vec3(dyn.coms_m[i], &com[i * 3]);
-      put_vec3(dyn.com_velocities_mps[i], &vel[i * 3]);
-      put_vec3(dyn.angular_velocities_radps[i], &omega[i * 3]);
     }
     kd_feature(model, dyn.state(f), transition_time_s, &kd[f * 3 * S]);
   }

@@ -179,7 +179,8 @@ namespace {
 /// The skeleton table of a slot: its columns' attributes, the group's
 /// attributes and datasets (docs/index-format.md "/skeletons/<k>").
 void write_skeleton_table(IndexWriterSlot& s) {
-  for (auto& c : s.frames) c.finish();
+  for (auto& c : s.frames)
+    if (c.spec) c.finish();  // derived fields have no column
   for (auto& b : s.blocks)
     for (auto& c : b) c.finish();
   for (auto& c : s.bounds) c.finish();
@@ -293,7 +294,8 @@ std::uint32_t IndexWriter::slot_for(const IndexSkeleton& s) {
   };
   h5::Group frames = slot->group.create_group("frames");
   for (std::size_t i = 0; i < kFrameFieldCount; ++i)
-    make(frames, slot->frames[i], kFrameFields[i], deflate_);
+    if (frame_field_stored(kFrameFields[i].name, kIndexSchemaVersion))
+      make(frames, slot->frames[i], kFrameFields[i], deflate_);
   // Bounds are small and compress well: always deflated.
   for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
     h5::Group g = slot->group.create_group("blocks" + std::to_string(kIndexBlockSizes[b]));
@@ -311,6 +313,7 @@ std::uint32_t IndexWriter::slot_for(const IndexSkeleton& s) {
 void IndexWriter::append(IndexClip& clip, std::size_t clip_index, const ClipFrameData& d) {
   IndexWriterSlot& s = place(clip, clip_index, d.frame_count);
   for (std::size_t i = 0; i < kFrameFieldCount; ++i) {
+    if (!s.frames[i].spec) continue;  // derived on load, not stored
     if (kFrameFields[i].dtype == IndexDType::f32)
       s.frames[i].add(d.frames[i].data(), d.frame_count);
     else
@@ -343,7 +346,8 @@ void IndexWriter::copy(IndexClip& clip, std::size_t clip_index, PreviousIndex& p
       c.add(buf64.data(), count);
     }
   };
-  for (auto& c : s.frames) copy_rows(c, "frames", old.frame_start, old.frame_count);
+  for (auto& c : s.frames)
+    if (c.spec) copy_rows(c, "frames", old.frame_start, old.frame_count);
   for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
     const std::size_t bs = kIndexBlockSizes[b];
     const std::uint64_t first = b == 0 ? old.block16_start : old.block64_start;

@@ -269,6 +269,8 @@ void bind_index(py::module_& m) {
               d["dtype"] = s.dtype == IndexDType::f64 ? "float64" : "float32";
               d["unit"] = s.unit;
               d["description"] = s.description;
+              // In the file (h5py reads it) or derived on load by the reader.
+              d["stored"] = group != "frames" || frame_field_stored(s.name, kIndexSchemaVersion);
               out.append(d);
             }
             return out;

@@ -1,5 +1,6 @@
 // Runtime reader of the HDF5 index (mocap/common/io/index.hpp, docs/index-format.md).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -12,7 +13,10 @@
 #include <type_traits>
 #include <variant>
 
+#include <tbb/parallel_for.h>
+
 #include "io/index_checksum.hpp"
+#include "mocap/common/dynamics/index_frames.hpp"
 #include "mocap/common/io/hdf5.hpp"
 #include "mocap/common/io/index.hpp"
 #include "mocap/common/io/index_tables.hpp"
@@ -313,10 +317,11 @@ Index Index::open(const fs::path& path, const IndexOpenOptions& options) {
         file, 0,
         "not a mocap index (root attribute format is not '" + std::string(kIndexFormat) + "')");
   const std::int64_t version = root.int_attribute("schema_version");
-  if (version != kIndexSchemaVersion)
+  if (version < kIndexOldestSchemaVersion || version > kIndexSchemaVersion)
     throw InputError(file, 0,
                      "unsupported index schema version " + std::to_string(version) +
-                         " (this build reads " + std::to_string(kIndexSchemaVersion) +
+                         " (this build reads " + std::to_string(kIndexOldestSchemaVersion) +
+                         " to " + std::to_string(kIndexSchemaVersion) +
                          "); rebuild the index with this mocap-index");
 
   impl->info = read_root_attributes(root);
@@ -451,9 +456,28 @@ const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group,
   const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, group, field);
   const IndexFieldSpec& spec = as.spec;
   const IndexSkeleton& s = impl_->skeletons[skeleton];
+  auto key = std::make_tuple(skeleton, std::string(group), std::string(field));
+
+  if (group == "frames" && !frame_field_stored(field, impl_->info.schema_version)) {
+    {
+      std::lock_guard own(impl_->mutex);
+      if (auto it = impl_->arrays.find(key); it != impl_->arrays.end()) return *it->second;
+    }
+    // Derived without the lock, streamed (nothing else is kept); a thread
+    // that derived the same array first keeps its copy.
+    auto a = std::make_unique<IndexArray>();
+    a->rows = as.rows;
+    a->row_elements = row_elements(spec.shape, s.skeleton.joint_count(), s.segments.size());
+    a->f32.resize(a->rows * a->row_elements);
+    stream_derived_rows(
+        skeleton, field, 8192, [&](std::uint64_t first, std::uint64_t count, const float* rows) {
+          std::copy_n(rows, count * a->row_elements, a->f32.data() + first * a->row_elements);
+        });
+    std::lock_guard own(impl_->mutex);
+    return *impl_->arrays.emplace(std::move(key), std::move(a)).first->second;
+  }
 
   std::lock_guard own(impl_->mutex);
-  auto key = std::make_tuple(skeleton, std::string(group), std::string(field));
   if (auto it = impl_->arrays.find(key); it != impl_->arrays.end()) return *it->second;
   std::lock_guard lib(h5::library_mutex());
   const h5::Dataset d = open_array(impl_->file, s, skeleton, group, field, as);
@@ -481,6 +505,8 @@ void Index::stream_rows(
     const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const {
   const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, group, field);
   const IndexSkeleton& s = impl_->skeletons[skeleton];
+  if (group == "frames" && !frame_field_stored(field, impl_->info.schema_version))
+    return stream_derived_rows(skeleton, field, rows_per_block, fn);
   if (as.spec.dtype != IndexDType::f32)
     throw InputError(impl_->path.string(), 0,
                      "stream_rows: '" + std::string(field) + "' is not a float array");
@@ -519,6 +545,92 @@ void Index::stream_rows(
   // The same message as array()'s.
   if (hex64(h.digest()) != expected)
     throw InputError(file, 0, where + ": checksum mismatch (the index is damaged)");
+}
+
+void Index::stream_derived_rows(
+    std::uint32_t skeleton, std::string_view field, std::uint64_t rows_per_block,
+    const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const {
+  const IndexSkeleton& s = impl_->skeletons[skeleton];
+  const std::size_t J = s.skeleton.joint_count();
+  const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, "frames", field);
+  const std::size_t per_row = row_elements(as.spec.shape, J, s.segments.size());
+  const DynamicsModel model = dynamics_model(skeleton);
+  const double transition_time_s = impl_->info.transition_time_s;
+  // The stored sources, read in step, hashed as read.
+  struct Source {
+    const char* name = "";
+    std::size_t per_row = 0;
+    std::optional<h5::Dataset> d;
+    std::string expected;
+    std::vector<float> rows;
+    Xxh64 hash;
+  };
+  std::array<Source, 2> src;
+  src[0].name = "local_rotations";
+  src[0].per_row = J * 4;
+  src[1].name = "joint_positions_m";
+  src[1].per_row = J * 3;
+  {
+    std::lock_guard lib(h5::library_mutex());
+    for (Source& x : src) {
+      const ArraySpec xs = array_spec(impl_->path, impl_->skeletons, skeleton, "frames", x.name);
+      x.d.emplace(open_array(impl_->file, s, skeleton, "frames", x.name, xs));
+      x.expected = x.d->string_attribute("checksum_xxh64");
+    }
+  }
+  struct Close {
+    std::array<Source, 2>& src;
+    ~Close() {
+      std::lock_guard lib(h5::library_mutex());
+      for (Source& x : src) x.d.reset();
+    }
+  } close{src};
+  std::vector<float> out;
+  rows_per_block = std::max<std::uint64_t>(rows_per_block, 1);
+  std::uint64_t row = 0;
+  for (std::size_t i = 0; i < s.clips.size();) {
+    // Whole clips, in row order, up to at least rows_per_block rows.
+    std::size_t end = i;
+    std::uint64_t count = 0;
+    while (end < s.clips.size() && (end == i || count < rows_per_block)) {
+      const IndexClip& c = impl_->clips[s.clips[end]];
+      if (c.frame_start != row + count)
+        throw InputError(impl_->path.string(), 0,
+                         "/skeletons/" + std::to_string(skeleton) +
+                             ": clips do not cover the frame rows in order");
+      count += c.frame_count;
+      ++end;
+    }
+    {
+      std::lock_guard lib(h5::library_mutex());
+      for (Source& x : src) {
+        x.rows.resize(count * x.per_row);
+        x.d->read_rows_into<float>(row, count, x.rows.data());
+      }
+    }
+    for (Source& x : src) x.hash.update(x.rows.data(), x.rows.size() * sizeof(float));
+    out.resize(count * per_row);
+    tbb::parallel_for(i, end, [&](std::size_t k) {
+      const IndexClip& c = impl_->clips[s.clips[k]];
+      if (c.frame_count == 0) return;
+      const std::uint64_t at = c.frame_start - row;
+      const ClipDynamics dyn = clip_dynamics_from_rows(
+          model, {std::span<const float>(src[0].rows)
+                      .subspan(at * src[0].per_row, c.frame_count * src[0].per_row),
+                  std::span<const float>(src[1].rows)
+                      .subspan(at * src[1].per_row, c.frame_count * src[1].per_row),
+                  c.frame_count, c.frame_time_s});
+      derived_frame_rows(model, dyn, field, transition_time_s, out.data() + at * per_row);
+    });
+    fn(row, count, out.data());
+    row += count;
+    i = end;
+  }
+  for (const Source& x : src)
+    if (hex64(x.hash.digest()) != x.expected)
+      throw InputError(impl_->path.string(), 0,
+                       "/skeletons/" + std::to_string(skeleton) + "/frames/" + x.name +
+                           ": checksum mismatch (the index is damaged)");
 }
 
 std::span<const float> Index::clip_frames(std::size_t clip, std::string_view field) const {

@@ -32,6 +32,13 @@ std::vector<std::size_t> row_dims(RowShape s, std::size_t joints, std::size_t se
   return {};
 }
 
+bool frame_field_stored(std::string_view name, std::int64_t schema_version) {
+  if (schema_version < 2) return true;
+  for (std::string_view d : kIndexDerivedFrameFields)
+    if (d == name) return false;
+  return true;
+}
+
 int find_field(std::span<const IndexFieldSpec> table, std::string_view name) {
   for (std::size_t i = 0; i < table.size(); ++i)
     if (name == table[i].name) return static_cast<int>(i);

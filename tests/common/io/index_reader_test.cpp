@@ -1,7 +1,8 @@
-// The index reader against the golden file of the current schema version
-// (tests/data/index/index-v1.h5, built by `mocap-index build --compress 9` from
-// the two hand-written clips next to it), its refusal of other versions, and
-// damaged copies.
+// The index reader against the golden files of the current schema version
+// (tests/data/index/index-v2.h5) and of version 1 (index-v1.h5), each built
+// by `mocap-index build --compress 9` from the two hand-written clips next to
+// them: the same contents from both (version 2 derives the frame arrays
+// version 1 stored), its refusal of other versions, and damaged copies.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -28,6 +29,9 @@ fs::path golden_dir() {
   return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index";
 }
 fs::path golden() {
+  return golden_dir() / "index-v2.h5";
+}
+fs::path golden_v1() {
   return golden_dir() / "index-v1.h5";
 }
 
@@ -66,11 +70,13 @@ void flip_byte(const fs::path& p, std::uint64_t offset) {
 
 }  // namespace
 
-TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
-  ASSERT_TRUE(fs::exists(golden())) << golden();
-  const Index index = Index::open(golden(), {.verify_file_checksum = true});
+// What both golden files hold, read through Index (the frame arrays that
+// version 2 derives included).
+void expect_golden_contents(const fs::path& file, std::int64_t version) {
+  ASSERT_TRUE(fs::exists(file)) << file;
+  const Index index = Index::open(file, {.verify_file_checksum = true});
   EXPECT_EQ(index.info().format, kIndexFormat);
-  EXPECT_EQ(index.info().schema_version, kIndexSchemaVersion);
+  EXPECT_EQ(index.info().schema_version, version);
   EXPECT_EQ(index.info().unit_option, "auto");
   EXPECT_DOUBLE_EQ(index.info().transition_time_s, 0.5);
   EXPECT_DOUBLE_EQ(index.info().character_total_mass_kg, 70.0);
@@ -149,9 +155,64 @@ TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   EXPECT_GT(prefix[2], prefix[0]);                           // the jump costs energy
   EXPECT_EQ(index.array(0, "blocks16", "kd_min").rows, 2u);  // one block per clip
 
-  const IndexVerifyReport r = verify_index(golden());
+  const IndexVerifyReport r = verify_index(file);
   EXPECT_TRUE(r.ok) << (r.problems.empty() ? "" : r.problems.front());
-  EXPECT_GT(r.datasets_checked, 40u);
+  EXPECT_GT(r.datasets_checked, 36u);
+}
+
+TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
+  expect_golden_contents(golden(), kIndexSchemaVersion);
+}
+
+TEST(IndexReader, GoldenFileOfVersion1IsStillRead) {
+  expect_golden_contents(golden_v1(), 1);
+}
+
+// Version 2 stores no world rotations, COMs or rates: what it derives
+// equals what version 1 stored, to float precision (kinematics) and 1e-4
+// relative (rates: finite differences of float positions), and the derived
+// world rotations and COMs are the source file's forward kinematics (the
+// slow reference).
+TEST(IndexReader, Version2DerivesTheFrameArraysVersion1Stored) {
+  const Index v2 = Index::open(golden());
+  const Index v1 = Index::open(golden_v1());
+  for (std::string_view field : kIndexDerivedFrameFields) {
+    EXPECT_FALSE(frame_field_stored(field, 2)) << field;
+    EXPECT_TRUE(frame_field_stored(field, 1)) << field;
+    const IndexArray& x = v2.array(0, "frames", field);
+    const IndexArray& y = v1.array(0, "frames", field);
+    ASSERT_EQ(x.rows, y.rows) << field;
+    ASSERT_EQ(x.f32.size(), y.f32.size()) << field;
+    const bool rate = field.find("velocity") != std::string_view::npos;
+    for (std::size_t e = 0; e < x.f32.size(); ++e)
+      ASSERT_NEAR(x.f32[e], y.f32[e],
+                  rate ? 1e-4 * (1.0 + std::abs(static_cast<double>(y.f32[e]))) : 1e-6)
+          << field << " element " << e;
+  }
+  const RawClip raw = read_bvh_file(golden_dir() / "golden_walk_normal_001.bvh");
+  const ClipMotion m = clip_motion_from_raw(raw, 0.01);
+  const auto world = v2.clip_frames(1, "world_rotations");
+  const auto com = v2.clip_frames(1, "segment_com_m");
+  const DynamicsModel model = v2.dynamics_model(0);
+  for (std::size_t f = 0; f < 4; ++f)
+    for (std::size_t j = 0; j < 10; ++j) {
+      const float* q = &world[(f * 10 + j) * 4];
+      const Eigen::Quaterniond r(q[0], q[1], q[2], q[3]);
+      EXPECT_LT(r.angularDistance(m.rotation(f, j)), 1e-6) << f << " " << j;
+      const Eigen::Vector3d c = m.position(f, j) + m.rotation(f, j) * model.coms_local_m[j];
+      for (int a = 0; a < 3; ++a)
+        EXPECT_NEAR(com[(f * 10 + j) * 3 + static_cast<std::size_t>(a)], c[a], 1e-6)
+            << f << " " << j;
+    }
+  // Not in the file: only derived.
+  h5::File f = h5::File::open(golden());
+  for (std::string_view field : kIndexDerivedFrameFields)
+    EXPECT_FALSE(f.root()
+                     .open_group("skeletons")
+                     .open_group("0")
+                     .open_group("frames")
+                     .exists(std::string(field)))
+        << field;
 }
 
 TEST(IndexReader, RefusesAnotherSchemaVersion) {
@@ -165,7 +226,7 @@ TEST(IndexReader, RefusesAnotherSchemaVersion) {
   seal_index_file(p);  // as a future writer would have sealed it
   const std::string msg = error_of([&] { Index::open(p); });
   EXPECT_NE(msg.find("unsupported index schema version " + std::to_string(kIndexSchemaVersion + 1) +
-                     " (this build reads " + std::to_string(kIndexSchemaVersion) + ")"),
+                     " (this build reads 1 to " + std::to_string(kIndexSchemaVersion) + ")"),
             std::string::npos)
       << msg;
   const IndexVerifyReport r = verify_index(p);

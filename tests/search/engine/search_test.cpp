@@ -697,9 +697,10 @@ TEST(Search, FrameLowerBoundsNeverExceedHSet1) {
 // engine's subtree kernel (forward kinematics of the given subtrees, the h-scan
 // formula against the scan table): it equals partial_approximate_energy (the
 // double reference on the converted frame arrays) to float precision of the
-// stored data, on every frame of a set-1 index, for given joints at several
-// depths (one forearm, a shoulder chain, both legs), BVH `only` frames and
-// T = 0.25..1 s. Other partial frames keep the reference.
+// stored data (the reference's rates are finite differences of the stored
+// float joint positions: 1e-5 relative), on every frame of a set-1 index, for given joints at
+// several depths (one forearm, a shoulder chain, both legs), BVH `only` frames and T = 0.25..1 s.
+// Other partial frames keep the reference.
 TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
   MOCAP_REQUIRE_DATA();
   ASSERT_FALSE(set1_index().empty());
@@ -718,7 +719,7 @@ TEST(Search, SubtreeEnergyEqualsPartialEnergySet1) {
       ASSERT_EQ(engine_h.size(), h.size());
       for (std::size_t g = 0; g < h.size(); ++g) {
         const double err = std::abs(engine_h[g] - h[g]);
-        ASSERT_LE(err, 1e-6 * h[g] + 1e-6) << "query " << i << " (" << f << ") frame " << g
+        ASSERT_LE(err, 1e-5 * h[g] + 1e-5) << "query " << i << " (" << f << ") frame " << g
                                            << ": engine " << engine_h[g] << ", reference " << h[g];
         worst = std::max(worst, err / (h[g] + 1e-3));
         sum += h[g];

@@ -52,7 +52,8 @@ struct IndexedSkeleton {
 /// All rows one clip adds to the index, frame-major, in the order of the
 /// schema tables (index.hpp): frames[i] holds kFrameFields[i] for every frame
 /// (frame_count x row_elements values; float64 fields in frames_f64[i]
-/// instead), clip_bounds[i] one row of
+/// instead; empty for the fields the index does not store,
+/// kIndexDerivedFrameFields), clip_bounds[i] one row of
 /// kClipBoundFields[i], blocks[b][i] the rows of kBlockFields[i] for block
 /// size kIndexBlockSizes[b] (ceil(frame_count / size) rows).
 struct ClipFrameData {

@@ -52,7 +52,10 @@ namespace mocap {
 
 inline constexpr const char* kIndexFormat = "mocap-index";
 /// Bumped on any change a reader of the previous version would misread.
-inline constexpr std::int64_t kIndexSchemaVersion = 1;
+/// 2: the frame arrays kIndexDerivedFrameFields are no longer stored.
+inline constexpr std::int64_t kIndexSchemaVersion = 2;
+/// The oldest schema this build reads (docs/index-format.md "Versions").
+inline constexpr std::int64_t kIndexOldestSchemaVersion = 1;
 /// Size of the user block in front of the HDF5 data.
 inline constexpr std::size_t kIndexUserBlockBytes = 512;
 /// Frames per block for the per-block bounds.
@@ -154,6 +157,16 @@ inline constexpr IndexFieldSpec kClipBoundFields[] = {
 };
 inline constexpr std::size_t kClipBoundFieldCount =
     sizeof(kClipBoundFields) / sizeof(kClipBoundFields[0]);
+
+/// Frame fields a schema-2 index does not store: Index::array derives them
+/// on first use from local_rotations and joint_positions_m
+/// (dynamics/index_frames.hpp), bit for bit what the build derived its
+/// h_scan, kd_features and bounds from. Schema 1 stores them.
+inline constexpr std::string_view kIndexDerivedFrameFields[] = {"world_rotations", "segment_com_m",
+                                                                "segment_com_velocity_mps",
+                                                                "segment_angular_velocity_radps"};
+/// Whether an index of `schema_version` stores frame field `name`.
+bool frame_field_stored(std::string_view name, std::int64_t schema_version);
 
 /// Index of a field by name in one of the tables above, -1 if absent.
 int find_field(std::span<const IndexFieldSpec> table, std::string_view name);
@@ -323,6 +336,15 @@ class Index {
   DynamicsModel dynamics_model(std::uint32_t skeleton) const;
 
  private:
+  /// stream_rows of a frame field the index does not store
+  /// (frame_field_stored): whole clips at a time (at least rows_per_block
+  /// rows, but for the last), derived from their stored local rotations and
+  /// joint positions as those are read (index_frames.hpp); nothing is kept,
+  /// and the stored arrays' checksums are compared after the last block.
+  void stream_derived_rows(
+      std::uint32_t skeleton, std::string_view field, std::uint64_t rows_per_block,
+      const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const;
+
   struct Impl;
   explicit Index(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

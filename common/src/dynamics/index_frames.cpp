@@ -1,0 +1,100 @@
+// A clip's dynamics and derived frame arrays from an index's stored rows
+// (index_frames.hpp).
+#include "mocap/common/dynamics/index_frames.hpp"
+
+#include <array>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mocap/common/dynamics/energy.hpp"
+
+namespace mocap {
+namespace {
+
+constexpr std::array<std::string_view, 6> kDerived = {"world_rotations",
+                                                      "segment_com_m",
+                                                      "segment_com_velocity_mps",
+                                                      "segment_angular_velocity_radps",
+                                                      "h_scan",
+                                                      "kd_features"};
+
+/// Quaternion as (w, x, y, z) with w >= 0, as the index stores rotations.
+void put_quaternion(const Eigen::Quaterniond& q, float* out) {
+  const double s = q.w() < 0.0 ? -1.0 : 1.0;
+  out[0] = static_cast<float>(s * q.w());
+  out[1] = static_cast<float>(s * q.x());
+  out[2] = static_cast<float>(s * q.y());
+  out[3] = static_cast<float>(s * q.z());
+}
+
+void put_vec3s(const std::vector<Eigen::Vector3d>& v, float* out) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int a = 0; a < 3; ++a)
+      out[i * 3 + static_cast<std::size_t>(a)] = static_cast<float>(v[i][a]);
+}
+
+}  // namespace
+
+bool is_derived_frame_field(std::string_view field) {
+  for (std::string_view d : kDerived)
+    if (d == field) return true;
+  return false;
+}
+
+ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredClipRows& rows) {
+  const std::size_t J = model.parents.size(), K = rows.frame_count;
+  if (K == 0) throw std::invalid_argument("clip_dynamics_from_rows: a clip without frames");
+  if (rows.local_rotations.size() != K * J * 4 || rows.joint_positions_m.size() != K * J * 3)
+    throw std::invalid_argument("clip_dynamics_from_rows: rows do not match the skeleton");
+  std::vector<Eigen::Vector3d> positions(K * J);
+  std::vector<Eigen::Quaterniond> world(K * J);
+  for (std::size_t f = 0; f < K; ++f)
+    for (std::size_t j = 0; j < J; ++j) {
+      const std::size_t i = f * J + j;
+      const float* q = &rows.local_rotations[i * 4];
+      const float* x = &rows.joint_positions_m[i * 3];
+      const Eigen::Quaterniond local = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+      const int p = model.parents[j];
+      world[i] = p < 0 ? local : world[f * J + static_cast<std::size_t>(p)] * local;
+      positions[i] = Eigen::Vector3d(x[0], x[1], x[2]);
+    }
+  ClipDynamics dyn;
+  compute_clip_dynamics(model, K, rows.frame_time_s, positions.data(), world.data(), dyn);
+  return dyn;
+}
+
+void derived_frame_rows(const DynamicsModel& model, const ClipDynamics& dyn, std::string_view field,
+                        double transition_time_s, float* out) {
+  const std::size_t K = dyn.frame_count, S = model.segments.size();
+  if (field == "world_rotations") {
+    for (std::size_t i = 0; i < dyn.rotations.size(); ++i)
+      put_quaternion(dyn.rotations[i], out + i * 4);
+  } else if (field == "segment_com_m") {
+    put_vec3s(dyn.coms_m, out);
+  } else if (field == "segment_com_velocity_mps") {
+    put_vec3s(dyn.com_velocities_mps, out);
+  } else if (field == "segment_angular_velocity_radps") {
+    put_vec3s(dyn.angular_velocities_radps, out);
+  } else if (field == "kd_features") {
+    for (std::size_t f = 0; f < K; ++f)
+      kd_feature(model, dyn.state(f), transition_time_s, out + f * 3 * S);
+  } else if (field == "h_scan") {
+    // The h scan values, transposed from energy.hpp's field-major table.
+    HScanTable table;
+    init_h_scan_table(model, K, table);
+    for (std::size_t f = 0; f < K; ++f) set_h_scan_frame(model, dyn.state(f), f, table);
+    constexpr std::size_t kF = HScanTable::kFields;
+    static_assert(kF == 9, "index schema h_scan has 9 values per segment");
+    for (std::size_t s = 0; s < S; ++s)
+      for (std::size_t k = 0; k < kF; ++k) {
+        const float* src = table.field(s, k);
+        for (std::size_t f = 0; f < K; ++f) out[(f * S + s) * kF + k] = src[f];
+      }
+  } else {
+    throw std::invalid_argument("derived_frame_rows: '" + std::string(field) +
+                                "' is not a derived frame field");
+  }
+}
+
+}  // namespace mocap
