@@ -14,6 +14,7 @@
 #include <variant>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "io/index_checksum.hpp"
 #include "mocap/common/dynamics/index_frames.hpp"
@@ -610,17 +611,21 @@ void Index::stream_derived_rows(
     }
     for (Source& x : src) x.hash.update(x.rows.data(), x.rows.size() * sizeof(float));
     out.resize(count * per_row);
-    tbb::parallel_for(i, end, [&](std::size_t k) {
-      const IndexClip& c = impl_->clips[s.clips[k]];
-      if (c.frame_count == 0) return;
-      const std::uint64_t at = c.frame_start - row;
-      const ClipDynamics dyn = clip_dynamics_from_rows(
-          model, {std::span<const float>(src[0].rows)
-                      .subspan(at * src[0].per_row, c.frame_count * src[0].per_row),
-                  std::span<const float>(src[1].rows)
-                      .subspan(at * src[1].per_row, c.frame_count * src[1].per_row),
-                  c.frame_count, c.frame_time_s});
-      derived_frame_rows(model, dyn, field, transition_time_s, out.data() + at * per_row);
+    // Isolated: a caller may hold a lock (a search cache's mutex) that a
+    // task stolen while waiting here would wait on.
+    tbb::this_task_arena::isolate([&] {
+      tbb::parallel_for(i, end, [&](std::size_t k) {
+        const IndexClip& c = impl_->clips[s.clips[k]];
+        if (c.frame_count == 0) return;
+        const std::uint64_t at = c.frame_start - row;
+        const ClipDynamics dyn = clip_dynamics_from_rows(
+            model, {std::span<const float>(src[0].rows)
+                        .subspan(at * src[0].per_row, c.frame_count * src[0].per_row),
+                    std::span<const float>(src[1].rows)
+                        .subspan(at * src[1].per_row, c.frame_count * src[1].per_row),
+                    c.frame_count, c.frame_time_s});
+        derived_frame_rows(model, dyn, field, transition_time_s, out.data() + at * per_row);
+      });
     });
     fn(row, count, out.data());
     row += count;
