@@ -313,6 +313,39 @@ TEST(IndexReader, DatasetChecksumsCatchDamageBehindAValidUserBlock) {
   EXPECT_TRUE(found) << (r.problems.empty() ? "" : r.problems.front());
 }
 
+TEST(IndexReader, DerivedArraysCheckTheStoredArraysTheyComeFrom) {
+  // Joint positions changed behind a valid user block: an array derived
+  // from them (schema 2 stores no world rotations or COMs) is refused with
+  // the stored array's checksum, not made from damaged data.
+  const GoldenCopy copy("derived");
+  const fs::path& p = copy.file;
+  {
+    h5::File f = h5::File::open(p, true);
+    h5::Dataset d = f.root()
+                        .open_group("skeletons")
+                        .open_group("0")
+                        .open_group("frames")
+                        .open_dataset("joint_positions_m");
+    std::vector<float> v = d.read_all<float>();
+    v[7] += 0.25f;
+    d.write_all<float>(v);
+    f.close();
+  }
+  seal_index_file(p);
+  const Index index = Index::open(p);
+  for (std::string_view field : kIndexDerivedFrameFields) {
+    const std::string msg = error_of([&] { (void)index.array(0, "frames", field); });
+    EXPECT_NE(msg.find("/skeletons/0/frames/joint_positions_m: checksum mismatch"),
+              std::string::npos)
+        << field << ": " << msg;
+  }
+  const std::string msg = error_of([&] {
+    index.stream_rows(0, "frames", "segment_com_m", 2,
+                      [](std::uint64_t, std::uint64_t, const float*) {});
+  });
+  EXPECT_NE(msg.find("joint_positions_m: checksum mismatch"), std::string::npos) << msg;
+}
+
 TEST(IndexReader, OpenChecksTheClipAndSkeletonTables) {
   // A changed clip label or segment mass behind a valid user block: the
   // search opens indexes with Index::open, which must refuse them (they
