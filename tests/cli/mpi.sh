@@ -6,7 +6,8 @@
 # a changed shard, an output path refused on rank 0 (a shard of the
 # collection read, even with --force), an unreadable batch) ends the whole
 # job with exit 2 and a message naming the rank and the file, never a hang;
-# a rank killed mid-run leaves no temporary results file.
+# a rank killed mid-run leaves no temporary results file; style queries
+# (a style model, a style asked by label and like a file) equal one process.
 #   bash tests/cli/mpi.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -109,6 +110,40 @@ for x, y in zip(one[:-1], dealt[:-1]):
 e = one[-1]["error"]
 assert e.startswith('query wlak: filter.content: unknown value "wlak"; the index has: bow, '), e
 assert dealt[-1]["error"] == e.replace("the index has", "the collection has"), dealt[-1]
+PY
+done
+
+# Style queries (docs/style.md): a style model of the single index; each
+# shard's engine reads its clips' styles with it, so asking for a style by
+# label or like a file's frames, and the results' recognised styles, are
+# those of one process over the single index, under either distribution.
+"$indexer" style-model "$tmp/one.h5" --out "$tmp/style.json" >/dev/null
+walk="$(cd "$set1/data" && pwd)/dataset-1_walk_normal_001.bvh"
+tired="$(cd "$set1/data" && pwd)/dataset-1_walk_tired_001.bvh"
+keys='[{"bvh": "'"$walk"'", "frame": 40}, {"bvh": "'"$walk"'", "frame": 70}]'
+held='"filter": {"exclude": ["dataset-1_walk_normal_001*"]}'
+{
+  echo '{"id": "label", "frames": '"$keys"', "style": {"label": "old", "weight": 5}, '"$held"'}'
+  echo '{"id": "like", "frames": '"$keys"', "style": {"like": {"bvh": "'"$tired"'", "frames": "10-80"}, "weight": 2}, '"$held"'}'
+  echo '{"id": "plain", "frames": '"$keys"', "top": 5}'
+} >"$tmp/style.jsonl"
+"$search" -q --index "$tmp/one.h5" --style-model "$tmp/style.json" --queries "$tmp/style.jsonl" \
+  --out "$tmp/s1.jsonl" || fail "style queries, one process"
+for d in shards queries; do
+  mpi 2 "$search" -q --threads 1 --index "$tmp/c2.json" --style-model "$tmp/style.json" \
+    --queries "$tmp/style.jsonl" --out "$tmp/s2$d.jsonl" --distribute "$d" 2>"$tmp/err.txt" ||
+    fail "style queries, 2 shards, $d: $(cat "$tmp/err.txt")"
+  python3 - "$tmp/s1.jsonl" "$tmp/s2$d.jsonl" <<'PY' || fail "style queries over 2 shards, $d"
+import json, sys
+one, two = ([json.loads(l) for l in open(p)] for p in sys.argv[1:3])
+assert [x["id"] for x in one] == [y["id"] for y in two] == ["label", "like", "plain"]
+for x, y in zip(one, two):
+    x.pop("stats", None)
+    y.pop("stats", None)
+    assert x == y, (x["id"], json.dumps(x)[:300], json.dumps(y)[:300])
+    results = x["pairs"][0]["results"]
+    assert results and all("recognised_style" in r for r in results), x["id"]
+    assert all(("style_J" in r) == (x["id"] != "plain") for r in results), x["id"]
 PY
 done
 
