@@ -287,12 +287,15 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
   using synth_detail::filmstrip;
   filmstrip(o, "filmstrip-query", "Query frames (completed, Q_F)", sk, result.query_frames, 12,
             "#1f5fbf");
-  // Ranked partial motions (the paper's figures 6 to 10), same skeleton only.
+  // Ranked partial motions (the paper's figures 6 to 10): the first 5 and
+  // the one the pair took, wherever it ranks (a warped pair's choice, or a
+  // pair whose better ranks are of rigs the target skeleton cannot play).
   // Clips of other skeletons are drawn on their own skeleton.
   std::map<std::uint32_t, SynthSkeleton> others;
   for (std::size_t h = 0; h < ranked.size(); ++h)
     for (const SearchResult& m : ranked[h].results) {
-      if (m.rank > 5) continue;
+      const bool taken = h < result.chosen.size() && m.rank == result.chosen[h].rank;
+      if (m.rank > 5 && !taken) continue;
       const std::uint32_t k = clips.skeleton_of(m.clip_index);
       if (k != sk.index_skeleton && !others.count(k))
         others.emplace(k, make_synth_skeleton(clips, k, m.clip_index));
@@ -303,9 +306,8 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
       filmstrip(o, "filmstrip-pair" + std::to_string(h + 1) + "-rank" + std::to_string(m.rank),
                 "Pair " + std::to_string(h + 1) + ", rank " + std::to_string(m.rank) + ": " +
                     base_name(m.clip) + " frames " + std::to_string(m.start_frame) + "-" +
-                    std::to_string(m.end_frame),
-                own, fr, 8, m.rank == result.chosen[h].rank ? "#b8860b" : "#555",
-                synth_detail::View::front, m.start_frame);
+                    std::to_string(m.end_frame) + (taken ? ", taken" : ""),
+                own, fr, 8, taken ? "#b8860b" : "#555", synth_detail::View::front, m.start_frame);
     }
   filmstrip(o, "filmstrip-motion", "Synthesised motion", sk, result.frames, 16, "#c0392b");
   filmstrip(o, "filmstrip-motion-side", "Synthesised motion", sk, result.frames, 16, "#c0392b",

@@ -316,3 +316,44 @@ TEST(TimedKeyPoses, RefusesAWorkWeightThatIsNotAFiniteNonNegativeNumber) {
 }
 
 }  // namespace
+
+namespace {
+
+// The report pictures the partial motion a warped pair took, wherever it
+// ranks: a held-out sideways walk whose better-ranked partial motions are
+// takes of rigs the target skeleton cannot play (the pair takes rank 9).
+TEST(TimedKeyPoses, TheReportPicturesThePartialMotionThePairTook) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  const std::string file =
+      fs::absolute(test::data_dir() / "bandai-namco-1/data/dataset-1_walk-right_angry_001.bvh")
+          .string();
+  const std::string text = R"({"id": "side", "frames": [{"bvh": ")" + file +
+                           R"(", "frame": 60, "time_s": 0}, {"bvh": ")" + file +
+                           R"(", "frame": 91, "time_s": 1.0333323}],)" +
+                           R"( "filter": {"exclude": ["dataset-1_walk-right_angry_001*"]}})";
+  const SynthOptions options;
+  const Query q =
+      query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), options);
+  const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
+  ASSERT_FALSE(found.error);
+  std::optional<SynthSkeleton> sk;
+  const SynthResult r = synthesize(*index, q, found.pairs, options, sk);
+  ASSERT_EQ(r.chosen.size(), 1u);
+  ASSERT_TRUE(r.timing[0].warped);
+  const std::size_t taken = r.chosen[0].rank;
+  EXPECT_GT(taken, 5u);  // beyond the ranks the report always draws
+  const std::string html = synth_report_html(ClipSource(*index), q, found.pairs, r, options);
+  const std::string id = "data-figure=\"filmstrip-pair1-rank" + std::to_string(taken) + "\"";
+  EXPECT_NE(html.find(id), std::string::npos) << id;
+  EXPECT_NE(html.find(", taken"), std::string::npos);
+  // Ranks 1 to 5 are still drawn, and no other rank beyond them.
+  EXPECT_NE(html.find("data-figure=\"filmstrip-pair1-rank1\""), std::string::npos);
+  for (std::size_t k = 6; k < taken; ++k)
+    EXPECT_EQ(html.find("data-figure=\"filmstrip-pair1-rank" + std::to_string(k) + "\""),
+              std::string::npos)
+        << k;
+}
+
+}  // namespace
