@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "mocap/common/dynamics/energy.hpp"
+#include "mocap/common/dynamics/index_frames.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
 #include "mocap/common/dynamics/newton_euler.hpp"
 #include "mocap/common/util/error.hpp"
@@ -134,8 +135,6 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   std::vector<float>& root = frame("root_position_m");
   std::vector<float>& lrot = frame("local_rotations");
   std::vector<float>& jpos = frame("joint_positions_m");
-  std::vector<float>& hscan = frame("h_scan");
-  std::vector<float>& kd = frame("kd_features");
 
   const auto rj = static_cast<std::size_t>(skel.root_joint);
   for (std::size_t f = 0; f < K; ++f) {
@@ -145,20 +144,9 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
       put_quaternion(local[i], &lrot[i * 4]);
       put_vec3(dyn.joint_positions_m[i], &jpos[i * 3]);
     }
-    kd_feature(model, dyn.state(f), transition_time_s, &kd[f * 3 * S]);
   }
-
-  // The h scan values, transposed from energy.hpp's field-major table.
-  HScanTable table;
-  init_h_scan_table(model, K, table);
-  for (std::size_t f = 0; f < K; ++f) set_h_scan_frame(model, dyn.state(f), f, table);
-  constexpr std::size_t kF = HScanTable::kFields;
-  static_assert(kF == 9, "index schema h_scan has 9 values per segment");
-  for (std::size_t s = 0; s < S; ++s)
-    for (std::size_t k = 0; k < kF; ++k) {
-      const float* src = table.field(s, k);
-      for (std::size_t f = 0; f < K; ++f) hscan[(f * S + s) * kF + k] = src[f];
-    }
+  for (const char* name : {"kd_features", "h_scan"})
+    derived_frame_rows(model, dyn, name, transition_time_s, frame(name).data());
 
   // The clip's own energy: g per step, as prefix sums from 0.
   std::vector<double> prefix = energy_prefix_sums(clip_step_energies(model, dyn));

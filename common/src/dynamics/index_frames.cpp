@@ -1,8 +1,7 @@
-// A clip's dynamics and derived frame arrays from an index's stored rows
-// (index_frames.hpp).
+// Index frame arrays from a clip's dynamics, and the dynamics from an
+// index's stored rows (index_frames.hpp).
 #include "mocap/common/dynamics/index_frames.hpp"
 
-#include <array>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -11,13 +10,6 @@
 
 namespace mocap {
 namespace {
-
-constexpr std::array<std::string_view, 6> kDerived = {"world_rotations",
-                                                      "segment_com_m",
-                                                      "segment_com_velocity_mps",
-                                                      "segment_angular_velocity_radps",
-                                                      "h_scan",
-                                                      "kd_features"};
 
 /// Quaternion as (w, x, y, z) with w >= 0, as the index stores rotations.
 void put_quaternion(const Eigen::Quaterniond& q, float* out) {
@@ -35,12 +27,6 @@ void put_vec3s(const std::vector<Eigen::Vector3d>& v, float* out) {
 }
 
 }  // namespace
-
-bool is_derived_frame_field(std::string_view field) {
-  for (std::string_view d : kDerived)
-    if (d == field) return true;
-  return false;
-}
 
 ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredClipRows& rows) {
   const std::size_t J = model.parents.size(), K = rows.frame_count;

@@ -1,14 +1,12 @@
 #pragma once
-// A clip's per-frame dynamics from the frame arrays an index stores
-// (docs/index-format.md "/skeletons/<k>/frames", "Versions"): the local
-// rotations and the joint positions, float32. The build derives every other
-// per-frame array from them (world rotations, segment COMs and their
-// velocities, angular velocities, the h scan values, the kd features, the
-// clip's own energy), after rounding them to float32 as they are stored;
-// a reader of a schema-2 index derives the arrays the file does not store
-// (kIndexDerivedFrameFields) with the same functions from the same floats,
-// so the values are the build's bit for bit and the stored bounds (kd boxes
-// and the h scan's inputs) hold for them exactly.
+// The per-frame arrays of an index (docs/index-format.md
+// "/skeletons/<k>/frames", "Versions") from a clip's dynamics. The build
+// writes h_scan and kd_features from its double-precision dynamics of the
+// file (derived_frame_rows); a reader of a schema-2 index derives the arrays
+// the file does not store (kIndexDerivedFrameFields: world rotations,
+// segment COMs and their velocities, angular velocities) from the stored
+// float32 local rotations and joint positions (clip_dynamics_from_rows, then
+// derived_frame_rows): within float precision of what schema 1 stored.
 #include <cstddef>
 #include <span>
 #include <string_view>
@@ -36,7 +34,7 @@ struct StoredClipRows {
 /// do not hold frame_count rows or frame_count is 0.
 ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredClipRows& rows);
 
-/// The frame fields derived from the stored ones (index.hpp kFrameFields),
+/// A frame field computed from a clip's dynamics (index.hpp kFrameFields),
 /// in the schema's units and layout:
 ///   world_rotations                 J x 4, (w, x, y, z) with w >= 0
 ///   segment_com_m                   J x 3
@@ -48,8 +46,5 @@ ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredCli
 /// for any other name.
 void derived_frame_rows(const DynamicsModel& model, const ClipDynamics& dyn, std::string_view field,
                         double transition_time_s, float* out);
-
-/// Whether derived_frame_rows derives `field`.
-bool is_derived_frame_field(std::string_view field);
 
 }  // namespace mocap
