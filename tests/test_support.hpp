@@ -1,10 +1,24 @@
 #pragma once
-// Helpers shared by the tests: where the real data is, temporary folders.
+// Helpers shared by the tests: where the real data is, temporary folders,
+// the message of an input error.
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 
+#include "mocap/common/util/error.hpp"
+
 namespace mocap::test {
+
+/// The message of the InputError that `f()` throws; "" when it throws none
+/// (another exception passes through).
+inline std::string input_error_message(const auto& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
 
 /// True in a sanitizer build (MOCAP_SANITIZE: CI's AddressSanitizer and
 /// UndefinedBehaviorSanitizer stage at -O1, where the set-1 scans run 20 to

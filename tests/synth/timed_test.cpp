@@ -65,6 +65,30 @@ std::unique_ptr<Synthesised> synthesise(const Index& index, const std::string& t
   return out;
 }
 
+// A timed query synthesised as mocap-synth does it with `options`: the query
+// as the fill searches it (query_for_fill), its search, the motion; null
+// (and a test failure) when the search fails.
+struct FillRun {
+  Query query;
+  QueryOutcome found;
+  SynthResult result;
+  std::optional<SynthSkeleton> skeleton;
+};
+
+std::unique_ptr<FillRun> fill_run(const Index& index, const std::string& text,
+                                  const SynthOptions& options) {
+  auto run = std::make_unique<FillRun>();
+  run->query =
+      query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), options);
+  run->found = SearchEngine(index).run(run->query, SearchOptions{});
+  if (run->found.error) {
+    ADD_FAILURE() << *run->found.error;
+    return nullptr;
+  }
+  run->result = synthesize(index, run->query, run->found.pairs, options, run->skeleton);
+  return run;
+}
+
 // Frame f of the walk file as the index holds it.
 SynthFrame walk_frame(const Index& index, std::size_t f) {
   return clip_frame(index, test::clip_named(index, kWalk.filename().string()), f);
@@ -236,12 +260,11 @@ void expect_least_score_taken(double weight) {
   warp.warp_fill = true;
   warp.warp_candidates = 5;
   warp.warp_work_weight_m_per_J = weight;
-  const Query q =
-      query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), warp);
-  const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
-  ASSERT_FALSE(found.error);
-  std::optional<SynthSkeleton> sk;
-  const SynthResult chosen = synthesize(*index, q, found.pairs, warp, sk);
+  const auto run = fill_run(*index, text, warp);
+  ASSERT_NE(run, nullptr);
+  const Query& q = run->query;
+  const QueryOutcome& found = run->found;
+  const SynthResult& chosen = run->result;
   ASSERT_EQ(chosen.timing.size(), 1u);
   ASSERT_TRUE(chosen.timing[0].warped);
   EXPECT_EQ(chosen.timing[0].warp_candidates, 5u);
@@ -280,7 +303,7 @@ void expect_least_score_taken(double weight) {
   EXPECT_NEAR(score(chosen.timing[0]), least, 1e-6);
   // One candidate: the ranking's best.
   warp.warp_candidates = 1;
-  const SynthResult first = synthesize(*index, q, found.pairs, warp, sk);
+  const SynthResult first = synthesize(*index, q, found.pairs, warp, run->skeleton);
   EXPECT_EQ(first.timing[0].warp_candidates, 1u);
   EXPECT_GE(score(first.timing[0]), score(chosen.timing[0]));
   // Here the choice matters: the ranking's best is not the least score.
@@ -334,17 +357,15 @@ TEST(TimedKeyPoses, TheReportPicturesThePartialMotionThePairTook) {
                            R"(", "frame": 91, "time_s": 1.0333323}],)" +
                            R"( "filter": {"exclude": ["dataset-1_walk-right_angry_001*"]}})";
   const SynthOptions options;
-  const Query q =
-      query_for_fill(parse_query_text(text, "<test>", 0, fs::current_path(), "q"), options);
-  const QueryOutcome found = SearchEngine(*index).run(q, SearchOptions{});
-  ASSERT_FALSE(found.error);
-  std::optional<SynthSkeleton> sk;
-  const SynthResult r = synthesize(*index, q, found.pairs, options, sk);
+  const auto run = fill_run(*index, text, options);
+  ASSERT_NE(run, nullptr);
+  const SynthResult& r = run->result;
   ASSERT_EQ(r.chosen.size(), 1u);
   ASSERT_TRUE(r.timing[0].warped);
   const std::size_t taken = r.chosen[0].rank;
   EXPECT_GT(taken, 5u);  // beyond the ranks the report always draws
-  const std::string html = synth_report_html(ClipSource(*index), q, found.pairs, r, options);
+  const std::string html =
+      synth_report_html(ClipSource(*index), run->query, run->found.pairs, r, options);
   const std::string id = "data-figure=\"filmstrip-pair1-rank" + std::to_string(taken) + "\"";
   EXPECT_NE(html.find(id), std::string::npos) << id;
   EXPECT_NE(html.find(", taken"), std::string::npos);

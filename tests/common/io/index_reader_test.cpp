@@ -49,15 +49,6 @@ struct GoldenCopy {
   }
 };
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 void flip_byte(const fs::path& p, std::uint64_t offset) {
   std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
   f.seekg(static_cast<std::streamoff>(offset));
@@ -66,6 +57,22 @@ void flip_byte(const fs::path& p, std::uint64_t offset) {
   c = static_cast<char>(c ^ 0x10);
   f.seekp(static_cast<std::streamoff>(offset));
   f.write(&c, 1);
+}
+
+/// Adds `delta` to the middle value of skeleton 0's frame array `field` of
+/// the index at `p`, then seals the file again: damage behind a valid user
+/// block, which only the dataset's own checksum can catch.
+void damage_frame_value(const fs::path& p, const std::string& field, float delta) {
+  {
+    h5::File f = h5::File::open(p, true);
+    h5::Dataset d =
+        f.root().open_group("skeletons").open_group("0").open_group("frames").open_dataset(field);
+    std::vector<float> v = d.read_all<float>();
+    v[v.size() / 2] += delta;
+    d.write_all<float>(v);
+    f.close();
+  }
+  seal_index_file(p);
 }
 
 }  // namespace
@@ -224,7 +231,7 @@ TEST(IndexReader, RefusesAnotherSchemaVersion) {
     f.close();
   }
   seal_index_file(p);  // as a future writer would have sealed it
-  const std::string msg = error_of([&] { Index::open(p); });
+  const std::string msg = test::input_error_message([&] { Index::open(p); });
   EXPECT_NE(msg.find("unsupported index schema version " + std::to_string(kIndexSchemaVersion + 1) +
                      " (this build reads 1 to " + std::to_string(kIndexSchemaVersion) + ")"),
             std::string::npos)
@@ -244,15 +251,18 @@ TEST(IndexReader, RefusesAnotherFormatTag) {
     f.close();
   }
   seal_index_file(p);
-  EXPECT_NE(error_of([&] { Index::open(p); }).find("not a mocap index"), std::string::npos);
+  EXPECT_NE(test::input_error_message([&] { Index::open(p); }).find("not a mocap index"),
+            std::string::npos);
 }
 
 TEST(IndexReader, RefusesFilesThatAreNoIndex) {
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::input_error_message([&] {
               Index::open(golden_dir() / "golden_walk_normal_001.bvh");
             }).find("not a mocap index"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { Index::open(golden_dir() / "no-such.h5"); }).find("no such index file"),
+  EXPECT_NE(test::input_error_message([&] {
+              Index::open(golden_dir() / "no-such.h5");
+            }).find("no such index file"),
             std::string::npos);
   const IndexVerifyReport r = verify_index(golden_dir() / "golden_walk_normal_001.bvh");
   EXPECT_FALSE(r.ok);
@@ -265,7 +275,7 @@ TEST(IndexReader, TruncatedCopiesAreRefusedCleanly) {
   for (std::uint64_t keep :
        {size - 1, size / 2, std::uint64_t{600}, std::uint64_t{100}, std::uint64_t{0}}) {
     fs::resize_file(p, keep);
-    const std::string msg = error_of([&] { Index::open(p); });
+    const std::string msg = test::input_error_message([&] { Index::open(p); });
     EXPECT_FALSE(msg.empty()) << keep;
     const IndexVerifyReport r = verify_index(p);
     EXPECT_FALSE(r.ok) << keep;
@@ -319,27 +329,16 @@ TEST(IndexReader, DerivedArraysCheckTheStoredArraysTheyComeFrom) {
   // the stored array's checksum, not made from damaged data.
   const GoldenCopy copy("derived");
   const fs::path& p = copy.file;
-  {
-    h5::File f = h5::File::open(p, true);
-    h5::Dataset d = f.root()
-                        .open_group("skeletons")
-                        .open_group("0")
-                        .open_group("frames")
-                        .open_dataset("joint_positions_m");
-    std::vector<float> v = d.read_all<float>();
-    v[7] += 0.25f;
-    d.write_all<float>(v);
-    f.close();
-  }
-  seal_index_file(p);
+  damage_frame_value(p, "joint_positions_m", 0.25f);
   const Index index = Index::open(p);
   for (std::string_view field : kIndexDerivedFrameFields) {
-    const std::string msg = error_of([&] { (void)index.array(0, "frames", field); });
+    const std::string msg =
+        test::input_error_message([&] { (void)index.array(0, "frames", field); });
     EXPECT_NE(msg.find("/skeletons/0/frames/joint_positions_m: checksum mismatch"),
               std::string::npos)
         << field << ": " << msg;
   }
-  const std::string msg = error_of([&] {
+  const std::string msg = test::input_error_message([&] {
     index.stream_rows(0, "frames", "segment_com_m", 2,
                       [](std::uint64_t, std::uint64_t, const float*) {});
   });
@@ -365,18 +364,24 @@ TEST(IndexReader, OpenChecksTheClipAndSkeletonTables) {
       f.close();
     }
     seal_index_file(copy.file);
-    const std::string e = error_of([&] { (void)Index::open(copy.file); });
+    const std::string e = test::input_error_message([&] { (void)Index::open(copy.file); });
     EXPECT_NE(e.find(dataset + ": checksum mismatch"), std::string::npos) << e;
   }
 }
 
 TEST(IndexReader, ArrayErrorsNameTheProblem) {
   const Index index = Index::open(golden());
-  EXPECT_NE(error_of([&] { index.array(0, "frames", "no_such_field"); }).find("unknown field"),
+  EXPECT_NE(test::input_error_message([&] {
+              index.array(0, "frames", "no_such_field");
+            }).find("unknown field"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { index.array(0, "nonsense", "kd_min"); }).find("unknown array group"),
+  EXPECT_NE(test::input_error_message([&] {
+              index.array(0, "nonsense", "kd_min");
+            }).find("unknown array group"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { index.array(7, "frames", "kd_features"); }).find("out of range"),
+  EXPECT_NE(test::input_error_message([&] {
+              index.array(7, "frames", "kd_features");
+            }).find("out of range"),
             std::string::npos);
 }
 
@@ -405,14 +410,15 @@ TEST(IndexReader, StreamedRowsEqualTheArray) {
       }
     }
   auto none = [](std::uint64_t, std::uint64_t, const float*) {};
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::input_error_message([&] {
               index.stream_rows(0, "frames", "no_such_field", 8, none);
             }).find("unknown field"),
             std::string::npos);
-  EXPECT_NE(
-      error_of([&] { index.stream_rows(7, "frames", "h_scan", 8, none); }).find("out of range"),
-      std::string::npos);
-  EXPECT_NE(error_of([&] {
+  EXPECT_NE(test::input_error_message([&] {
+              index.stream_rows(7, "frames", "h_scan", 8, none);
+            }).find("out of range"),
+            std::string::npos);
+  EXPECT_NE(test::input_error_message([&] {
               index.stream_rows(0, "frames", "energy_prefix_J", 8, none);
             }).find("not a float array"),
             std::string::npos);
@@ -423,28 +429,18 @@ TEST(IndexReader, StreamedRowsEqualTheArray) {
 TEST(IndexReader, StreamedRowsCatchDamage) {
   const GoldenCopy copy("stream");
   const fs::path& p = copy.file;
-  {
-    h5::File f = h5::File::open(p, true);
-    h5::Dataset d = f.root()
-                        .open_group("skeletons")
-                        .open_group("0")
-                        .open_group("frames")
-                        .open_dataset("h_scan");
-    std::vector<float> v = d.read_all<float>();
-    v[v.size() / 2] += 1.0f;
-    d.write_all<float>(v);
-    f.close();
-  }
-  seal_index_file(p);
+  damage_frame_value(p, "h_scan", 1.0f);
   const Index index = Index::open(p);
   std::uint64_t rows = 0;
-  const std::string e = error_of([&] {
+  const std::string e = test::input_error_message([&] {
     index.stream_rows(0, "frames", "h_scan", 5,
                       [&](std::uint64_t, std::uint64_t count, const float*) { rows += count; });
   });
   EXPECT_EQ(rows, index.skeletons()[0].frame_count);  // every block was read first
   EXPECT_NE(e.find("/skeletons/0/frames/h_scan: checksum mismatch"), std::string::npos) << e;
-  EXPECT_NE(error_of([&] { index.array(0, "frames", "h_scan"); }).find("checksum mismatch"),
+  EXPECT_NE(test::input_error_message([&] {
+              index.array(0, "frames", "h_scan");
+            }).find("checksum mismatch"),
             std::string::npos);
 }
 

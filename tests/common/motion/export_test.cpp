@@ -24,15 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string message(const auto& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 // Set-1 clips (among them the four takes whose joint_Root, above the
 // pelvis, moves) and the three CMU takes (another skeleton, other units),
 // once as one index and once as a 2-shard collection; a small BVH indexed
@@ -122,21 +113,23 @@ TEST(FindClipTest, RefusesUnknownAndAmbiguousNames) {
   REQUIRE_BUILT(b);
   const ClipSource& s = *b->one;
   // A near miss: the close names listed, and the index named.
-  std::string e = message([&] { (void)find_clip(s, "dataset-1_walk_normal_01.bvh"); });
+  std::string e =
+      test::input_error_message([&] { (void)find_clip(s, "dataset-1_walk_normal_01.bvh"); });
   EXPECT_NE(e.find(b->dir.string() + "/one.h5: no clip \"dataset-1_walk_normal_01.bvh\""),
             std::string::npos)
       << e;
   EXPECT_NE(e.find("close names: dataset-1_walk_normal_001.bvh"), std::string::npos) << e;
   // Part of a name: the clips containing it.
-  e = message([&] { (void)find_clip(s, "131_0"); });
+  e = test::input_error_message([&] { (void)find_clip(s, "131_0"); });
   EXPECT_NE(e.find("131_01.bvh"), std::string::npos) << e;
   EXPECT_EQ(e.find("dataset-1"), std::string::npos) << e;
-  e = message([&] { (void)find_clip(s, "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz"); });
+  e = test::input_error_message(
+      [&] { (void)find_clip(s, "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz"); });
   EXPECT_NE(e.find("no clip has a close name"), std::string::npos) << e;
   // One file name twice: the paths listed; the full path chooses.
   const ClipSource& t = *b->twins;
   ASSERT_EQ(t.clip_count(), 2u);
-  e = message([&] { (void)find_clip(t, "golden_walk_normal_001.bvh"); });
+  e = test::input_error_message([&] { (void)find_clip(t, "golden_walk_normal_001.bvh"); });
   EXPECT_NE(e.find("2 clips are named \"golden_walk_normal_001.bvh\": give the full path"),
             std::string::npos)
       << e;
@@ -184,7 +177,7 @@ TEST(FindClipTest, TakesAnyPathToTheSameFile) {
   // A path to a file that is not indexed, of an indexed file's name.
   fs::create_directories(scratch / "other");
   fs::copy_file(t.clip(0).path, scratch / "other" / fs::path(t.clip(0).path).filename());
-  const std::string e = message(
+  const std::string e = test::input_error_message(
       [&] { (void)find_clip(t, (scratch / "other" / "golden_walk_normal_001.bvh").string()); });
   EXPECT_NE(e.find("no clip \""), std::string::npos) << e;
 }
@@ -257,7 +250,9 @@ TEST(PartialMotionTest, RefusesFramesPastTheEnd) {
   REQUIRE_BUILT(b);
   const ClipSource& s = *b->one;
   const std::size_t n = s.clip(0).frame_count;
-  const std::string e = message([&] { (void)partial_motion_clip(s, 0, {n - 2, n}, "--frames"); });
+  const std::string e = test::input_error_message([&] {
+    (void)partial_motion_clip(s, 0, {n - 2, n}, "--frames");
+  });
   EXPECT_NE(e.find("--frames: frames " + std::to_string(n - 2) + "-" + std::to_string(n) +
                    " out of range for \"" + s.clip(0).path + "\" (" + std::to_string(n) +
                    " frames: 0-" + std::to_string(n - 1) + ")"),

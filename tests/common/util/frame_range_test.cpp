@@ -6,27 +6,20 @@
 
 #include <string>
 
-#include "mocap/common/util/error.hpp"
+#include "test_support.hpp"
 
 namespace mocap {
 namespace {
 
-std::string message(const auto& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(FrameRangeTest, RefusesWhatIsNotSE) {
   for (const char* bad : {"", "5", "-", "a-b", "5-", "-5", "1-2-3", " 1-2", "1-2 ", "+1-2", "1--2",
                           "99999999999999999999999-1"}) {
-    const std::string e = message([&] { (void)parse_frame_range(bad, "--frames"); });
+    const std::string e =
+        test::input_error_message([&] { (void)parse_frame_range(bad, "--frames"); });
     EXPECT_NE(e.find("--frames: expected S-E"), std::string::npos) << bad << ": " << e;
   }
-  const std::string e = message([] { (void)parse_frame_range("40-10", "--frames"); });
+  const std::string e =
+      test::input_error_message([] { (void)parse_frame_range("40-10", "--frames"); });
   EXPECT_NE(e.find("first frame 40 is after last frame 10"), std::string::npos) << e;
   const FrameRange one = parse_frame_range("7-7", "--frames");
   EXPECT_EQ(one.first, 7u);
