@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mocap/common/dynamics/dynamics.hpp"
@@ -99,23 +100,18 @@ TEST(ContextFrames, InvalidFieldsAreNamed) {
                                frame(w, 10, R"(, "only": ["LeftArm"], "context": {"before": 3})") +
                                ", " + two,
                            "frames[0].context: only with a whole frame");
-  test::expect_parse_error(
-      R"({"frames": [)" + frame(w, 10, R"(, "context": {"before": -1})") + ", " + two,
-      "frames[0].context.before: expected a number of frames from 0 to 120");
-  test::expect_parse_error(
-      R"({"frames": [)" + frame(w, 10, R"(, "context": {"after": 121})") + ", " + two,
-      "frames[0].context.after: expected a number of frames from 0 to 120");
-  test::expect_parse_error(
-      R"({"frames": [)" + frame(w, 10, R"(, "context": {"before": 2.5})") + ", " + two,
-      "frames[0].context.before");
-  test::expect_parse_error(
-      R"({"frames": [)" + frame(w, 10, R"(, "context": {"befor": 2})") + ", " + two,
-      "did you mean \"before\"?");
-  test::expect_parse_error(
-      R"({"frames": [)" + frame(w, 10, R"(, "context": {"weight": 0})") + ", " + two,
-      "frames[0].context.weight: must be > 0");
-  test::expect_parse_error(R"({"frames": [)" + frame(w, 10, R"(, "context": 3)") + ", " + two,
-                           "frames[0].context: expected an object");
+  // A whole-file key pose with a bad "context" value: the message.
+  for (const auto& [context, message] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"before": -1})",
+            "frames[0].context.before: expected a number of frames from 0 to 120"},
+           {R"({"after": 121})",
+            "frames[0].context.after: expected a number of frames from 0 to 120"},
+           {R"({"before": 2.5})", "frames[0].context.before"},
+           {R"({"befor": 2})", "did you mean \"before\"?"},
+           {R"({"weight": 0})", "frames[0].context.weight: must be > 0"},
+           {"3", "frames[0].context: expected an object"}})
+    test::expect_parse_error(
+        R"({"frames": [)" + frame(w, 10, R"(, "context": )" + context) + ", " + two, message);
   const Query q =
       test::parse(R"({"frames": [)" + frame(w, 10, R"(, "context": {"before": 4, "weight": 2})") +
                   ", " + frame(w, 20, R"(, "context": {"after": 3})") + "]}");
