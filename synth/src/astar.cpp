@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "foot_planting.hpp"
+#include "foot_steps.hpp"
 #include "measures.hpp"
 #include "mocap/common/dynamics/energy.hpp"
 #include "mocap/common/dynamics/newton_euler.hpp"
@@ -110,6 +111,10 @@ class AStarSearch {
     }
     prev_ = gap.before;
     cur_ = gap.start;
+    // The stepping plan over the planned slerp path, its swings timed by the
+    // gait on either side (the search on W proposes it frame by frame).
+    if (params.energy == SearchEnergy::work && !legs_.empty() && planned_ > 0)
+      step_plan_ = plan_steps(gap, slerp_transition(gap, planned_), stepping_params(gap));
   }
 
   std::vector<SynthFrame> run(SupplementStats* stats) {
@@ -175,6 +180,7 @@ class AStarSearch {
       geodesic_frame(base, smooth_, 0.5, half);
       try_candidate(std::move(half));
       if (!legs_.empty()) try_steps(remaining);
+      if (closed_.size() < step_plan_.size()) try_planned_steps(step_plan_[closed_.size()], base);
     }
     try_joint_variants();
   }
@@ -315,6 +321,28 @@ class AStarSearch {
     }
   }
 
+  // The stepping plan's frame as proposals: every leg's ankle where the
+  // plan has it (all legs; each leg alone; every leg half way from the
+  // proposal's own ankle), the legs turned by inverse kinematics.
+  void try_planned_steps(const std::vector<AnkleTarget>& targets, const SynthFrame& base) {
+    synth_world_pose(sk_, base, w_cand_);
+    SynthFrame all = base, half = base, one;
+    bool all_ok = true, half_ok = true;
+    for (std::size_t l = 0; l < legs_.size(); ++l) {
+      const AnkleTarget& t = targets[l];
+      const auto ankle = static_cast<std::size_t>(legs_[l].ankle);
+      one = base;
+      if (plant_leg(sk_, gap_.range, legs_[l], t.position, t.rotation, one, w_ik_))
+        try_candidate(SynthFrame(one));
+      all_ok = all_ok && plant_leg(sk_, gap_.range, legs_[l], t.position, t.rotation, all, w_ik_);
+      const Eigen::Vector3d mid = 0.5 * (w_cand_.positions_m[ankle] + t.position);
+      const Eigen::Quaterniond r = w_cand_.rotations[ankle].slerp(0.5, t.rotation);
+      half_ok = half_ok && plant_leg(sk_, gap_.range, legs_[l], mid, r, half, w_ik_);
+    }
+    if (legs_.size() > 1 && all_ok) try_candidate(std::move(all));
+    if (half_ok) try_candidate(std::move(half));
+  }
+
   // Leg l is down in cur_: one of its foot joints' contact points within
   // contact height of the ground.
   bool leg_down(std::size_t l) const {
@@ -411,6 +439,8 @@ class AStarSearch {
   StepEvaluator ev_;
   WorldPose w_goal_, w_after_, w_prev_, w_cur_, w_cand_, w_ik_, w_pprev_, w_ahead_;
   std::vector<double> stance_height_;  // per leg: its ankle's height standing, m
+  // The stepping plan over the planned slerp path: [inserted frame][leg].
+  std::vector<std::vector<AnkleTarget>> step_plan_;
   std::vector<std::vector<int>> adjacent_;
   std::vector<LegChain> legs_;
   // CLOSED: accepted states (the path).

@@ -183,11 +183,18 @@ class LegSteps {
 
 }  // namespace
 
-void step_feet(const GapProblem& gap, std::vector<SynthFrame>& frames,
-               const SteppingParams& params) {
+SteppingParams stepping_params(const GapProblem& gap) {
+  SteppingParams p;
+  if (gap.gait_swing_s > 0.0) p.swing_s = gap.gait_swing_s;
+  return p;
+}
+
+std::vector<std::vector<AnkleTarget>> plan_steps(const GapProblem& gap,
+                                                 const std::vector<SynthFrame>& frames,
+                                                 const SteppingParams& params) {
   const SynthSkeleton& sk = *gap.skeleton;
   const std::vector<LegChain> legs = leg_chains(sk);
-  if (legs.empty() || frames.empty()) return;
+  if (legs.empty() || frames.empty()) return {};
   const std::size_t n = frames.size();
   std::vector<WorldPose> w(n + 2);
   synth_world_pose(sk, gap.start, w[0]);
@@ -205,7 +212,7 @@ void step_feet(const GapProblem& gap, std::vector<SynthFrame>& frames,
   for (const LegChain& leg : legs)
     steps.emplace_back(leg, w, before, after, sk.model.params.ground_height_m, gap.frame_time_s,
                        params, swing_frames);
-  WorldPose scratch;
+  std::vector<std::vector<AnkleTarget>> plan(n, std::vector<AnkleTarget>(legs.size()));
   for (std::size_t i = 1; i <= n; ++i)
     for (std::size_t l = 0; l < legs.size(); ++l) {
       bool others_swinging = false;
@@ -214,9 +221,56 @@ void step_feet(const GapProblem& gap, std::vector<SynthFrame>& frames,
         if (k != l && steps[k].mode() != LegSteps::Mode::planted) others_swinging = true;
         if (steps[k].away_from_goal()) ++away;
       }
-      if (const AnklePose* t = steps[l].advance(i, others_swinging, std::max<std::size_t>(1, away)))
-        plant_leg(sk, gap.range, legs[l], t->position, t->rotation, frames[i - 1], scratch);
+      const AnklePose* t = steps[l].advance(i, others_swinging, std::max<std::size_t>(1, away));
+      plan[i - 1][l] = {t->position, t->rotation, steps[l].mode() != LegSteps::Mode::planted};
     }
+  return plan;
+}
+
+double gait_swing_s(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                    double frame_time_s, const SteppingParams& params) {
+  const std::vector<LegChain> legs = leg_chains(sk);
+  if (legs.empty() || frames.size() < 3) return 0.0;
+  const double ground = sk.model.params.ground_height_m;
+  std::vector<WorldPose> w(frames.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) synth_world_pose(sk, frames[i], w[i]);
+  std::vector<double> swings;
+  for (const LegChain& leg : legs) {
+    std::size_t last_down = 0;
+    bool seen_down = false;
+    for (std::size_t i = 0; i < w.size(); ++i) {
+      const std::size_t j = i > 0 ? i - 1 : i + 1;  // speeds over the step beside
+      bool down = false;
+      for (int f : leg.feet) {
+        const auto fu = static_cast<std::size_t>(f);
+        down = down || (w[i].positions_m[fu].y() - ground < params.plant_height_m &&
+                        horizontal_distance(w[i].positions_m[fu], w[j].positions_m[fu]) <
+                            params.plant_speed_mps * frame_time_s);
+      }
+      if (!down) continue;
+      if (seen_down && i > last_down + 1)
+        swings.push_back(static_cast<double>(i - last_down - 1) * frame_time_s);
+      seen_down = true;
+      last_down = i;
+    }
+  }
+  if (swings.empty()) return 0.0;
+  const auto mid = swings.begin() + static_cast<std::ptrdiff_t>(swings.size() / 2);
+  std::nth_element(swings.begin(), mid, swings.end());
+  return *mid;
+}
+
+void step_feet(const GapProblem& gap, std::vector<SynthFrame>& frames,
+               const SteppingParams& params) {
+  const std::vector<std::vector<AnkleTarget>> plan = plan_steps(gap, frames, params);
+  if (plan.empty()) return;
+  const SynthSkeleton& sk = *gap.skeleton;
+  const std::vector<LegChain> legs = leg_chains(sk);
+  WorldPose scratch;
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    for (std::size_t l = 0; l < legs.size(); ++l)
+      plant_leg(sk, gap.range, legs[l], plan[i][l].position, plan[i][l].rotation, frames[i],
+                scratch);
 }
 
 }  // namespace mocap::synth_detail
@@ -225,7 +279,7 @@ namespace mocap {
 
 void step_transition_feet(const GapProblem& gap, std::vector<SynthFrame>& frames) {
   synth_detail::check_gap(gap);
-  synth_detail::step_feet(gap, frames);
+  synth_detail::step_feet(gap, frames, synth_detail::stepping_params(gap));
 }
 
 }  // namespace mocap

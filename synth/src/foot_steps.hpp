@@ -38,6 +38,36 @@ struct SteppingParams {
   double lift_m = 0.07;
 };
 
+/// The stepping parameters for `gap`: the defaults, with the swing lasting
+/// the gait's own swing (GapProblem::gait_swing_s) where it is known.
+SteppingParams stepping_params(const GapProblem& gap);
+
+/// Where a leg's ankle goes in one frame of a stepping plan: its position
+/// (world, metres) and world rotation; `swinging`: the foot is in the air.
+struct AnkleTarget {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  bool swinging = false;
+};
+
+/// The stepping plan over the inserted `frames` of `gap`: for frame i
+/// (0-based, as `frames`) and leg l (leg_chains order), plan[i][l] is where
+/// step_feet puts that leg's ankle (the rule below). Empty when the
+/// skeleton has no legs or `frames` is empty.
+std::vector<std::vector<AnkleTarget>> plan_steps(const GapProblem& gap,
+                                                 const std::vector<SynthFrame>& frames,
+                                                 const SteppingParams& params);
+
+/// The median swing of a motion's legs, seconds: per leg, the runs of
+/// frames in which none of its foot joints (ankle, toes) is on the ground
+/// (lower than params.plant_height_m and moving slower than
+/// params.plant_speed_mps horizontally), counting only runs with ground
+/// contact on both sides; 0 when there is none (a motion that does not
+/// step, or fewer than 3 frames). `frames` are consecutive frames
+/// frame_time_s apart.
+double gait_swing_s(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
+                    double frame_time_s, const SteppingParams& params = {});
+
 /// Steps of the feet over the inserted `frames` of `gap` (changed in
 /// place: the hip, knee and ankle rotations of each leg, by two-bone
 /// inverse kinematics, then clamped to the gap's range of motion), leg by
@@ -53,7 +83,8 @@ struct SteppingParams {
 ///   the reach and 10 cm further than the pose's own foot; and for its
 ///   final swing onto S_G's foot once the frames left are fewer than a
 ///   swing for each leg still away from S_G (forced in the last two).
-/// - A swing lasts swing_s (at most an equal share of the transition per
+/// - A swing lasts swing_s (stepping_params: the gait's own swing where
+///   known; at most an equal share of the transition per
 ///   leg, at least 3 frames; half that for a foot already in the air at
 ///   S_0), eases from lift-off to landing (smoothstep), is lifted by lift_m
 ///   at its middle, and slerps the ankle's rotation. A final swing (or one

@@ -84,7 +84,7 @@ std::vector<SynthFrame> supplement_astar(const GapProblem& gap, const Supplement
     const std::size_t skating = synth_detail::skating_steps(gap, frames);
     if (skating > 0) {
       std::vector<SynthFrame> stepped = frames;
-      synth_detail::step_feet(gap, stepped);
+      synth_detail::step_feet(gap, stepped, synth_detail::stepping_params(gap));
       if (synth_detail::skating_steps(gap, stepped) < skating) {
         frames = std::move(stepped);
         st.stepped = true;

@@ -16,6 +16,7 @@
 #include <tuple>
 #include <utility>
 
+#include "foot_steps.hpp"
 #include "mocap/common/body/retarget.hpp"
 #include "mocap/common/body/skeleton.hpp"
 #include "mocap/common/dynamics/kinematics.hpp"
@@ -224,26 +225,50 @@ struct GapTask {
   std::size_t fixed_frames = 0;
 };
 
+// Per pair: the swing of the chosen partial motion's gait (gait_swing_s over
+// its clip's frames from a second before the partial motion to a second
+// after it, in the clip's time), which times the stepping around it.
+std::vector<double> gait_swings(const ClipSource& clips, const SynthSkeleton& sk,
+                                const TargetPieces& source,
+                                const std::vector<SearchResult>& chosen) {
+  std::vector<double> swings;
+  for (const SearchResult& r : chosen) {
+    const IndexClip& c = clips.clip(r.clip_index);
+    const auto second = static_cast<std::size_t>(std::llround(1.0 / c.frame_time_s));
+    const std::size_t first = r.start_frame > second ? r.start_frame - second : 0;
+    const std::size_t last =
+        std::min<std::size_t>(r.end_frame + second, static_cast<std::size_t>(c.frame_count) - 1);
+    std::vector<SynthFrame> frames;
+    for (std::size_t f = first; f <= last; ++f) frames.push_back(source.frame(r.clip_index, f));
+    swings.push_back(synth_detail::gait_swing_s(sk, frames, c.frame_time_s));
+  }
+  return swings;
+}
+
 // The gaps, two per pair in order: into each partial motion from its query
 // frame ("in") and out of it to the next ("out"). Query frames bring their
 // neighbours (their velocities) to both.
 std::vector<GapTask> gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom,
-                               const synth_detail::MotionLayout& layout, double dt) {
+                               const synth_detail::MotionLayout& layout,
+                               const std::vector<double>& gait_swings, double dt) {
   std::vector<GapTask> tasks;
   for (std::size_t h = 0; h < layout.pieces.size(); ++h) {
     const synth_detail::PlacedQueryFrame& q = layout.queries[h];
     const synth_detail::PlacedQueryFrame& qn = layout.queries[h + 1];
     const auto& pc = layout.pieces[h];
     const std::size_t n = pc.size();
-    GapTask in{h + 1, "in", GapProblem{&sk, &rom, q.before, q.frame, pc[0], pc[1], dt},
+    // The partial motion's gait times the stepping on both of its sides.
+    const double swing_s = gait_swings[h];
+    GapTask in{h + 1, "in", GapProblem{&sk, &rom, q.before, q.frame, pc[0], pc[1], dt, swing_s},
                false, {},   {}};
     if (layout.merged_in[h]) {
       in.merged = true;
       in.gap.goal = pc[1];
       in.gap.after = pc[2];
     }
-    GapTask out{h + 1, "out", GapProblem{&sk, &rom, pc[n - 2], pc[n - 1], qn.frame, qn.after, dt},
-                false, {},    {}};
+    GapTask out{
+        h + 1, "out", GapProblem{&sk, &rom, pc[n - 2], pc[n - 1], qn.frame, qn.after, dt, swing_s},
+        false, {},    {}};
     if (layout.merged_out[h]) {
       out.merged = true;
       out.gap.before = pc[n - 3];
@@ -260,8 +285,9 @@ std::vector<GapTask> gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom
 // empty merged task, so that tasks stay two per pair).
 std::vector<GapTask> timed_gap_tasks(const SynthSkeleton& sk, const RangeOfMotion& rom,
                                      const synth_detail::MotionLayout& layout,
+                                     const std::vector<double>& gait_swings,
                                      const std::vector<synth_detail::TimedPair>& timed, double dt) {
-  std::vector<GapTask> tasks = gap_tasks(sk, rom, layout, dt);
+  std::vector<GapTask> tasks = gap_tasks(sk, rom, layout, gait_swings, dt);
   for (std::size_t h = 0; h < timed.size(); ++h) {
     GapTask& in = tasks[2 * h];
     GapTask& out = tasks[2 * h + 1];
@@ -703,8 +729,10 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
       synth_detail::lay_out_motion(sk, query.placement, qf, raw, out_dt, query.transition_time_s,
                                    timed.empty() ? nullptr : &timed);
   for (const auto& q : layout.queries) res.query_frames.push_back(q.frame);
-  std::vector<GapTask> tasks = timed.empty() ? gap_tasks(sk, rom, layout, dt)
-                                             : timed_gap_tasks(sk, rom, layout, timed, out_dt);
+  const std::vector<double> swings = gait_swings(clips, sk, source, res.chosen);
+  std::vector<GapTask> tasks = timed.empty()
+                                   ? gap_tasks(sk, rom, layout, swings, dt)
+                                   : timed_gap_tasks(sk, rom, layout, swings, timed, out_dt);
   // Each gap is supplemented as its own task (independent: the result does
   // not depend on the thread count).
   tbb::parallel_for(std::size_t{0}, tasks.size(),

@@ -1,7 +1,9 @@
 // synth/src/foot_steps.cpp: the stepping pass (docs/synthesis.md
 // "Stepping"). A bad gap is refused; a transition between walks that glides
 // steps instead (no skating, each foot ending where S_G has it); a
-// transition whose feet do not skate is left as the search made it.
+// transition whose feet do not skate is left as the search made it; the
+// gait's own swing (gait_swing_s) is measured from a clip and times the
+// plan's swings (plan_steps), whose planted feet stay put.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "foot_steps.hpp"
 #include "mocap/synth/synth.hpp"
 #include "synth_fixtures.hpp"
 #include "test_support.hpp"
@@ -130,4 +133,90 @@ TEST(FootSteps, ATransitionThatDoesNotSkateIsLeftAsTheSearchMadeIt) {
   for (std::size_t i = 0; i < w->stepped.size(); ++i)
     for (std::size_t j = 0; j < w->stepped[i].local_rotations.size(); ++j)
       EXPECT_EQ(w->stepped[i].local_rotations[j].coeffs(), w->plain[i].local_rotations[j].coeffs());
+}
+
+namespace {
+
+// Frames first .. first + count - 1 of clip `name` in its own skeleton
+// (count 0: to the clip's end).
+std::vector<SynthFrame> clip_frames(const Index& index, const std::string& name, std::size_t first,
+                                    std::size_t count) {
+  const std::size_t c = test::clip_named(index, name);
+  if (count == 0) count = index.clips()[c].frame_count - first;
+  std::vector<SynthFrame> f;
+  for (std::size_t i = first; i < first + count; ++i) f.push_back(clip_frame(index, c, i));
+  return f;
+}
+
+}  // namespace
+
+TEST(FootSteps, GaitSwingOfNothingOrOfAStandingClipIsUnknown) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto g = test::make_gap(*index, "dataset-1_bow_normal_001.bvh", 20,
+                          "dataset-1_bow_normal_001.bvh", 24);
+  const double dt = g->gap.frame_time_s;
+  EXPECT_EQ(synth_detail::gait_swing_s(g->sk, {}, dt), 0.0);
+  EXPECT_EQ(synth_detail::gait_swing_s(
+                g->sk, clip_frames(*index, "dataset-1_bow_normal_001.bvh", 10, 2), dt),
+            0.0);
+  // A bow keeps both feet down: no swing to measure.
+  EXPECT_EQ(synth_detail::gait_swing_s(
+                g->sk, clip_frames(*index, "dataset-1_bow_normal_001.bvh", 0, 60), dt),
+            0.0);
+  EXPECT_EQ(synth_detail::stepping_params(g->gap).swing_s, synth_detail::SteppingParams{}.swing_s);
+}
+
+TEST(FootSteps, GaitSwingOfAWalkIsItsOwnAndTimesThePlansSwings) {
+  MOCAP_REQUIRE_DATA();
+  const Index* index = shared_index();
+  ASSERT_NE(index, nullptr);
+  auto g = test::make_gap(*index, "dataset-1_walk_normal_001.bvh", 30,
+                          "dataset-1_walk_angry_001.bvh", 40);
+  const double dt = g->gap.frame_time_s;
+  const double walk = synth_detail::gait_swing_s(
+      g->sk, clip_frames(*index, "dataset-1_walk_normal_001.bvh", 0, 90), dt);
+  // A walk's swing, and a run's: 0.3 to 0.65 s.
+  const double running = synth_detail::gait_swing_s(
+      g->sk, clip_frames(*index, "dataset-1_run_normal_001.bvh", 0, 0), dt);
+  for (const double swing : {walk, running}) {
+    EXPECT_GT(swing, 0.3);
+    EXPECT_LT(swing, 0.65);
+  }
+  // The plan's swings last the gait's swing: a swing that starts and ends
+  // inside the transition is in the air round(swing / dt) - 1 frames (it
+  // has landed in its last).
+  const std::size_t n = 40;
+  const std::vector<SynthFrame> slerp = slerp_transition(g->gap, n);
+  for (const double swing_s : {0.2, 0.3}) {
+    g->gap.gait_swing_s = swing_s;
+    const synth_detail::SteppingParams p = synth_detail::stepping_params(g->gap);
+    ASSERT_EQ(p.swing_s, swing_s);
+    const auto plan = synth_detail::plan_steps(g->gap, slerp, p);
+    ASSERT_EQ(plan.size(), n);
+    const auto expected = static_cast<std::size_t>(std::round(swing_s / dt)) - 1;
+    std::size_t whole = 0;
+    for (std::size_t l = 0; l < plan[0].size(); ++l) {
+      std::size_t i = 0;
+      while (i < n && plan[i][l].swinging) ++i;  // a swing under way at S_0
+      while (i < n) {
+        std::size_t run = 0;
+        const std::size_t first = i;
+        while (i < n && plan[i][l].swinging) ++run, ++i;
+        if (run > 0 && i < n && first > 0) {
+          EXPECT_EQ(run, expected) << swing_s << " s, leg " << l << " from frame " << first;
+          ++whole;
+        }
+        // A planted foot stays where it is (or settles onto S_G's foot,
+        // within settle_m of it).
+        const std::size_t down = i;
+        while (i < n && !plan[i][l].swinging) ++i;
+        for (std::size_t k = down + 1; k < i; ++k)
+          EXPECT_LE((plan[k][l].position - plan[down][l].position).norm(), p.settle_m + 1e-9)
+              << swing_s << " s, leg " << l << " frame " << k;
+      }
+    }
+    EXPECT_GT(whole, 0U) << swing_s << " s: the walk gap steps";
+  }
 }

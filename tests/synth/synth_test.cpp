@@ -480,7 +480,7 @@ TEST(SynthSupplement, AStarOnWNeverCostsMoreWThanSlerp) {
     p.step_feet = false;
     mocap::SupplementStats st;
     const auto a = mocap::supplement_astar(g->gap, p, &st);
-    ASSERT_EQ(st.stop_reason, "horizon") << xn;
+    ASSERT_NE(st.stop_reason, "max_states") << xn;  // horizon, or T_c met sooner
     const double wa = transition_work(g->gap, a);
     const double ws = transition_work(g->gap, mocap::slerp_transition(g->gap, a.size()));
     EXPECT_LE(wa, ws * (1 + 1e-9)) << xn;

@@ -146,6 +146,11 @@ struct GapProblem {
   SynthFrame goal;    // S_G
   SynthFrame after;   // S_G+1
   double frame_time_s = 0.0;
+  /// The swing of the gait on either side of the gap, seconds: the median
+  /// swing of the partial motion's legs (gait_swing_s in synth/src), which
+  /// the stepping proposals and the stepping pass give their swings; 0 when
+  /// unknown (the motion there does not step): 0.4 s.
+  double gait_swing_s = 0.0;
 };
 
 struct SupplementStats {
