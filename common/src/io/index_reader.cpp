@@ -460,22 +460,10 @@ const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group,
   auto key = std::make_tuple(skeleton, std::string(group), std::string(field));
 
   if (group == "frames" && !frame_field_stored(field, impl_->info.schema_version)) {
-    {
-      std::lock_guard own(impl_->mutex);
-      if (auto it = impl_->arrays.find(key); it != impl_->arrays.end()) return *it->second;
-    }
-    // Derived without the lock, streamed (nothing else is kept); a thread
-    // that derived the same array first keeps its copy.
-    auto a = std::make_unique<IndexArray>();
-    a->rows = as.rows;
-    a->row_elements = row_elements(spec.shape, s.skeleton.joint_count(), s.segments.size());
-    a->f32.resize(a->rows * a->row_elements);
-    stream_derived_rows(
-        skeleton, field, 8192, [&](std::uint64_t first, std::uint64_t count, const float* rows) {
-          std::copy_n(rows, count * a->row_elements, a->f32.data() + first * a->row_elements);
-        });
+    const std::array<std::string_view, 1> one{field};
+    derive_arrays(skeleton, one);
     std::lock_guard own(impl_->mutex);
-    return *impl_->arrays.emplace(std::move(key), std::move(a)).first->second;
+    return *impl_->arrays.at(key);
   }
 
   std::lock_guard own(impl_->mutex);
@@ -498,6 +486,52 @@ const IndexArray& Index::array(std::uint32_t skeleton, std::string_view group,
   const IndexArray& ref = *a;
   impl_->arrays.emplace(std::move(key), std::move(a));
   return ref;
+}
+
+std::vector<const IndexArray*> Index::arrays(std::uint32_t skeleton, std::string_view group,
+                                             std::span<const std::string_view> fields) const {
+  if (group == "frames") derive_arrays(skeleton, fields);
+  std::vector<const IndexArray*> out;
+  for (std::string_view f : fields) out.push_back(&array(skeleton, group, f));
+  return out;
+}
+
+void Index::derive_arrays(std::uint32_t skeleton, std::span<const std::string_view> fields) const {
+  const IndexSkeleton& s = impl_->skeletons[skeleton];
+  std::vector<std::string_view> todo;
+  std::vector<std::unique_ptr<IndexArray>> made;
+  for (std::string_view field : fields) {
+    const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, "frames", field);
+    if (frame_field_stored(field, impl_->info.schema_version) ||
+        std::find(todo.begin(), todo.end(), field) != todo.end())
+      continue;
+    {
+      std::lock_guard own(impl_->mutex);
+      if (impl_->arrays.contains(
+              std::make_tuple(skeleton, std::string("frames"), std::string(field))))
+        continue;
+    }
+    auto a = std::make_unique<IndexArray>();
+    a->rows = as.rows;
+    a->row_elements = row_elements(as.spec.shape, s.skeleton.joint_count(), s.segments.size());
+    a->f32.resize(a->rows * a->row_elements);
+    todo.push_back(field);
+    made.push_back(std::move(a));
+  }
+  if (todo.empty()) return;
+  // Derived without the lock, streamed (nothing else is kept).
+  stream_derived_rows(
+      skeleton, todo, 8192,
+      [&](std::uint64_t first, std::uint64_t count, std::span<const float* const> rows) {
+        for (std::size_t i = 0; i < made.size(); ++i) {
+          IndexArray& a = *made[i];
+          std::copy_n(rows[i], count * a.row_elements, a.f32.data() + first * a.row_elements);
+        }
+      });
+  std::lock_guard own(impl_->mutex);
+  for (std::size_t i = 0; i < todo.size(); ++i)
+    impl_->arrays.emplace(std::make_tuple(skeleton, std::string("frames"), std::string(todo[i])),
+                          std::move(made[i]));
 }
 
 void Index::stream_rows(
@@ -551,10 +585,23 @@ void Index::stream_rows(
 void Index::stream_derived_rows(
     std::uint32_t skeleton, std::string_view field, std::uint64_t rows_per_block,
     const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const {
+  const std::array<std::string_view, 1> one{field};
+  stream_derived_rows(skeleton, one, rows_per_block,
+                      [&](std::uint64_t first, std::uint64_t count,
+                          std::span<const float* const> rows) { fn(first, count, rows[0]); });
+}
+
+void Index::stream_derived_rows(
+    std::uint32_t skeleton, std::span<const std::string_view> fields, std::uint64_t rows_per_block,
+    const std::function<void(std::uint64_t, std::uint64_t, std::span<const float* const>)>& fn)
+    const {
   const IndexSkeleton& s = impl_->skeletons[skeleton];
   const std::size_t J = s.skeleton.joint_count();
-  const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, "frames", field);
-  const std::size_t per_row = row_elements(as.spec.shape, J, s.segments.size());
+  std::vector<std::size_t> per_row;
+  for (std::string_view field : fields) {
+    const ArraySpec as = array_spec(impl_->path, impl_->skeletons, skeleton, "frames", field);
+    per_row.push_back(row_elements(as.spec.shape, J, s.segments.size()));
+  }
   const DynamicsModel model = dynamics_model(skeleton);
   const double transition_time_s = impl_->info.transition_time_s;
   // The stored sources, read in step, hashed as read.
@@ -586,7 +633,8 @@ void Index::stream_derived_rows(
       for (Source& x : src) x.d.reset();
     }
   } close{src};
-  std::vector<float> out;
+  std::vector<std::vector<float>> out(fields.size());
+  std::vector<const float*> out_rows(fields.size());
   rows_per_block = std::max<std::uint64_t>(rows_per_block, 1);
   std::uint64_t row = 0;
   for (std::size_t i = 0; i < s.clips.size();) {
@@ -610,7 +658,10 @@ void Index::stream_derived_rows(
       }
     }
     for (Source& x : src) x.hash.update(x.rows.data(), x.rows.size() * sizeof(float));
-    out.resize(count * per_row);
+    for (std::size_t f = 0; f < fields.size(); ++f) {
+      out[f].resize(count * per_row[f]);
+      out_rows[f] = out[f].data();
+    }
     // Isolated: a caller may hold a lock (a search cache's mutex) that a
     // task stolen while waiting here would wait on.
     tbb::this_task_arena::isolate([&] {
@@ -624,10 +675,12 @@ void Index::stream_derived_rows(
                     std::span<const float>(src[1].rows)
                         .subspan(at * src[1].per_row, c.frame_count * src[1].per_row),
                     c.frame_count, c.frame_time_s});
-        derived_frame_rows(model, dyn, field, transition_time_s, out.data() + at * per_row);
+        for (std::size_t f = 0; f < fields.size(); ++f)
+          derived_frame_rows(model, dyn, fields[f], transition_time_s,
+                             out[f].data() + at * per_row[f]);
       });
     });
-    fn(row, count, out.data());
+    fn(row, count, out_rows);
     row += count;
     i = end;
   }

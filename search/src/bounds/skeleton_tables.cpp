@@ -8,7 +8,9 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
+#include <string_view>
 
 #include "bounds/bound_tables.hpp"
 #include "mocap/common/body/retarget.hpp"
@@ -104,13 +106,16 @@ const FrameArrays& frame_arrays(const Index& index, const SkeletonData& skeleton
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.frames_once, [&] {
     tbb::this_task_arena::isolate([&] {
-      const std::uint32_t k = skeleton.tables.k;
-      caches.frames = {index.array(k, "frames", "joint_positions_m").f32.data(),
-                       index.array(k, "frames", "world_rotations").f32.data(),
-                       index.array(k, "frames", "segment_com_m").f32.data(),
-                       index.array(k, "frames", "segment_com_velocity_mps").f32.data(),
-                       index.array(k, "frames", "segment_angular_velocity_radps").f32.data(),
-                       index.array(k, "frames", "local_rotations").f32.data()};
+      // One call: the fields a schema-2 index derives are derived in one pass.
+      static constexpr std::array<std::string_view, 6> kFields{"joint_positions_m",
+                                                               "world_rotations",
+                                                               "segment_com_m",
+                                                               "segment_com_velocity_mps",
+                                                               "segment_angular_velocity_radps",
+                                                               "local_rotations"};
+      const std::vector<const IndexArray*> a = index.arrays(skeleton.tables.k, "frames", kFields);
+      caches.frames = {a[0]->f32.data(), a[1]->f32.data(), a[2]->f32.data(),
+                       a[3]->f32.data(), a[4]->f32.data(), a[5]->f32.data()};
       if (skeleton.character) {
         caches.frames.pos = skeleton.character->joint_positions_m.data();
         caches.frames.com = skeleton.character->segment_com_m.data();

@@ -369,6 +369,54 @@ TEST(IndexReader, OpenChecksTheClipAndSkeletonTables) {
   }
 }
 
+// Index::arrays: several fields at once, the derived ones in one pass.
+TEST(IndexReader, ArraysRefuseWhatArrayRefuses) {
+  const Index index = Index::open(golden());
+  const std::array<std::string_view, 2> bad{"world_rotations", "no_such_field"};
+  EXPECT_NE(test::input_error_message([&] {
+              (void)index.arrays(0, "frames", bad);
+            }).find("unknown field"),
+            std::string::npos);
+  const std::array<std::string_view, 1> one{"kd_features"};
+  EXPECT_NE(
+      test::input_error_message([&] { (void)index.arrays(7, "frames", one); }).find("out of range"),
+      std::string::npos);
+  // Damaged sources: nothing is derived from them, and nothing is kept.
+  const GoldenCopy copy("arrays");
+  damage_frame_value(copy.file, "local_rotations", 0.5f);
+  const Index damaged = Index::open(copy.file);
+  const std::array<std::string_view, 2> derived{"world_rotations", "segment_com_m"};
+  for (int attempt = 0; attempt < 2; ++attempt)
+    EXPECT_NE(test::input_error_message([&] {
+                (void)damaged.arrays(0, "frames", derived);
+              }).find("local_rotations: checksum mismatch"),
+              std::string::npos)
+        << attempt;
+}
+
+TEST(IndexReader, ArraysEqualArrayFieldByField) {
+  // Every frame field, derived and stored, twice (a repeated name), in one
+  // call on one index and one array() at a time on another: the same values,
+  // and the same shared arrays as array() then gives.
+  std::vector<std::string_view> fields(std::begin(kIndexDerivedFrameFields),
+                                       std::end(kIndexDerivedFrameFields));
+  fields.push_back("local_rotations");
+  fields.push_back("h_scan");
+  fields.push_back(kIndexDerivedFrameFields[0]);
+  const Index together = Index::open(golden());
+  const Index alone = Index::open(golden());
+  for (std::uint32_t k = 0; k < together.skeletons().size(); ++k) {
+    const std::vector<const IndexArray*> a = together.arrays(k, "frames", fields);
+    ASSERT_EQ(a.size(), fields.size());
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+      const IndexArray& b = alone.array(k, "frames", fields[i]);
+      EXPECT_EQ(a[i]->rows, b.rows) << fields[i];
+      EXPECT_EQ(a[i]->f32, b.f32) << fields[i];
+      EXPECT_EQ(a[i], &together.array(k, "frames", fields[i])) << fields[i];
+    }
+  }
+}
+
 TEST(IndexReader, ArrayErrorsNameTheProblem) {
   const Index index = Index::open(golden());
   EXPECT_NE(test::input_error_message([&] {

@@ -317,6 +317,13 @@ class Index {
   /// (validated against its checksum), then shared.
   const IndexArray& array(std::uint32_t skeleton, std::string_view group,
                           std::string_view field) const;
+  /// Several arrays of skeleton `k`'s group, as array() gives each, in the
+  /// order of `fields`. The frame fields the index does not store
+  /// (frame_field_stored) that are not loaded yet are derived together, in
+  /// one pass over the stored rows (each clip's dynamics computed once for
+  /// all of them), where array() derives one field a pass.
+  std::vector<const IndexArray*> arrays(std::uint32_t skeleton, std::string_view group,
+                                        std::span<const std::string_view> fields) const;
   /// The rows of a float array (group and field as for array()) read in
   /// blocks of `rows_per_block` rows, in order: fn(first_row, row_count,
   /// values) with row_count x row_elements values, valid during the call.
@@ -344,6 +351,16 @@ class Index {
   void stream_derived_rows(
       std::uint32_t skeleton, std::string_view field, std::uint64_t rows_per_block,
       const std::function<void(std::uint64_t, std::uint64_t, const float*)>& fn) const;
+  /// The same for several fields at once: fn(first_row, row_count, rows)
+  /// with rows[i] holding field i's row_count rows.
+  void stream_derived_rows(std::uint32_t skeleton, std::span<const std::string_view> fields,
+                           std::uint64_t rows_per_block,
+                           const std::function<void(std::uint64_t, std::uint64_t,
+                                                    std::span<const float* const>)>& fn) const;
+  /// Derives the frame fields among `fields` that the index does not store
+  /// and that are not loaded yet, in one pass, and keeps them (array()'s
+  /// cache; a thread that derived one first keeps its copy).
+  void derive_arrays(std::uint32_t skeleton, std::span<const std::string_view> fields) const;
 
   struct Impl;
   explicit Index(std::unique_ptr<Impl> impl);
