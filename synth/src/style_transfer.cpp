@@ -53,9 +53,21 @@ std::vector<double> key_weights(std::size_t frames, const std::vector<std::size_
 struct JointMap {
   int joint = -1;
   bool pelvis = false;
+  /// False: left as it is (kWrapRad, kPredictionSpreadRad).
+  bool moved = true;
   Eigen::Vector3d mean_offset = Eigen::Vector3d::Zero();
   Eigen::Vector3d sd_ratio = Eigen::Vector3d::Ones();
 };
+
+// A joint whose rotation turns further than this (radians) in a frame is
+// left as it is: the features' rotation vector wraps at half a turn, so its
+// mean and spread there say little (Bandai Namco's upper legs turn about pi
+// from their parent).
+constexpr double kWrapRad = 2.6;
+// A joint whose mean rotation vector spreads more than this (radians, on an
+// axis) over the content's clips is left as it is: its prediction rests on
+// rotation vectors that wrapped.
+constexpr double kPredictionSpreadRad = 0.8;
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -80,9 +92,9 @@ std::vector<int> checked_joints(const SynthSkeleton& sk, const StyleModel& model
     throw InputError("--style", 0,
                      "bad transfer parameters: 0 < min_sd_ratio <= 1 <= max_sd_ratio, eases > 0");
   if (frames < 4)
-    throw InputError("--style-model", 0,
-                     "a motion of " + std::to_string(frames) +
-                         " frames: the style model reads at least 4");
+    throw InputError(
+        "--style-model", 0,
+        "a motion of " + std::to_string(frames) + " frames: the style model reads at least 4");
   std::vector<int> out;
   for (const std::string& name : model.joints) {
     const auto it = std::find(sk.skeleton.names.begin(), sk.skeleton.names.end(), name);
@@ -98,8 +110,8 @@ std::vector<int> checked_joints(const SynthSkeleton& sk, const StyleModel& model
 
 // The offsets the model predicts (strength x (predicted(C, S) -
 // predicted(C, the motion's recognised style)) on each joint's mean and
-// spread features), as joint maps; `report` gets the recognised style and
-// content and the offsets' sizes.
+// spread features), as joint maps (kPredictionSpreadRad: not moved);
+// `report` gets the recognised style and content.
 std::vector<JointMap> style_offsets(const SynthSkeleton& sk, const StyleModel& model,
                                     const StyleTransferParams& p, const std::vector<int>& joints,
                                     const std::vector<double>& features, const std::string& content,
@@ -133,10 +145,9 @@ std::vector<JointMap> style_offsets(const SynthSkeleton& sk, const StyleModel& m
       const double sd = features[f + 3 + static_cast<std::size_t>(a)];
       const double want = sd + offset(f + 3 + static_cast<std::size_t>(a));
       m.sd_ratio(a) = sd > 1e-9 ? std::clamp(want / sd, p.min_sd_ratio, p.max_sd_ratio) : 1.0;
+      m.moved =
+          m.moved && model.content_sd(c, static_cast<Eigen::Index>(f) + a) <= kPredictionSpreadRad;
     }
-    report.mean_offset_rad += m.mean_offset.norm() / static_cast<double>(joints.size());
-    report.mean_sd_change +=
-        (m.sd_ratio.array() - 1.0).abs().mean() / static_cast<double>(joints.size());
     maps.push_back(m);
   }
   return maps;
@@ -152,19 +163,25 @@ Eigen::Quaterniond read_rotation(const JointMap& m, const SynthFrame& f, const W
 
 // The linear map of each joint's rotation vector over the frames:
 // r' = r + w(t) (dm + (k - 1)(r - m)), m the joint's mean over the motion
-// (frames of weight 0 untouched). The pelvis' mapped rotation gets its
-// heading back and becomes local to its parent again.
-void map_rotations(const SynthSkeleton& sk, const std::vector<JointMap>& maps,
+// (frames of weight 0 untouched; a joint turning past kWrapRad: not moved).
+// The pelvis' mapped rotation gets its heading back and becomes local to its
+// parent again.
+void map_rotations(const SynthSkeleton& sk, std::vector<JointMap>& maps,
                    const std::vector<double>& weight, const std::vector<WorldPose>& source_world,
                    std::vector<SynthFrame>& frames) {
   const std::size_t n = frames.size();
   std::vector<Eigen::Vector3d> r(n);
-  for (const JointMap& m : maps) {
+  for (JointMap& m : maps) {
+    if (!m.moved) continue;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    double widest = 0.0;
     for (std::size_t t = 0; t < n; ++t) {
       r[t] = style_rotation_vector(read_rotation(m, frames[t], source_world[t]));
       mean += r[t] / static_cast<double>(n);
+      widest = std::max(widest, r[t].norm());
     }
+    m.moved = widest <= kWrapRad;
+    if (!m.moved) continue;
     const auto j = static_cast<std::size_t>(m.joint);
     const int parent = sk.skeleton.parents[j];
     for (std::size_t t = 0; t < n; ++t) {
@@ -182,6 +199,26 @@ void map_rotations(const SynthSkeleton& sk, const std::vector<JointMap>& maps,
       frames[t].local_rotations[j] = q.normalized();
     }
   }
+}
+
+// The report's account of the maps: the joints moved, their mean offset
+// and spread change, the joints left as they were.
+void summarise_maps(const SynthSkeleton& sk, const std::vector<JointMap>& maps,
+                    StyleTransferReport& report) {
+  std::size_t moved = 0;
+  for (const JointMap& m : maps) {
+    if (!m.moved) {
+      report.kept_joints.push_back(sk.skeleton.names[static_cast<std::size_t>(m.joint)]);
+      continue;
+    }
+    ++moved;
+    report.mean_offset_rad += m.mean_offset.norm();
+    report.mean_sd_change += (m.sd_ratio.array() - 1.0).abs().mean();
+  }
+  report.joints = moved;
+  if (moved == 0) return;
+  report.mean_offset_rad /= static_cast<double>(moved);
+  report.mean_sd_change /= static_cast<double>(moved);
 }
 
 // Per leg and frame, how much its foot is held where the untransferred
@@ -213,57 +250,48 @@ std::vector<std::vector<double>> hold_weights(const SynthSkeleton& sk,
   return out;
 }
 
-// How far (metres, >= 0) the root must come down at frame `f` for each held
-// foot to be within its leg's reach (99.5 % of thigh plus shin) of where the
-// untransferred motion has it, times the hold; the largest over the legs.
-double needed_drop(const SynthSkeleton& sk, const std::vector<LegChain>& legs,
-                   const std::vector<std::vector<double>>& hold, std::size_t t,
-                   const WorldPose& now, const WorldPose& source) {
-  double drop = 0.0;
+// How far (metres; < 0: up) the root must move down at frame `t` for each
+// held leg, turned as the transfer left it, to reach where the
+// untransferred motion has its ankle with the hip-ankle distance the
+// transfer gave it (so that the held leg keeps the style's knee bend), times
+// the hold; the largest over the held legs (0: none held).
+double needed_drop(const std::vector<LegChain>& legs, const std::vector<std::vector<double>>& hold,
+                   std::size_t t, const WorldPose& now, const WorldPose& source) {
+  double drop = -std::numeric_limits<double>::infinity();
   for (std::size_t l = 0; l < legs.size(); ++l) {
     if (hold[l][t] <= 0.0) continue;
     const auto hip = static_cast<std::size_t>(legs[l].hip);
-    const auto knee = static_cast<std::size_t>(legs[l].knee);
     const auto ankle = static_cast<std::size_t>(legs[l].ankle);
-    const double reach =
-        0.995 * (sk.local_translations_m[knee].norm() + sk.local_translations_m[ankle].norm());
+    const double reach = (now.positions_m[ankle] - now.positions_m[hip]).norm();
     const Eigen::Vector3d d = source.positions_m[ankle] - now.positions_m[hip];
     const double horizontal = std::hypot(d.x(), d.z());
     const double vertical = -d.y();  // the hip above the ankle
-    const double fits = horizontal < reach ? std::sqrt(reach * reach - horizontal * horizontal)
-                                           : 0.0;
-    drop = std::max(drop, hold[l][t] * std::max(0.0, vertical - fits));
+    const double fits =
+        horizontal < reach ? std::sqrt(reach * reach - horizontal * horizontal) : 0.0;
+    drop = std::max(drop, hold[l][t] * (vertical - fits));
   }
-  return drop;
+  return std::isfinite(drop) ? drop : 0.0;
 }
 
-// The root's drop per frame: needed_drop, its largest over +-ease frames
-// then its mean over +-ease frames (smooth, and nowhere much below what a
-// frame needs), times the key weight (key frames do not move).
+// The root's drop per frame: needed_drop, its mean over +-ease frames
+// (smooth), times the key weight (key frames do not move).
 std::vector<double> root_drops(const SynthSkeleton& sk, const std::vector<LegChain>& legs,
                                const std::vector<std::vector<double>>& hold,
                                const std::vector<double>& weight,
                                const std::vector<WorldPose>& source_world,
                                const std::vector<SynthFrame>& frames, std::size_t ease) {
   const std::size_t n = frames.size();
-  std::vector<double> need(n, 0.0), widest(n, 0.0), drop(n, 0.0);
+  std::vector<double> need(n, 0.0), drop(n, 0.0);
   WorldPose w;
   for (std::size_t t = 0; t < n; ++t) {
     if (weight[t] <= 0.0) continue;
     synth_world_pose(sk, frames[t], w);
-    need[t] = needed_drop(sk, legs, hold, t, w, source_world[t]);
-  }
-  const auto window = [&](std::size_t t) {
-    return std::pair{t > ease ? t - ease : 0, std::min(n - 1, t + ease)};
-  };
-  for (std::size_t t = 0; t < n; ++t) {
-    const auto [a, b] = window(t);
-    for (std::size_t u = a; u <= b; ++u) widest[t] = std::max(widest[t], need[u]);
+    need[t] = needed_drop(legs, hold, t, w, source_world[t]);
   }
   for (std::size_t t = 0; t < n; ++t) {
-    const auto [a, b] = window(t);
+    const std::size_t a = t > ease ? t - ease : 0, b = std::min(n - 1, t + ease);
     double sum = 0.0;
-    for (std::size_t u = a; u <= b; ++u) sum += widest[u];
+    for (std::size_t u = a; u <= b; ++u) sum += need[u];
     drop[t] = weight[t] * sum / static_cast<double>(b - a + 1);
   }
   return drop;
@@ -271,10 +299,10 @@ std::vector<double> root_drops(const SynthSkeleton& sk, const std::vector<LegCha
 
 // The held feet: each leg with a hold h > 0 at a frame of weight > 0 gets
 // its hip, knee and ankle rotations slerped by h toward the two-bone
-// solution that puts its ankle where the untransferred motion has it (that
-// motion's world rotation; without a knee plane, toward that motion's
-// leg), its toes toward that motion's. Returns the (leg, frame) pairs fully
-// held.
+// solution that puts its ankle where the untransferred motion has it, turned
+// as that motion's ankle by the transfer's change of the ankle's local
+// rotation (without a knee plane: toward that motion's leg); the toes keep
+// the transfer's rotation. Returns the (leg, frame) pairs fully held.
 std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs,
                       const std::vector<std::vector<double>>& hold,
                       const std::vector<double>& weight, const std::vector<SynthFrame>& source,
@@ -288,21 +316,18 @@ std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs
       if (h <= 0.0) continue;
       const LegChain& leg = legs[l];
       const auto ankle = static_cast<std::size_t>(leg.ankle);
+      const Eigen::Quaterniond turn =
+          source[t].local_rotations[ankle].conjugate() * frames[t].local_rotations[ankle];
       SynthFrame planted = frames[t];
-      const bool solved = synth_detail::plant_leg(sk, nullptr, leg, source_world[t].positions_m[ankle],
-                                                  source_world[t].rotations[ankle], planted, w);
+      const bool solved =
+          synth_detail::plant_leg(sk, nullptr, leg, source_world[t].positions_m[ankle],
+                                  source_world[t].rotations[ankle] * turn, planted, w);
       for (int j : {leg.hip, leg.knee, leg.ankle}) {
         const auto k = static_cast<std::size_t>(j);
-        const Eigen::Quaterniond& goal = solved ? planted.local_rotations[k]
-                                                : source[t].local_rotations[k];
+        const Eigen::Quaterniond& goal =
+            solved ? planted.local_rotations[k] : source[t].local_rotations[k];
         frames[t].local_rotations[k] = frames[t].local_rotations[k].slerp(h, goal).normalized();
       }
-      for (int f : leg.feet)
-        if (f != leg.ankle) {
-          const auto k = static_cast<std::size_t>(f);
-          frames[t].local_rotations[k] =
-              frames[t].local_rotations[k].slerp(h, source[t].local_rotations[k]).normalized();
-        }
       held += h >= 1.0 ? 1 : 0;
     }
   }
@@ -345,15 +370,13 @@ StyleTransferReport transfer_style(const SynthSkeleton& sk, const StyleModel& mo
   report.key_ease_s = params.key_ease_s;
   report.plant_height_m = params.plant_height_m;
   report.plant_ease_s = params.plant_ease_s;
-  report.joints = joints.size();
   std::vector<double> features;
   try {
     features = style_features(synth_style_motion(sk, frames, frame_time_s), model.joints);
   } catch (const InputError& e) {
     throw InputError("--style-model", 0, "the model cannot read the motion: " + e.detail());
   }
-  const std::vector<JointMap> maps =
-      style_offsets(sk, model, params, joints, features, content, report);
+  std::vector<JointMap> maps = style_offsets(sk, model, params, joints, features, content, report);
   const std::vector<double> weight =
       key_weights(frames.size(), key_frames, frames_of(params.key_ease_s, frame_time_s));
   report.key_frames = static_cast<std::size_t>(
@@ -362,13 +385,14 @@ StyleTransferReport transfer_style(const SynthSkeleton& sk, const StyleModel& mo
   std::vector<WorldPose> source_world(frames.size());
   for (std::size_t t = 0; t < frames.size(); ++t) synth_world_pose(sk, frames[t], source_world[t]);
   map_rotations(sk, maps, weight, source_world, frames);
+  summarise_maps(sk, maps, report);
   const std::vector<LegChain> legs = synth_detail::leg_chains(sk);
   const std::size_t ease = frames_of(params.plant_ease_s, frame_time_s);
   const auto hold = hold_weights(sk, legs, source_world, params.plant_height_m, ease);
   const std::vector<double> drop = root_drops(sk, legs, hold, weight, source_world, frames, ease);
   for (std::size_t t = 0; t < frames.size(); ++t) {
     frames[t].root_position_m.y() -= drop[t];
-    report.max_root_drop_m = std::max(report.max_root_drop_m, drop[t]);
+    report.max_root_drop_m = std::max(report.max_root_drop_m, std::abs(drop[t]));
   }
   report.held_foot_frames = hold_feet(sk, legs, hold, weight, source, source_world, frames);
   return report;

@@ -33,7 +33,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace mocap;
 
-const Index* set1() { return test::built_index({"bandai-namco-1"}); }
+const Index* set1() {
+  return test::built_index({"bandai-namco-1"});
+}
 
 // The style model of set 1's labelled clips (mocap-index style-model's).
 std::shared_ptr<const StyleModel> set1_model() {
@@ -55,7 +57,8 @@ std::string old_walk_query(const std::string& extra = "") {
   for (int i = 0; i < 3; ++i)
     out += std::string(i ? ", " : "") + R"({"bvh": ")" + file + R"(", "frame": )" +
            std::to_string(100 + 40 * i) + R"(, "time_s": )" + std::to_string(40 * i / 30.0) + "}";
-  return out + R"(], "filter": {"exclude": ["dataset-1_walk_normal_001*", "dataset-1_walk_old_*"]})" +
+  return out +
+         R"(], "filter": {"exclude": ["dataset-1_walk_normal_001*", "dataset-1_walk_old_*"]})" +
          extra + "}";
 }
 
@@ -155,13 +158,11 @@ TEST(StyleTransfer, RefusesBadInputByName) {
   std::tie(source, detail) = input_error_of(
       [&] { synthesize(*set1(), asked, base->found.pairs, with_model, base->skeleton); });
   EXPECT_EQ(source, "<query to-old>");
-  EXPECT_NE(detail.find("synth_style: the style model has no style \"elderly\""),
-            std::string::npos)
+  EXPECT_NE(detail.find("synth_style: the style model has no style \"elderly\""), std::string::npos)
       << detail;
   for (const char* bad : {R"(, "synth_style": 3)", R"(, "synth_style": "")"}) {
-    std::tie(source, detail) = input_error_of([&] {
-      parse_query_text(old_walk_query(bad), "<test>", 0, fs::current_path(), "q");
-    });
+    std::tie(source, detail) = input_error_of(
+        [&] { parse_query_text(old_walk_query(bad), "<test>", 0, fs::current_path(), "q"); });
     EXPECT_NE(detail.find("synth_style"), std::string::npos) << detail;
   }
 }
@@ -184,7 +185,8 @@ TEST(StyleTransfer, TurnsAWalkTowardOldWithKeyPosesAndFeetKept) {
   EXPECT_EQ(a.style_transfer->content, "walk");
   EXPECT_FALSE(a.style_transfer->content_recognised);
   EXPECT_GT(a.style_transfer->held_foot_frames, 0u);
-  const double p_before = probability_of(*model, b, "old"), p_after = probability_of(*model, a, "old");
+  const double p_before = probability_of(*model, b, "old"),
+               p_after = probability_of(*model, a, "old");
   EXPECT_GT(p_after, p_before) << "old: " << p_before << " -> " << p_after;
   // The report's styles: the output's, then the untransferred output's (as
   // the plain run recognises it).

@@ -23,7 +23,9 @@
 // motion; dm = strength x (mean offset); k = clamp((s + strength x sd
 // offset) / s, min_sd_ratio, max_sd_ratio); w(t): the key weight, 0 at every
 // key frame, eased (smoothstep) to 1 over key_ease_s. Timing is not changed
-// (the key poses are timed): the angular speeds follow the amplitude.
+// (the key poses are timed): the angular speeds follow the amplitude. A joint
+// whose rotation vector may wrap (StyleTransferReport::kept_joints) is left
+// as it is.
 //
 // Then the feet: where the untransferred motion has a leg's lowest foot
 // joint origin below plant_height_m above the ground, its ankle is held
@@ -73,8 +75,12 @@ struct StyleTransferReport {
   bool content_recognised = false;
   double strength = 1.0, min_sd_ratio = 0.5, max_sd_ratio = 2.0;
   double key_ease_s = 0.0, plant_height_m = 0.0, plant_ease_s = 0.0;
-  /// The model's joints the transfer moved.
+  /// The model's joints the transfer moved, and those it left as they
+  /// were: a joint turning past 2.6 rad from its parent in a frame (the
+  /// features' rotation vector wraps at half a turn) or whose mean rotation
+  /// vector spreads over 0.8 rad on an axis over the content's clips.
   std::size_t joints = 0;
+  std::vector<std::string> kept_joints;
   /// Frames whose weight is 0 (key frames): left as they were.
   std::size_t key_frames = 0;
   /// (leg, frame) pairs held where the untransferred motion has the foot.
