@@ -68,6 +68,9 @@ constexpr double kWrapRad = 2.6;
 // axis) over the content's clips is left as it is: its prediction rests on
 // rotation vectors that wrapped.
 constexpr double kPredictionSpreadRad = 0.8;
+// An axis whose rotation vector spreads less than this over the motion
+// (radians; a knee's off-hinge axes) keeps its spread: what it has is noise.
+constexpr double kMinSpreadRad = 0.02;
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -109,9 +112,11 @@ std::vector<int> checked_joints(const SynthSkeleton& sk, const StyleModel& model
 }
 
 // The offsets the model predicts (strength x (predicted(C, S) -
-// predicted(C, the motion's recognised style)) on each joint's mean and
-// spread features), as joint maps (kPredictionSpreadRad: not moved);
-// `report` gets the recognised style and content.
+// predicted(C, the motion's own style)) on each joint's mean and spread
+// features, the motion's own style being its styles' class means weighted by
+// their probabilities), as joint maps (kPredictionSpreadRad: not moved;
+// kMinSpreadRad: spread kept); `report` gets the most probable style and
+// the content.
 std::vector<JointMap> style_offsets(const SynthSkeleton& sk, const StyleModel& model,
                                     const StyleTransferParams& p, const std::vector<int>& joints,
                                     const std::vector<double>& features, const std::string& content,
@@ -128,11 +133,16 @@ std::vector<JointMap> style_offsets(const SynthSkeleton& sk, const StyleModel& m
   };
   const Eigen::Index c = index_of(model.content.classes, from.content);
   const Eigen::Index to = index_of(model.style.classes, p.style);
-  const Eigen::Index fr = index_of(model.style.classes, from.style);
+  // The motion's style as the model sees it: its styles' means weighted by
+  // their probabilities (a motion already recognised as the style is still
+  // moved toward it by the probability it lacks).
+  Eigen::RowVectorXd own = Eigen::RowVectorXd::Zero(model.style.means.cols());
+  for (std::size_t k = 0; k < from.probabilities.size(); ++k)
+    own += from.probabilities[k].second * model.style.means.row(static_cast<Eigen::Index>(k));
   const auto offset = [&](std::size_t f) {
     const auto i = static_cast<Eigen::Index>(f);
-    return p.strength * (model.style.means(to, i) - model.style.means(fr, i)) *
-           model.style_scale(i) * model.content_sd(c, i);
+    return p.strength * (model.style.means(to, i) - own(i)) * model.style_scale(i) *
+           model.content_sd(c, i);
   };
   std::vector<JointMap> maps;
   for (std::size_t i = 0; i < joints.size(); ++i) {
@@ -144,7 +154,8 @@ std::vector<JointMap> style_offsets(const SynthSkeleton& sk, const StyleModel& m
       m.mean_offset(a) = offset(f + static_cast<std::size_t>(a));
       const double sd = features[f + 3 + static_cast<std::size_t>(a)];
       const double want = sd + offset(f + 3 + static_cast<std::size_t>(a));
-      m.sd_ratio(a) = sd > 1e-9 ? std::clamp(want / sd, p.min_sd_ratio, p.max_sd_ratio) : 1.0;
+      m.sd_ratio(a) =
+          sd > kMinSpreadRad ? std::clamp(want / sd, p.min_sd_ratio, p.max_sd_ratio) : 1.0;
       m.moved =
           m.moved && model.content_sd(c, static_cast<Eigen::Index>(f) + a) <= kPredictionSpreadRad;
     }
@@ -165,8 +176,9 @@ Eigen::Quaterniond read_rotation(const JointMap& m, const SynthFrame& f, const W
 // r' = r + w(t) (dm + (k - 1)(r - m)), m the joint's mean over the motion
 // (frames of weight 0 untouched; a joint turning past kWrapRad: not moved).
 // The pelvis' mapped rotation gets its heading back and becomes local to its
-// parent again.
-void map_rotations(const SynthSkeleton& sk, std::vector<JointMap>& maps,
+// parent again; each mapped rotation is clamped to `range` where the
+// untransferred one is within it (none: not clamped).
+void map_rotations(const SynthSkeleton& sk, const RangeOfMotion* range, std::vector<JointMap>& maps,
                    const std::vector<double>& weight, const std::vector<WorldPose>& source_world,
                    std::vector<SynthFrame>& frames) {
   const std::size_t n = frames.size();
@@ -196,7 +208,9 @@ void map_rotations(const SynthSkeleton& sk, std::vector<JointMap>& maps,
         if (parent >= 0)
           q = source_world[t].rotations[static_cast<std::size_t>(parent)].conjugate() * q;
       }
-      frames[t].local_rotations[j] = q.normalized();
+      const bool clamp = range && within_range(sk, *range, m.joint, frames[t].local_rotations[j]);
+      frames[t].local_rotations[j] =
+          clamp ? clamp_to_range(sk, *range, m.joint, q.normalized()) : q.normalized();
     }
   }
 }
@@ -297,18 +311,41 @@ std::vector<double> root_drops(const SynthSkeleton& sk, const std::vector<LegCha
   return drop;
 }
 
+// Each leg's knee hinge: the unit mean of its knee's rotation vectors over
+// the untransferred motion (zero where the knee does not turn).
+std::vector<Eigen::Vector3d> knee_hinges(const std::vector<LegChain>& legs,
+                                         const std::vector<SynthFrame>& source) {
+  std::vector<Eigen::Vector3d> out;
+  for (const LegChain& leg : legs) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const SynthFrame& f : source)
+      sum += style_rotation_vector(f.local_rotations[static_cast<std::size_t>(leg.knee)]);
+    out.push_back(sum.norm() > 1e-9 ? Eigen::Vector3d(sum.normalized()) : Eigen::Vector3d::Zero());
+  }
+  return out;
+}
+
+// `q` as a turn about the unit `hinge` by q's angle about it (a knee turns
+// about one axis); `q` itself where there is no hinge.
+Eigen::Quaterniond on_hinge(const Eigen::Quaterniond& q, const Eigen::Vector3d& hinge) {
+  if (hinge.isZero()) return q;
+  return Eigen::Quaterniond(Eigen::AngleAxisd(style_rotation_vector(q).dot(hinge), hinge));
+}
+
 // The held feet: each leg with a hold h > 0 at a frame of weight > 0 gets
 // its hip, knee and ankle rotations slerped by h toward the two-bone
 // solution that puts its ankle where the untransferred motion has it, turned
 // as that motion's ankle by the transfer's change of the ankle's local
-// rotation (without a knee plane: toward that motion's leg); the toes keep
-// the transfer's rotation. Returns the (leg, frame) pairs fully held.
+// rotation, its knee kept on the knee's hinge (knee_hinges, on_hinge;
+// without a knee plane: toward that motion's leg); the toes keep the transfer's rotation. Returns
+// the (leg, frame) pairs fully held.
 std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs,
                       const std::vector<std::vector<double>>& hold,
                       const std::vector<double>& weight, const std::vector<SynthFrame>& source,
                       const std::vector<WorldPose>& source_world, std::vector<SynthFrame>& frames) {
   std::size_t held = 0;
   WorldPose w;
+  const std::vector<Eigen::Vector3d> hinges = knee_hinges(legs, source);
   for (std::size_t t = 0; t < frames.size(); ++t) {
     if (weight[t] <= 0.0) continue;
     for (std::size_t l = 0; l < legs.size(); ++l) {
@@ -319,9 +356,14 @@ std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs
       const Eigen::Quaterniond turn =
           source[t].local_rotations[ankle].conjugate() * frames[t].local_rotations[ankle];
       SynthFrame planted = frames[t];
-      const bool solved =
-          synth_detail::plant_leg(sk, nullptr, leg, source_world[t].positions_m[ankle],
-                                  source_world[t].rotations[ankle] * turn, planted, w);
+      const Eigen::Vector3d target = source_world[t].positions_m[ankle];
+      const Eigen::Quaterniond target_rotation = source_world[t].rotations[ankle] * turn;
+      bool solved = synth_detail::plant_leg(sk, nullptr, leg, target, target_rotation, planted, w);
+      if (solved) {  // the knee back on its own hinge, then the hip and ankle again
+        const auto knee = static_cast<std::size_t>(leg.knee);
+        planted.local_rotations[knee] = on_hinge(planted.local_rotations[knee], hinges[l]);
+        solved = synth_detail::plant_leg(sk, nullptr, leg, target, target_rotation, planted, w);
+      }
       for (int j : {leg.hip, leg.knee, leg.ankle}) {
         const auto k = static_cast<std::size_t>(j);
         const Eigen::Quaterniond& goal =
@@ -356,8 +398,8 @@ StyleMotion synth_style_motion(const SynthSkeleton& sk, const std::vector<SynthF
   return out;
 }
 
-StyleTransferReport transfer_style(const SynthSkeleton& sk, const StyleModel& model,
-                                   const StyleTransferParams& params,
+StyleTransferReport transfer_style(const SynthSkeleton& sk, const RangeOfMotion* range,
+                                   const StyleModel& model, const StyleTransferParams& params,
                                    const std::vector<std::size_t>& key_frames,
                                    const std::string& content, std::vector<SynthFrame>& frames,
                                    double frame_time_s) {
@@ -384,7 +426,7 @@ StyleTransferReport transfer_style(const SynthSkeleton& sk, const StyleModel& mo
   const std::vector<SynthFrame> source = frames;
   std::vector<WorldPose> source_world(frames.size());
   for (std::size_t t = 0; t < frames.size(); ++t) synth_world_pose(sk, frames[t], source_world[t]);
-  map_rotations(sk, maps, weight, source_world, frames);
+  map_rotations(sk, range, maps, weight, source_world, frames);
   summarise_maps(sk, maps, report);
   const std::vector<LegChain> legs = synth_detail::leg_chains(sk);
   const std::size_t ease = frames_of(params.plant_ease_s, frame_time_s);

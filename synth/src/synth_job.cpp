@@ -482,8 +482,8 @@ std::optional<StylePrediction> transfer_output_style(SynthResult& res, const Cli
   const std::optional<StylePrediction> before = recognise_motion_style(
       model, synth_style_motion(*res.skeleton, res.frames, res.frame_time_s), "");
   try {
-    res.style_transfer =
-        transfer_style(*res.skeleton, model, params, keys, content, res.frames, res.frame_time_s);
+    res.style_transfer = transfer_style(*res.skeleton, &rom, model, params, keys, content,
+                                        res.frames, res.frame_time_s);
   } catch (const InputError& e) {
     if (!query.synth_style || e.source() != "--style") throw;
     throw InputError(src, 0, field + ": " + e.detail());

@@ -118,28 +118,30 @@ TEST(StyleTransfer, RefusesBadInputByName) {
   StyleTransferParams p;
   p.style = "elderly";
   auto [source, detail] =
-      input_error_of([&] { transfer_style(sk, *model, p, {0}, "walk", frames, dt); });
+      input_error_of([&] { transfer_style(sk, nullptr, *model, p, {0}, "walk", frames, dt); });
   EXPECT_EQ(source, "--style");
   EXPECT_NE(detail.find("no style \"elderly\"; its styles: active, angry"), std::string::npos)
       << detail;
   p.style = "old";
   p.strength = 5.0;
-  EXPECT_EQ(input_error_of([&] { transfer_style(sk, *model, p, {0}, "", frames, dt); }).first,
-            "--style-strength");
+  EXPECT_EQ(
+      input_error_of([&] { transfer_style(sk, nullptr, *model, p, {0}, "", frames, dt); }).first,
+      "--style-strength");
   p.strength = 1.0;
   p.min_sd_ratio = 1.5;
-  EXPECT_EQ(input_error_of([&] { transfer_style(sk, *model, p, {0}, "", frames, dt); }).first,
-            "--style");
+  EXPECT_EQ(
+      input_error_of([&] { transfer_style(sk, nullptr, *model, p, {0}, "", frames, dt); }).first,
+      "--style");
   p.min_sd_ratio = 0.5;
   std::vector<SynthFrame> three(frames.begin(), frames.begin() + 3);
   std::tie(source, detail) =
-      input_error_of([&] { transfer_style(sk, *model, p, {0}, "", three, dt); });
+      input_error_of([&] { transfer_style(sk, nullptr, *model, p, {0}, "", three, dt); });
   EXPECT_EQ(source, "--style-model");
   EXPECT_NE(detail.find("at least 4"), std::string::npos) << detail;
   StyleModel other = *model;
   other.joints.back() = "Tail";
   std::tie(source, detail) =
-      input_error_of([&] { transfer_style(sk, other, p, {0}, "", frames, dt); });
+      input_error_of([&] { transfer_style(sk, nullptr, other, p, {0}, "", frames, dt); });
   EXPECT_EQ(source, "--style-model");
   EXPECT_NE(detail.find("\"Tail\""), std::string::npos) << detail;
   EXPECT_EQ(frames.size(), base->result.frames.size()) << "a refused transfer changes nothing";

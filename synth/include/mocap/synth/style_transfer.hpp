@@ -27,6 +27,10 @@
 // whose rotation vector may wrap (StyleTransferReport::kept_joints) is left
 // as it is.
 //
+// Each mapped rotation is clamped to the skeleton's range of motion (the
+// captured range: no knee bends backward) where the untransferred rotation
+// is within it.
+//
 // Then the feet: where the untransferred motion has a leg's lowest foot
 // joint origin below plant_height_m above the ground, its ankle is held
 // where the untransferred motion has it (position and world rotation; the
@@ -96,7 +100,10 @@ struct StyleTransferReport {
 StyleMotion synth_style_motion(const SynthSkeleton& sk, const std::vector<SynthFrame>& frames,
                                double frame_time_s);
 
-/// Turns `frames` (changed in place) toward params.style. `key_frames`: the
+/// Turns `frames` (changed in place) toward params.style, each mapped joint
+/// rotation clamped to `range` where the untransferred one is within it
+/// (none: not clamped; the held legs' inverse
+/// kinematics is not clamped, so that the feet stay). `key_frames`: the
 /// output frames that must not move (the query's key poses); `content`: a
 /// content of the model to predict with (empty or unknown to the model: the
 /// content discriminant's). Throws InputError("--style", ...) for a style
@@ -105,8 +112,8 @@ StyleMotion synth_style_motion(const SynthSkeleton& sk, const std::vector<SynthF
 /// (fewer than 4 frames, a joint of the model the skeleton lacks: a model of
 /// another rig). Deterministic and serial: the result does not depend on the
 /// thread count.
-StyleTransferReport transfer_style(const SynthSkeleton& sk, const StyleModel& model,
-                                   const StyleTransferParams& params,
+StyleTransferReport transfer_style(const SynthSkeleton& sk, const RangeOfMotion* range,
+                                   const StyleModel& model, const StyleTransferParams& params,
                                    const std::vector<std::size_t>& key_frames,
                                    const std::string& content, std::vector<SynthFrame>& frames,
                                    double frame_time_s);
