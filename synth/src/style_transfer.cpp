@@ -325,20 +325,64 @@ std::vector<Eigen::Vector3d> knee_hinges(const std::vector<LegChain>& legs,
   return out;
 }
 
-// `q` as a turn about the unit `hinge` by q's angle about it (a knee turns
-// about one axis); `q` itself where there is no hinge.
-Eigen::Quaterniond on_hinge(const Eigen::Quaterniond& q, const Eigen::Vector3d& hinge) {
-  if (hinge.isZero()) return q;
-  return Eigen::Quaterniond(Eigen::AngleAxisd(style_rotation_vector(q).dot(hinge), hinge));
+// Two-bone inverse kinematics as synth_detail::plant_leg, the knee turned
+// about its `hinge` (in its own frame) instead of the thigh-shin plane's
+// normal, which is ill-defined for a leg near straight: three times, the
+// turn of the interior angle's change, in the direction that brings the
+// hip-ankle distance nearer the wanted one; then the hip turns the
+// hip-ankle line onto the target and the ankle takes the target's rotation.
+// False, `f` unchanged, for a degenerate leg (a bone under 1 micrometre).
+bool plant_leg_on_hinge(const SynthSkeleton& sk, const LegChain& leg, const Eigen::Vector3d& hinge,
+                        const Eigen::Vector3d& target, const Eigen::Quaterniond& target_rotation,
+                        SynthFrame& f, WorldPose& w) {
+  const auto hip = static_cast<std::size_t>(leg.hip), knee = static_cast<std::size_t>(leg.knee),
+             ankle = static_cast<std::size_t>(leg.ankle);
+  synth_world_pose(sk, f, w);
+  const double lab = (w.positions_m[knee] - w.positions_m[hip]).norm();
+  const double lcb = (w.positions_m[ankle] - w.positions_m[knee]).norm();
+  if (lab < 1e-6 || lcb < 1e-6 || hinge.isZero()) return false;
+  const double lat = std::clamp((target - w.positions_m[hip]).norm(), std::abs(lab - lcb) + 1e-4,
+                                lab + lcb - 1e-4);
+  const double angle1 =
+      std::acos(std::clamp((lab * lab + lcb * lcb - lat * lat) / (2.0 * lab * lcb), -1.0, 1.0));
+  for (int step = 0; step < 3; ++step) {
+    const Eigen::Vector3d a = w.positions_m[hip], b = w.positions_m[knee], c = w.positions_m[ankle];
+    const double angle0 =
+        std::acos(std::clamp((a - b).normalized().dot((c - b).normalized()), -1.0, 1.0));
+    const Eigen::Quaterniond knee0 = f.local_rotations[knee];
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Quaterniond chosen = knee0;
+    for (const double sign : {1.0, -1.0}) {
+      f.local_rotations[knee] =
+          (knee0 * Eigen::AngleAxisd(sign * (angle1 - angle0), hinge)).normalized();
+      synth_world_pose(sk, f, w);
+      const double miss = std::abs((w.positions_m[ankle] - w.positions_m[hip]).norm() - lat);
+      if (miss < best) {
+        best = miss;
+        chosen = f.local_rotations[knee];
+      }
+    }
+    f.local_rotations[knee] = chosen;
+    synth_world_pose(sk, f, w);
+  }
+  const Eigen::Quaterniond rh = Eigen::Quaterniond::FromTwoVectors(
+      w.positions_m[ankle] - w.positions_m[hip], target - w.positions_m[hip]);
+  f.local_rotations[hip] =
+      (f.local_rotations[hip] * (w.rotations[hip].conjugate() * rh * w.rotations[hip]))
+          .normalized();
+  synth_world_pose(sk, f, w);
+  f.local_rotations[ankle] = (w.rotations[knee].conjugate() * target_rotation).normalized();
+  return true;
 }
 
 // The held feet: each leg with a hold h > 0 at a frame of weight > 0 gets
 // its hip, knee and ankle rotations slerped by h toward the two-bone
 // solution that puts its ankle where the untransferred motion has it, turned
 // as that motion's ankle by the transfer's change of the ankle's local
-// rotation, its knee kept on the knee's hinge (knee_hinges, on_hinge;
-// without a knee plane: toward that motion's leg); the toes keep the transfer's rotation. Returns
-// the (leg, frame) pairs fully held.
+// rotation, its knee turned about the knee's hinge (knee_hinges,
+// plant_leg_on_hinge; a knee that does not turn: toward that motion's
+// leg); the toes keep the transfer's rotation. Returns the (leg, frame)
+// pairs fully held.
 std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs,
                       const std::vector<std::vector<double>>& hold,
                       const std::vector<double>& weight, const std::vector<SynthFrame>& source,
@@ -356,14 +400,8 @@ std::size_t hold_feet(const SynthSkeleton& sk, const std::vector<LegChain>& legs
       const Eigen::Quaterniond turn =
           source[t].local_rotations[ankle].conjugate() * frames[t].local_rotations[ankle];
       SynthFrame planted = frames[t];
-      const Eigen::Vector3d target = source_world[t].positions_m[ankle];
-      const Eigen::Quaterniond target_rotation = source_world[t].rotations[ankle] * turn;
-      bool solved = synth_detail::plant_leg(sk, nullptr, leg, target, target_rotation, planted, w);
-      if (solved) {  // the knee back on its own hinge, then the hip and ankle again
-        const auto knee = static_cast<std::size_t>(leg.knee);
-        planted.local_rotations[knee] = on_hinge(planted.local_rotations[knee], hinges[l]);
-        solved = synth_detail::plant_leg(sk, nullptr, leg, target, target_rotation, planted, w);
-      }
+      const bool solved = plant_leg_on_hinge(sk, leg, hinges[l], source_world[t].positions_m[ankle],
+                                             source_world[t].rotations[ankle] * turn, planted, w);
       for (int j : {leg.hip, leg.knee, leg.ankle}) {
         const auto k = static_cast<std::size_t>(j);
         const Eigen::Quaterniond& goal =

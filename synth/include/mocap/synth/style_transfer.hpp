@@ -11,9 +11,11 @@
 // content-standardised space, so the feature f of "C in style S" is predicted
 // as content_mean[C][f] + means[S][f] style_scale[f] content_sd[C][f]. The
 // transfer adds to the motion's own features the difference between that
-// prediction for the asked style and for the style the motion is recognised
-// as (its own deviations kept), on each joint's rotation-vector mean and
-// standard deviation:
+// prediction for the asked style and for the motion's own style (the
+// model's style means weighted by the probabilities it gives the motion:
+// a motion already recognised as the style with p is still moved by the 1 - p
+// it lacks), its own deviations kept, on each joint's rotation-vector mean
+// and standard deviation:
 //
 //   r'(t) = r(t) + w(t) [ dm + (k - 1) (r(t) - m) ]      (per axis)
 //
@@ -21,7 +23,8 @@
 // rotation with the heading taken out, the others their local rotation, as
 // the features read them); m, s: its mean and standard deviation over the
 // motion; dm = strength x (mean offset); k = clamp((s + strength x sd
-// offset) / s, min_sd_ratio, max_sd_ratio); w(t): the key weight, 0 at every
+// offset) / s, min_sd_ratio, max_sd_ratio), 1 on an axis spreading less
+// than 0.02 rad (noise); w(t): the key weight, 0 at every
 // key frame, eased (smoothstep) to 1 over key_ease_s. Timing is not changed
 // (the key poses are timed): the angular speeds follow the amplitude. A joint
 // whose rotation vector may wrap (StyleTransferReport::kept_joints) is left
@@ -33,12 +36,14 @@
 //
 // Then the feet: where the untransferred motion has a leg's lowest foot
 // joint origin below plant_height_m above the ground, its ankle is held
-// where the untransferred motion has it (position and world rotation; the
-// toes keep their rotation) by two-bone inverse kinematics
-// (foot_planting.hpp plant_leg), blended in and out over plant_ease_s; the
-// root is lowered where a held foot would be out of the leg's reach (the
-// drop smoothed over plant_ease_s and scaled by w(t)). Key frames (w = 0)
-// are left bit for bit as they were.
+// where the untransferred motion has it (its world rotation turned by the
+// transfer's change of the ankle's local rotation; the toes keep the
+// transfer's) by two-bone inverse kinematics (foot_planting.hpp plant_leg's
+// steps, the knee turned about its own hinge), blended in and out over
+// plant_ease_s; the root moves down (or up) so that each held leg keeps the
+// hip-ankle distance the transfer gave it (the knee bend of the style), the
+// move smoothed over plant_ease_s and scaled by w(t). Key frames (w = 0) are
+// left bit for bit as they were.
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -69,8 +74,9 @@ struct StyleTransferParams {
 /// What the transfer did (the report's "style_transfer").
 struct StyleTransferReport {
   std::string style;
-  /// The style the untransferred motion is recognised as (the offset's
-  /// origin) and its probability.
+  /// The style the untransferred motion is recognised as and its
+  /// probability (the offset's origin weighs every style by its
+  /// probability).
   std::string from_style;
   double from_p = 0.0;
   /// The content whose statistics the model predicts with, and whether it
@@ -89,7 +95,7 @@ struct StyleTransferReport {
   std::size_t key_frames = 0;
   /// (leg, frame) pairs held where the untransferred motion has the foot.
   std::size_t held_foot_frames = 0;
-  /// The largest drop of the root, metres (>= 0).
+  /// The largest move of the root (down or up), metres (>= 0).
   double max_root_drop_m = 0.0;
   /// Mean over the model's joints of the rotation-vector mean's change and
   /// of |k - 1| (radians; ratio), at weight 1.
