@@ -341,8 +341,12 @@ bool plant_leg_on_hinge(const SynthSkeleton& sk, const LegChain& leg, const Eige
   const double lab = (w.positions_m[knee] - w.positions_m[hip]).norm();
   const double lcb = (w.positions_m[ankle] - w.positions_m[knee]).norm();
   if (lab < 1e-6 || lcb < 1e-6 || hinge.isZero()) return false;
-  const double lat = std::clamp((target - w.positions_m[hip]).norm(), std::abs(lab - lcb) + 1e-4,
-                                lab + lcb - 1e-4);
+  // Reachable: at most 0.1 mm short of a straight leg, or the leg's own
+  // length now where it is straighter than that.
+  const double longest =
+      std::max(lab + lcb - 1e-4, (w.positions_m[ankle] - w.positions_m[hip]).norm());
+  const double lat =
+      std::clamp((target - w.positions_m[hip]).norm(), std::abs(lab - lcb) + 1e-4, longest);
   const double angle1 =
       std::acos(std::clamp((lab * lab + lcb * lcb - lat * lat) / (2.0 * lab * lcb), -1.0, 1.0));
   for (int step = 0; step < 3; ++step) {

@@ -252,3 +252,29 @@ TEST(StyleTransfer, TheMotionDoesNotDependOnTheThreadCount) {
       EXPECT_EQ(x.local_rotations[j].coeffs(), y.local_rotations[j].coeffs()) << i << " " << j;
   }
 }
+
+TEST(StyleTransfer, StrengthZeroLeavesTheMotionAsItWas) {
+  MOCAP_REQUIRE_DATA();
+  ASSERT_NE(set1(), nullptr);
+  SynthOptions plain;
+  const auto base = run(old_walk_query(), plain);
+  ASSERT_NE(base, nullptr);
+  std::vector<SynthFrame> frames = base->result.frames;
+  StyleTransferParams p;
+  p.style = "old";
+  p.strength = 0.0;
+  const StyleTransferReport r = transfer_style(*base->skeleton, nullptr, *set1_model(), p, {0},
+                                               "walk", frames, base->result.frame_time_s);
+  EXPECT_EQ(r.mean_offset_rad, 0.0);
+  EXPECT_GT(r.held_foot_frames, 0u);  // the held legs' IK ran, and changed nothing
+  double turned = 0.0, moved = 0.0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    moved = std::max(moved,
+                     (frames[i].root_position_m - base->result.frames[i].root_position_m).norm());
+    for (std::size_t j = 0; j < frames[i].local_rotations.size(); ++j)
+      turned = std::max(turned, frames[i].local_rotations[j].angularDistance(
+                                    base->result.frames[i].local_rotations[j]));
+  }
+  EXPECT_LT(moved, 1e-9);
+  EXPECT_LT(turned, 1e-6);
+}
