@@ -183,8 +183,12 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
   add_batch_options(app, a);
 }
 
-// --style needs --style-model and one of its styles (named otherwise).
+// --style-strength is 0 to 4; --style needs --style-model and one of its
+// styles (named otherwise).
 void check_style_transfer_options(const mocap::SynthOptions& o) {
+  const double strength = o.style_transfer.strength;
+  if (!(std::isfinite(strength) && strength >= 0.0 && strength <= 4.0))
+    throw mocap::InputError("--style-strength", 0, "must be a number from 0 to 4");
   const std::string& style = o.style_transfer.style;
   if (style.empty()) return;
   if (!o.style_model)

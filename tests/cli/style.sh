@@ -143,6 +143,11 @@ rc=0
   --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
 [ "$rc" = 1 ] && grep -q 'no style "elderly"; its styles: active, angry' "$tmp/err.txt" ||
   { cat "$tmp/err.txt" >&2; fail "--style the model lacks: exit $rc"; }
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
+  --style-strength 5 --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q -- "--style-strength: must be a number from 0 to 4" "$tmp/err.txt" ||
+  { cat "$tmp/err.txt" >&2; fail "--style-strength 5: exit $rc"; }
 python3 - "$data/cmu/131_01.bvh" "$tmp/cmu-q.json" <<'PY'
 import json, sys
 json.dump({"id": "cmu", "frames": [{"bvh": sys.argv[1], "frame": 20, "time_s": 0},
@@ -156,7 +161,9 @@ rc=0
   { cat "$tmp/err.txt" >&2; fail "--style with a model of another rig: exit $rc"; }
 [ ! -e "$tmp/t.bvh" ] || fail "a motion was written by a refused transfer"
 "$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
-  --report "$tmp/t.json" --style-model "$tmp/style.json" >/dev/null 2>&1 || fail "--style old"
+  --report "$tmp/t.json" --style-model "$tmp/style.json" >"$tmp/out.txt" 2>&1 || fail "--style old"
+grep -q "^style:  toward old (recognised before: .*; after: .*held where the untransferred feet are" \
+  "$tmp/out.txt" || { cat "$tmp/out.txt"; fail "the printed style line"; }
 python3 - "$tmp/t.json" "$tmp/report.json" <<'PY' || fail "the transfer's report"
 import json, sys
 t, plain = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
