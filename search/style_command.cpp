@@ -62,10 +62,14 @@ CLI::App* add_style_command(CLI::App& app, StyleArgs& a) {
   cmd->add_flag("--json", a.json,
                 "Print one JSON object: {\"style\", \"probabilities\": {STYLE: p}, \"content\", "
                 "...}");
+  cmd->add_flag("--features", a.features,
+                "With --json: the motion's style features too (\"features\", in the model's "
+                "order: docs/style.md \"Features\")");
   return cmd;
 }
 
 int run_style(const StyleArgs& a) {
+  if (a.features && !a.json) throw InputError("--features", 0, "needs --json");
   const StyleModel model = read_style_model(a.model);
   const FileRange fr = file_range(a.file);
   std::optional<UpAxis> up;
@@ -101,9 +105,9 @@ int run_style(const StyleArgs& a) {
   }
   const StylePrediction p = recognise_style(model, features, content);
   if (a.json) {
-    std::cout << json_text(
-                     style_prediction_json(fr.path, first, first + motion->frame_count - 1, p))
-              << "\n";
+    nlohmann::json out = style_prediction_json(fr.path, first, first + motion->frame_count - 1, p);
+    if (a.features) out["features"] = features;
+    std::cout << json_text(out) << "\n";
   } else {
     std::cout << fmt::format("{}: {} (p = {:.2f}); content {} ({})\n", a.file, p.style,
                              p.probability, p.content,

@@ -13,6 +13,9 @@ struct StyleArgs {
   std::string content;
   std::string up;
   bool json = false;
+  /// With json: the motion's style features too ("features", the model's
+  /// order; docs/style.md "Features").
+  bool features = false;
 };
 
 /// Adds the `style` subcommand to `app`; returns it.

@@ -13,6 +13,7 @@
 //               [the synthesis options above but --pick]
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -168,12 +169,37 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
   app.add_option("--style-model", a.style_model,
                  "a style model (mocap-index style-model): the report gives the recognised style "
                  "of the output and of every partial motion (\"styles\"; docs/style.md)");
+  app.add_option("--style", a.options.style_transfer.style,
+                 "turn the output toward this style of the --style-model model (style transfer, "
+                 "docs/style.md \"Style transfer\"); a query's \"synth_style\" replaces it");
+  app.add_option("--style-strength", a.options.style_transfer.strength,
+                 "with --style: the multiple of the model's style offset applied (0 to 4)")
+      ->capture_default_str();
   app.add_option("--threads", a.threads,
                  "worker threads: the gaps (with --queries, the queries too) are made in "
                  "parallel (default: all cores); the output does not depend on it");
   app.set_version_flag("--version", std::string("mocap-synth ") + MOCAP_VERSION);
   mocap::add_input_limit_options(app, a.limits);
   add_batch_options(app, a);
+}
+
+// --style-strength is 0 to 4; --style needs --style-model and one of its
+// styles (named otherwise).
+void check_style_transfer_options(const mocap::SynthOptions& o) {
+  const double strength = o.style_transfer.strength;
+  if (!(std::isfinite(strength) && strength >= 0.0 && strength <= 4.0))
+    throw mocap::InputError("--style-strength", 0, "must be a number from 0 to 4");
+  const std::string& style = o.style_transfer.style;
+  if (style.empty()) return;
+  if (!o.style_model)
+    throw mocap::InputError("--style", 0,
+                            "needs --style-model STYLE.json (a model of mocap-index style-model)");
+  const std::vector<std::string>& styles = o.style_model->style.classes;
+  if (std::find(styles.begin(), styles.end(), style) != styles.end()) return;
+  std::string names;
+  for (const std::string& s : styles) names += (names.empty() ? "" : ", ") + s;
+  throw mocap::InputError("--style", 0,
+                          "the style model has no style \"" + style + "\"; its styles: " + names);
 }
 
 // --transition, --max-states, the supplementation values, --pick and the
@@ -200,6 +226,7 @@ void check_synth_options(SynthArgs& a) {
   if (!a.style_model.empty())
     a.options.style_model =
         std::make_shared<const mocap::StyleModel>(mocap::read_style_model(a.style_model));
+  check_style_transfer_options(a.options);
 }
 
 // The checked output files (empty: not asked for).

@@ -374,7 +374,8 @@ class Index:
                    refine_smoothing_J=0.0, refine_polish=0, refine_polish_window=1,
                    refine_polish_segments=False, refine_polish_smoothing_J=0.0, threads=0,
                    base_dir=None, energy="w", warp=None, warp_candidates=5,
-                   warp_work_weight_m_per_J=3e-4, style_model=None):
+                   warp_work_weight_m_per_J=3e-4, style_model=None, style=None,
+                   style_strength=1.0):
         """Synthesises the target motion of one query, as mocap-synth does.
 
         A list of queries is synthesize_batch's (the same keywords but
@@ -392,7 +393,9 @@ class Index:
         --no-warp; --warp-candidates: warp_candidates; --warp-work-weight:
         warp_work_weight_m_per_J; style_model, a dict
         from style_model() or a model file's path: --style-model, the
-        report's "styles"). Returns a Synthesis.
+        report's "styles"; style, a style of that model: --style, the
+        output turned toward it (docs/style.md "Style transfer");
+        style_strength: --style-strength). Returns a Synthesis.
         """
         if isinstance(query, (list, tuple)):
             if picks:
@@ -406,7 +409,8 @@ class Index:
                 refine_polish_segments=refine_polish_segments,
                 refine_polish_smoothing_J=refine_polish_smoothing_J, energy=energy, warp=warp,
                 warp_candidates=warp_candidates,
-                warp_work_weight_m_per_J=warp_work_weight_m_per_J, style_model=style_model)
+                warp_work_weight_m_per_J=warp_work_weight_m_per_J, style_model=style_model,
+                style=style, style_strength=style_strength)
         text = _query_text(query)
         pick_texts = [p if isinstance(p, str) else f"{int(p[0])}:{int(p[1])}" for p in picks]
         args = dict(method=method, picks=pick_texts, max_states=max_states,
@@ -417,7 +421,8 @@ class Index:
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
                     energy=energy, warp=warp, warp_candidates=warp_candidates,
                     warp_work_weight_m_per_J=warp_work_weight_m_per_J,
-                    style_model=_style_model_text(style_model))
+                    style_model=_style_model_text(style_model), style=style or "",
+                    style_strength=style_strength)
         return Synthesis(_with_results_file(
             results, lambda path: self._raw.synthesize(text, _base_dir(base_dir), results=path,
                                                        **args)))
@@ -427,7 +432,8 @@ class Index:
                          fps=None, refine=0, refine_smoothing_J=0.0, refine_polish=0,
                          refine_polish_window=1, refine_polish_segments=False,
                          refine_polish_smoothing_J=0.0, energy="w", warp=None,
-                         warp_candidates=5, warp_work_weight_m_per_J=3e-4, style_model=None):
+                         warp_candidates=5, warp_work_weight_m_per_J=3e-4, style_model=None,
+                         style=None, style_strength=1.0):
         """Synthesises a batch of queries, as mocap-synth --queries does.
 
         `queries`: a list of queries (dicts or JSON texts). They are searched
@@ -450,7 +456,8 @@ class Index:
                     refine_polish_smoothing_J=refine_polish_smoothing_J, threads=threads,
                     energy=energy, warp=warp, warp_candidates=warp_candidates,
                     warp_work_weight_m_per_J=warp_work_weight_m_per_J,
-                    style_model=_style_model_text(style_model))
+                    style_model=_style_model_text(style_model), style=style or "",
+                    style_strength=style_strength)
         items = _with_results_file(
             results, lambda path: self._raw.synthesize_batch(texts, _base_dir(base_dir),
                                                              results=path, **args))

@@ -68,6 +68,8 @@ struct SynthArgs {
   bool refine_polish_segments = false;
   double refine_polish_smoothing_J = 0.0;
   std::string style_model;  // JSON text of a style model; empty: none
+  std::string style;        // style transfer toward it (needs style_model); empty: none
+  double style_strength = 1.0;
 };
 
 // The options as mocap-synth builds them from its flags (the names are the
@@ -108,6 +110,10 @@ SynthOptions synth_options(const SynthArgs& a) {
   if (!a.style_model.empty())
     o.style_model = std::make_shared<const StyleModel>(
         style_model_from_json(nlohmann::json::parse(a.style_model), "style_model"));
+  if (!a.style.empty() && !o.style_model)
+    throw InputError("style", 0, "needs style_model= (a model of Index.style_model or its file)");
+  o.style_transfer.style = a.style;
+  o.style_transfer.strength = a.style_strength;
   o.params.refine.iterations = a.refine;
   o.params.refine.smoothing_J = a.refine_smoothing_J;
   o.params.refine.polish_sweeps = a.refine_polish;
@@ -404,9 +410,11 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
          std::size_t refine_polish, std::size_t refine_polish_window, bool refine_polish_segments,
          double refine_polish_smoothing_J, int threads, const std::string& energy,
          std::optional<bool> warp, std::size_t warp_candidates, double warp_work_weight_m_per_J,
-         const std::string& style_model) {
+         const std::string& style_model, const std::string& style, double style_strength) {
         SynthArgs a;
         a.style_model = style_model;
+        a.style = style;
+        a.style_strength = style_strength;
         a.method = method;
         a.max_states = max_states;
         a.cost_threshold_J = cost_threshold_J;
@@ -433,7 +441,7 @@ void bind_index_synthesize_batch(py::class_<OpenIndex, std::shared_ptr<OpenIndex
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
       py::arg("warp_work_weight_m_per_J") = SynthOptions{}.warp_work_weight_m_per_J,
-      py::arg("style_model") = "",
+      py::arg("style_model") = "", py::arg("style") = "", py::arg("style_strength") = 1.0,
       "Synthesises a batch of queries (JSON texts) as mocap-synth --queries does: one search "
       "(or `results`, a mocap-search JSONL file), the queries in parallel. Per query, in input "
       "order, a Synthesis or, for a query that failed, a dict {message, source, line, detail}.");
@@ -452,9 +460,12 @@ void bind_index_synthesize(py::module_& m) {
          double refine_smoothing_J, std::size_t refine_polish, std::size_t refine_polish_window,
          bool refine_polish_segments, double refine_polish_smoothing_J, int threads,
          const std::string& energy, std::optional<bool> warp, std::size_t warp_candidates,
-         double warp_work_weight_m_per_J, const std::string& style_model) {
+         double warp_work_weight_m_per_J, const std::string& style_model, const std::string& style,
+         double style_strength) {
         SynthArgs a;
         a.style_model = style_model;
+        a.style = style;
+        a.style_strength = style_strength;
         a.method = method;
         a.picks = picks;
         a.max_states = max_states;
@@ -483,7 +494,7 @@ void bind_index_synthesize(py::module_& m) {
       py::arg("refine_polish_smoothing_J") = 0.0, py::arg("threads") = 0, py::arg("energy") = "w",
       py::arg("warp") = std::nullopt, py::arg("warp_candidates") = SynthOptions{}.warp_candidates,
       py::arg("warp_work_weight_m_per_J") = SynthOptions{}.warp_work_weight_m_per_J,
-      py::arg("style_model") = "",
+      py::arg("style_model") = "", py::arg("style") = "", py::arg("style_strength") = 1.0,
       "Synthesises the motion of one query (JSON text) as mocap-synth does: with `results` (a "
       "mocap-search JSONL file holding the query's line) or searching here with the default "
       "options; `picks` as --pick (\"PAIR:RANK\").");

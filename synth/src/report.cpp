@@ -143,6 +143,27 @@ nlohmann::json segments_json(const SynthResult& result) {
   return segs;
 }
 
+// The report's "style_transfer" (docs/style.md "Style transfer").
+nlohmann::json style_transfer_json(const StyleTransferReport& t) {
+  return {{"style", t.style},
+          {"from_style", t.from_style},
+          {"from_p", t.from_p},
+          {"content", t.content},
+          {"content_recognised", t.content_recognised},
+          {"strength", t.strength},
+          {"sd_ratio_limits", {t.min_sd_ratio, t.max_sd_ratio}},
+          {"key_ease_s", t.key_ease_s},
+          {"plant_height_m", t.plant_height_m},
+          {"plant_ease_s", t.plant_ease_s},
+          {"joints", t.joints},
+          {"kept_joints", t.kept_joints},
+          {"key_frames", t.key_frames},
+          {"held_foot_frames", t.held_foot_frames},
+          {"max_root_drop_m", t.max_root_drop_m},
+          {"mean_offset_rad", t.mean_offset_rad},
+          {"mean_sd_change", t.mean_sd_change}};
+}
+
 }  // namespace
 
 std::string synth_report_json(const ClipSource& clips, const Query& query,
@@ -202,6 +223,7 @@ std::string synth_report_json(const ClipSource& clips, const Query& query,
       styles.push_back({{"of", s.of}, {"label", s.label}, {"p", s.p}});
     j["styles"] = styles;
   }
+  if (result.style_transfer) j["style_transfer"] = style_transfer_json(*result.style_transfer);
   const nlohmann::json segs = segments_json(result);
   double total = 0.0;
   for (double e : result.step_energies_J) total += e;

@@ -3,6 +3,7 @@
 #include "report_notes.hpp"
 
 #include <algorithm>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -129,6 +130,27 @@ std::string foot_contacts_text(const EnergyParams& ep, const std::vector<FootCon
 
 }  // namespace synth_detail
 
+namespace {
+
+// "style:  toward S (recognised before: A, p = P; after: B, p = Q); the held
+// feet and the root's move": what the style transfer did, for the printed
+// summary.
+std::string style_transfer_note(const SynthResult& result) {
+  const StyleTransferReport& t = *result.style_transfer;
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(2) << "style:  toward " << t.style << " (recognised";
+  for (const char* of : {"motion before transfer", "motion"})
+    for (const auto& s : result.styles)
+      if (s.of == of)
+        o << (s.of == "motion" ? "; after: " : " before: ") << s.label << ", p = " << s.p;
+  o << "); " << t.held_foot_frames
+    << " (leg, frame) pairs held where the untransferred feet are, the root moved at most "
+    << std::setprecision(3) << t.max_root_drop_m << " m";
+  return o.str();
+}
+
+}  // namespace
+
 std::string synth_report_text(const SynthResult& result) {
   using namespace synth_detail;
   std::ostringstream o;
@@ -139,6 +161,7 @@ std::string synth_report_text(const SynthResult& result) {
       foot_contacts_text(result.skeleton->model.params,
                          foot_contact_rows(*result.skeleton, result.frames, result.frame_time_s)));
   for (std::string line; std::getline(rows, line);) o << "        " << line << "\n";
+  if (result.style_transfer) o << style_transfer_note(result) << "\n";
   for (const TransitionReport& t : result.transitions)
     if (t.measures.range_violations > 0)
       o << "range:  pair " << t.pair << " " << t.side << ": " << t.measures.range_violations

@@ -437,29 +437,17 @@ synth_detail::WarpSource warp_source(const TargetPieces& source, const SearchRes
   return src;
 }
 
-// SynthOptions::style_model: the output's style and each chosen partial
+// SynthOptions::style_model: the output's style, the untransferred
+// output's (`before`, with a style transfer) and each chosen partial
 // motion's (SynthResult::styles; too short or another rig: left out).
-void recognise_styles(const ClipSource& clips, const StyleModel& model, SynthResult& res) {
+void recognise_styles(const ClipSource& clips, const StyleModel& model,
+                      const std::optional<StylePrediction>& before, SynthResult& res) {
   const auto add = [&](const std::string& of, const StyleMotion& m, const std::string& content) {
     if (const auto p = recognise_motion_style(model, m, content))
       res.styles.push_back({of, p->style, p->probability});
   };
-  const SynthSkeleton& sk = *res.skeleton;
-  StyleMotion out;
-  out.joint_names = sk.skeleton.names;
-  out.parents = sk.skeleton.parents;
-  out.pelvis = sk.root_joint;
-  out.frame_time_s = res.frame_time_s;
-  out.frame_count = res.frames.size();
-  WorldPose w;
-  for (const SynthFrame& f : res.frames) {
-    synth_world_pose(sk, f, w);
-    out.local_rotations.insert(out.local_rotations.end(), f.local_rotations.begin(),
-                               f.local_rotations.end());
-    out.pelvis_rotations.push_back(w.rotations[static_cast<std::size_t>(sk.root_joint)]);
-    out.pelvis_positions.push_back(w.positions_m[static_cast<std::size_t>(sk.root_joint)]);
-  }
-  add("motion", out, "");
+  add("motion", synth_style_motion(*res.skeleton, res.frames, res.frame_time_s), "");
+  if (before) res.styles.push_back({"motion before transfer", before->style, before->probability});
   for (std::size_t h = 0; h < res.chosen.size(); ++h) {
     const SearchResult& r = res.chosen[h];
     const ClipSource::Location at = clips.locate(r.clip_index);
@@ -467,6 +455,67 @@ void recognise_styles(const ClipSource& clips, const StyleModel& model, SynthRes
         index_style_motion(*at.index, at.clip, r.start_frame, r.end_frame),
         at.index->label(at.clip, "content"));
   }
+}
+
+// The transitions' measures: of the frames now in their place.
+void remeasure_transitions(SynthResult& res, const RangeOfMotion& rom) {
+  std::size_t k = 0;
+  for (const MotionSegment& seg : res.segments) {
+    if (seg.kind != "transition") continue;
+    TransitionReport& tr = res.transitions[k++];
+    tr.measures = measure_span(res, rom, seg.first_frame - 1, seg.frame_count + 2);
+  }
+}
+
+// The style asked of this query: its "synth_style", else the options'
+// (empty: none).
+std::string asked_synth_style(const Query& query, const SynthOptions& options) {
+  return query.synth_style.value_or(options.style_transfer.style);
+}
+
+// Style transfer (style_transfer.hpp) of the assembled motion toward the
+// asked style, its key frames the query frames' and its content the first
+// chosen partial motion's label the model knows; returns the untransferred
+// output's recognised style (for SynthResult::styles). Errors of a style
+// asked by the query name the query and its field.
+std::optional<StylePrediction> transfer_output_style(SynthResult& res, const ClipSource& clips,
+                                                     const Query& query,
+                                                     const SynthOptions& options,
+                                                     const RangeOfMotion& rom,
+                                                     const std::string& src) {
+  StyleTransferParams params = options.style_transfer;
+  params.style = asked_synth_style(query, options);
+  const std::string field = query.synth_style ? "synth_style" : "--style";
+  if (!options.style_model)
+    throw InputError(query.synth_style ? src : "--style", 0,
+                     (query.synth_style ? "synth_style: " : std::string()) +
+                         "needs a style model (mocap-synth --style-model STYLE.json, Python "
+                         "style_model=; mocap-index style-model writes one)");
+  const StyleModel& model = *options.style_model;
+  std::string content;
+  for (const SearchResult& r : res.chosen) {
+    const ClipSource::Location at = clips.locate(r.clip_index);
+    const std::string label = at.index->label(at.clip, "content");
+    if (std::find(model.content.classes.begin(), model.content.classes.end(), label) !=
+        model.content.classes.end()) {
+      content = label;
+      break;
+    }
+  }
+  std::vector<std::size_t> keys;
+  for (const MotionSegment& seg : res.segments)
+    if (seg.kind == "query") keys.push_back(seg.first_frame);
+  const std::optional<StylePrediction> before = recognise_motion_style(
+      model, synth_style_motion(*res.skeleton, res.frames, res.frame_time_s), "");
+  try {
+    res.style_transfer = transfer_style(*res.skeleton, &rom, model, params, keys, content,
+                                        res.frames, res.frame_time_s);
+  } catch (const InputError& e) {
+    if (!query.synth_style || e.source() != "--style") throw;
+    throw InputError(src, 0, field + ": " + e.detail());
+  }
+  remeasure_transitions(res, rom);
+  return before;
 }
 
 // Output frames a..b with their swinging feet lifted off the ground
@@ -560,12 +609,7 @@ void warp_timed_pairs(SynthResult& res, const RangeOfMotion& rom, const TargetPi
   }
   // The transitions' measures: of the frames now in their place (every
   // pair was warped or had its feet lifted).
-  std::size_t k = 0;
-  for (const MotionSegment& seg : res.segments) {
-    if (seg.kind != "transition") continue;
-    TransitionReport& tr = res.transitions[k++];
-    tr.measures = measure_span(res, rom, seg.first_frame - 1, seg.frame_count + 2);
-  }
+  remeasure_transitions(res, rom);
 }
 
 }  // namespace
@@ -751,10 +795,13 @@ SynthResult synthesize(const ClipSource& clips, const Query& query,
       throw std::logic_error("timed synthesis: " + std::to_string(res.frames.size()) +
                              " frames, expected " + std::to_string(want));
   }
+  std::optional<StylePrediction> before;
+  if (!asked_synth_style(query, options).empty())
+    before = transfer_output_style(res, clips, query, options, rom, src);
   res.step_energies_J = motion_step_energies(sk, res.frames, out_dt);
   res.motion_measures = measure_motion(sk, res.frames, out_dt);
   measure_pieces(res, rom);
-  if (options.style_model) recognise_styles(clips, *options.style_model, res);
+  if (options.style_model) recognise_styles(clips, *options.style_model, before, res);
   res.synth_ms = ms_since(t0);
   return res;
 }

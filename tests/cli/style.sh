@@ -10,7 +10,8 @@
 # rules (a model replaced, another file refused without --force), and
 # search results carrying their recognised style (--style-model), a query
 # asking for a style, and a synthesis report's styles (mocap-synth
-# --style-model).
+# --style-model); style transfer (mocap-synth --style, a query's
+# "synth_style"): its errors, its report, a batch equal to single runs.
 #   bash tests/cli/style.sh BUILD_DIR DATA_DIR
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/lib/common.sh"
@@ -127,5 +128,70 @@ styles = json.load(open(sys.argv[1]))["styles"]
 known = json.load(open(sys.argv[2]))["probabilities"].keys()
 assert [s["of"] for s in styles] == ["motion", "partial 1"], styles
 assert all(s["label"] in known and 0 < s["p"] <= 1 for s in styles), styles
+PY
+
+# Style transfer (docs/style.md "Style transfer"): errors naming the option
+# (exit 1, nothing written), then a single run's report and a batch equal to
+# single runs byte for byte, a query's "synth_style" replacing --style.
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
+  >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q -- "--style: needs --style-model" "$tmp/err.txt" ||
+  { cat "$tmp/err.txt" >&2; fail "--style without --style-model: exit $rc"; }
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style elderly \
+  --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q 'no style "elderly"; its styles: active, angry' "$tmp/err.txt" ||
+  { cat "$tmp/err.txt" >&2; fail "--style the model lacks: exit $rc"; }
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
+  --style-strength 5 --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q -- "--style-strength: must be a number from 0 to 4" "$tmp/err.txt" ||
+  { cat "$tmp/err.txt" >&2; fail "--style-strength 5: exit $rc"; }
+python3 - "$data/cmu/131_01.bvh" "$tmp/cmu-q.json" <<'PY'
+import json, sys
+json.dump({"id": "cmu", "frames": [{"bvh": sys.argv[1], "frame": 20, "time_s": 0},
+                                   {"bvh": sys.argv[1], "frame": 50, "time_s": 0.25}]},
+          open(sys.argv[2], "w"))
+PY
+rc=0
+"$synth" --index "$tmp/cmu.h5" --query "$tmp/cmu-q.json" --out "$tmp/t.bvh" --style old \
+  --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q -- "--style-model: the model's joint .* a model of another rig" "$tmp/err.txt" ||
+  { cat "$tmp/err.txt" >&2; fail "--style with a model of another rig: exit $rc"; }
+[ ! -e "$tmp/t.bvh" ] || fail "a motion was written by a refused transfer"
+"$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
+  --report "$tmp/t.json" --style-model "$tmp/style.json" >"$tmp/out.txt" 2>&1 || fail "--style old"
+grep -q "^style:  toward old (recognised before: .*; after: .*held where the untransferred feet are" \
+  "$tmp/out.txt" || { cat "$tmp/out.txt"; fail "the printed style line"; }
+python3 - "$tmp/t.json" "$tmp/report.json" <<'PY' || fail "the transfer's report"
+import json, sys
+t, plain = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+s = t["style_transfer"]
+assert s["style"] == "old" and s["strength"] == 1 and s["content"] == "walk", s
+assert [x["of"] for x in t["styles"][:2]] == ["motion", "motion before transfer"], t["styles"]
+assert t["styles"][1] == dict(plain["styles"][0], of="motion before transfer"), t["styles"]
+assert t["motion"]["foot_skating_ratio"] <= plain["motion"]["foot_skating_ratio"] + 0.01
+PY
+python3 - "$w" "$tmp/tq.jsonl" <<'PY'
+import json, sys
+base = {"filter": {"exclude": ["dataset-1_walk_old_001*"]},
+        "frames": [{"bvh": sys.argv[1], "frame": 20, "time_s": 0},
+                   {"bvh": sys.argv[1], "frame": 50, "time_s": 1.0}]}
+with open(sys.argv[2], "w") as f:
+    f.write(json.dumps(dict(base, id="as-asked")) + "\n")
+    f.write(json.dumps(dict(base, id="tired", synth_style="tired")) + "\n")
+PY
+"$synth" --index "$tmp/set1.h5" --queries "$tmp/tq.jsonl" --out-dir "$tmp/tb" --style old \
+  --style-model "$tmp/style.json" --reports -q >/dev/null 2>&1 || fail "a batch with --style"
+for id in as-asked tired; do
+  "$synth" --index "$tmp/set1.h5" --query "$tmp/tq.jsonl" --id "$id" --out "$tmp/t-$id.bvh" \
+    --style old --style-model "$tmp/style.json" >/dev/null 2>&1 || fail "$id alone"
+  cmp -s "$tmp/t-$id.bvh" "$tmp/tb/$id.bvh" || fail "$id: the batch's motion is not the single run's"
+done
+python3 - "$tmp/tb/as-asked.json" "$tmp/tb/tired.json" <<'PY' || fail "the batch's styles asked"
+import json, sys
+assert json.load(open(sys.argv[1]))["style_transfer"]["style"] == "old"
+assert json.load(open(sys.argv[2]))["style_transfer"]["style"] == "tired"
 PY
 echo "style: ok"

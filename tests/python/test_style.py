@@ -85,3 +85,37 @@ def test_synthesis_reports_styles_as_mocap_synth_does(index, scratch):
     assert batch.report()["styles"] == one["styles"]
     assert "styles" not in index.synthesize(q).report()
 
+
+
+def test_style_transfer_as_mocap_synth_does_it(index, index_path, scratch):
+    model = index.style_model()
+    walk = set1("dataset-1_walk_old_001")
+    q = {"id": "to-tired", "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+         "frames": [{"bvh": walk, "frame": 20, "time_s": 0},
+                    {"bvh": walk, "frame": 50, "time_s": 1.0}]}
+    with pytest.raises(mocap.InputError, match="needs style_model") as e:
+        index.synthesize(q, style="tired")
+    assert e.value.source == "style"
+    with pytest.raises(mocap.InputError, match='no style "elderly"; its styles: active'):
+        index.synthesize(q, style_model=model, style="elderly")
+    one = index.synthesize(q, style_model=model, style="tired")
+    report = one.report()
+    assert report["style_transfer"]["style"] == "tired"
+    assert [s["of"] for s in report["styles"][:2]] == ["motion", "motion before transfer"]
+    # The query's "synth_style" replaces style=; the batch gives the same motion.
+    [batch] = index.synthesize_batch([dict(q, synth_style="tired")], style_model=model,
+                                     style="old")
+    assert batch.report()["style_transfer"]["style"] == "tired"
+    path = os.path.join(scratch, "style.json")
+    with open(path, "w") as f:
+        json.dump(model, f)
+    mine, theirs = os.path.join(scratch, "mine.bvh"), os.path.join(scratch, "theirs.bvh")
+    batch.write_bvh(mine)
+    qpath = os.path.join(scratch, "q.json")
+    with open(qpath, "w") as f:
+        json.dump(q, f)
+    subprocess.run([tool("mocap-synth"), "--index", index_path, "--query", qpath, "--out", theirs,
+                    "--style-model", path, "--style", "tired"], check=True,
+                   stdout=subprocess.DEVNULL)
+    with open(mine, "rb") as a, open(theirs, "rb") as b:
+        assert a.read() == b.read()

@@ -29,23 +29,9 @@ void check_range(const std::string& source, std::size_t frames, std::size_t firs
                          " outside the clip's 0-" + std::to_string(frames ? frames - 1 : 0));
 }
 
-// Rotation vector (axis times angle in [0, pi], radians) of a unit quaternion.
-Eigen::Vector3d rotation_vector(const Eigen::Quaterniond& q) {
-  const double s = q.vec().norm();
-  const double w = q.w() < 0.0 ? -q.w() : q.w();
-  const Eigen::Vector3d v = q.w() < 0.0 ? Eigen::Vector3d(-q.vec()) : Eigen::Vector3d(q.vec());
-  if (s < 1e-12) return 2.0 * v;
-  return (2.0 * std::atan2(s, w) / s) * v;
-}
-
-// The rotation about +Y that takes the heading out of a pelvis rotation: the
-// pelvis' local +Z (its forward axis in Bandai Namco's and CMU's rigs) turned
-// onto the XZ plane's +Z; local +X where +Z is vertical.
+// The pelvis' world rotation with the heading taken out (style_heading_rad).
 Eigen::Quaterniond without_heading(const Eigen::Quaterniond& q) {
-  Eigen::Vector3d f = q * Eigen::Vector3d::UnitZ();
-  if (std::hypot(f.x(), f.z()) < 1e-6) f = q * Eigen::Vector3d::UnitX();
-  const double yaw = std::atan2(f.x(), f.z());
-  return (Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitY()) * q).normalized();
+  return (Eigen::AngleAxisd(-style_heading_rad(q), Eigen::Vector3d::UnitY()) * q).normalized();
 }
 
 double percentile90(std::vector<double> v) {
@@ -62,7 +48,7 @@ double percentile90(std::vector<double> v) {
 void joint_features(const std::vector<Eigen::Quaterniond>& q, double dt, std::vector<double>& out) {
   const std::size_t n = q.size();
   std::vector<Eigen::Vector3d> rv(n);
-  for (std::size_t f = 0; f < n; ++f) rv[f] = rotation_vector(q[f]);
+  for (std::size_t f = 0; f < n; ++f) rv[f] = style_rotation_vector(q[f]);
   Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& v : rv) mean += v;
   mean /= static_cast<double>(n);
@@ -71,7 +57,7 @@ void joint_features(const std::vector<Eigen::Quaterniond>& q, double dt, std::ve
   out.insert(out.end(), {mean.x(), mean.y(), mean.z(), sd.x(), sd.y(), sd.z()});
   std::vector<double> speed(n - 1);
   for (std::size_t f = 0; f + 1 < n; ++f)
-    speed[f] = rotation_vector(q[f].conjugate() * q[f + 1]).norm() / dt;
+    speed[f] = style_rotation_vector(q[f].conjugate() * q[f + 1]).norm() / dt;
   out.push_back(std::accumulate(speed.begin(), speed.end(), 0.0) / static_cast<double>(n - 1));
   out.push_back(percentile90(speed));
   double acc = 0.0;
@@ -136,6 +122,20 @@ std::size_t feature_count(const std::vector<std::string>& joints) {
 }
 
 }  // namespace
+
+Eigen::Vector3d style_rotation_vector(const Eigen::Quaterniond& q) {
+  const double s = q.vec().norm();
+  const double w = q.w() < 0.0 ? -q.w() : q.w();
+  const Eigen::Vector3d v = q.w() < 0.0 ? Eigen::Vector3d(-q.vec()) : Eigen::Vector3d(q.vec());
+  if (s < 1e-12) return 2.0 * v;
+  return (2.0 * std::atan2(s, w) / s) * v;
+}
+
+double style_heading_rad(const Eigen::Quaterniond& q) {
+  Eigen::Vector3d f = q * Eigen::Vector3d::UnitZ();
+  if (std::hypot(f.x(), f.z()) < 1e-6) f = q * Eigen::Vector3d::UnitX();
+  return std::atan2(f.x(), f.z());
+}
 
 StyleMotion index_style_motion(const Index& index, std::size_t clip, std::size_t first,
                                std::size_t last) {

@@ -492,7 +492,7 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
   if (!j.is_object()) c.fail("query", "expected a JSON object, got " + type_name(j));
   check_keys(c, j, "",
              {"id", "frames", "relative", "character", "transition_time", "top", "path_weight",
-              "filter", "min_length_s", "max_length_s", "met", "style"});
+              "filter", "min_length_s", "max_length_s", "met", "style", "synth_style"});
   Query q;
   q.id = default_id;
   if (j.contains("id")) {
@@ -575,6 +575,11 @@ Query parse_query(const json& j, const std::string& source, std::size_t line,
     if (f.contains("exclude")) q.filter.exclude = string_list(c, f["exclude"], "filter.exclude");
   }
   if (j.contains("style")) q.style = query_style(c, j["style"], base_dir);
+  if (j.contains("synth_style")) {
+    if (!j["synth_style"].is_string() || j["synth_style"].get<std::string>().empty())
+      c.fail("synth_style", "expected a style name (of the model given with --style-model)");
+    q.synth_style = j["synth_style"].get<std::string>();
+  }
   return q;
 }
 

@@ -1,5 +1,6 @@
 // Tests for search/src/query/query.cpp: the query language. Invalid queries first
-// (each error names the field path), then what valid ones mean.
+// (each error names the field path; "synth_style" too, the style mocap-synth
+// transfers to), then what valid ones mean.
 #include "mocap/search/query.hpp"
 
 #include <gtest/gtest.h>
@@ -201,6 +202,15 @@ TEST(QueryValidityTest, Options) {
   expect_error(pre + R"(, "filter": {"content": [1]}})", "filter.content[0]: expected a string");
   expect_error(pre + R"(, "id": [1]})", "id: expected a string or an integer, got array");
   expect_error(pre + R"(, "character": ""})", "character: expected");
+}
+
+TEST(QueryValidityTest, SynthStyle) {
+  const std::string pre = std::string("{") + kTwo;
+  expect_error(pre + R"(, "synth_style": 3})", "synth_style: expected a style name");
+  expect_error(pre + R"(, "synth_style": ""})", "synth_style: expected a style name");
+  expect_error(pre + R"(, "synth_style": ["old"]})", "synth_style: expected a style name");
+  EXPECT_FALSE(parse(pre + "}").synth_style);
+  EXPECT_EQ(parse(pre + R"(, "synth_style": "old"})").synth_style, "old");
 }
 
 TEST(QueryTest, DefaultsAndPartialRootPositions) {

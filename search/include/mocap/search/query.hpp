@@ -205,6 +205,10 @@ struct Query {
   MetPolicy met = MetPolicy::first;
   QueryFilter filter;
   std::optional<QueryStyle> style;
+  /// "synth_style": the style mocap-synth turns the output toward (style
+  /// transfer, docs/style.md "Style transfer"; a style of the model given
+  /// with --style-model); the search ignores it.
+  std::optional<std::string> synth_style;
 };
 
 /// Parses one query object. `base_dir` resolves relative "bvh" and

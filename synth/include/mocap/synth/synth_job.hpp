@@ -24,6 +24,7 @@
 #include "mocap/search/query.hpp"
 #include "mocap/search/results_file.hpp"
 #include "mocap/search/search.hpp"
+#include "mocap/synth/style_transfer.hpp"
 #include "mocap/synth/synth.hpp"
 
 namespace mocap {
@@ -68,6 +69,13 @@ struct SynthOptions {
   /// recognised style of the output and of every chosen partial motion
   /// (SynthResult::styles).
   std::shared_ptr<const StyleModel> style_model;
+  /// Style transfer (docs/style.md "Style transfer"; needs style_model):
+  /// style_transfer.style names the style the output is turned toward
+  /// (mocap-synth --style, Python style=); empty: none. A query's
+  /// "synth_style" replaces it for that query. The transfer runs on the
+  /// assembled motion (warped fills included), the chosen partial motions'
+  /// content label (the first the model knows) giving the content.
+  StyleTransferParams style_transfer;
 };
 
 /// The transition time a warped fill searches with (SynthOptions::warp_fill),
@@ -152,7 +160,8 @@ struct SynthResult {
   /// Per pair, for a timed query (empty otherwise).
   std::vector<PairTiming> timing;
   /// With SynthOptions::style_model: the style each is recognised as, the
-  /// output first ("motion"), then each pair's partial motion ("partial
+  /// output first ("motion"; with a style transfer, then the output before
+  /// it: "motion before transfer"), then each pair's partial motion ("partial
   /// H") of at least 4 frames; empty otherwise.
   struct RecognisedStyle {
     std::string of;
@@ -160,6 +169,10 @@ struct SynthResult {
     double p = 0.0;
   };
   std::vector<RecognisedStyle> styles;
+  /// With a style asked for (SynthOptions::style_transfer, a query's
+  /// "synth_style"): what the transfer did; "styles" then also holds the
+  /// untransferred output's ("motion before transfer", after "motion").
+  std::optional<StyleTransferReport> style_transfer;
   double synth_ms = 0.0;
 };
 

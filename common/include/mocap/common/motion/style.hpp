@@ -53,6 +53,15 @@ StyleMotion raw_style_motion(const RawClip& clip, std::size_t first, std::size_t
 /// Namco's static joint_Root, carry no motion).
 std::vector<std::string> style_joints(const StyleMotion& m);
 
+/// The rotation vector the features read (axis times angle, the angle in
+/// [0, pi], radians) of a unit quaternion.
+Eigen::Vector3d style_rotation_vector(const Eigen::Quaterniond& q);
+/// The heading the features take out of the pelvis' world rotation q
+/// (radians about +Y): the pelvis' local +Z (its forward axis in Bandai
+/// Namco's and CMU's rigs) turned onto the ground plane, local +X where +Z is
+/// vertical. The features read R_y(-heading) q.
+double style_heading_rad(const Eigen::Quaterniond& q);
+
 /// Features per joint and of the whole motion.
 inline constexpr std::size_t kStyleJointFeatures = 9;
 inline constexpr std::size_t kStyleMotionFeatures = 3;
