@@ -255,19 +255,22 @@ SynthOutputs check_synth_outputs(const SynthArgs& a) {
 
 // The search run here (no --results): the query over the index, or over a
 // collection's shards; `search_ms` gets its time.
-std::vector<mocap::PairResults> search_here(const mocap::ClipSource& clips,
-                                            const mocap::Query& query,
-                                            const std::string& query_path, double& search_ms) {
+std::vector<mocap::PairResults> search_here(
+    const mocap::ClipSource& clips, const mocap::Query& query, const std::string& query_path,
+    const std::shared_ptr<const mocap::StyleModel>& style_model, double& search_ms) {
   const auto ts = std::chrono::steady_clock::now();
   mocap::QueryOutcome outcome;
   if (clips.is_collection()) {
     // The collection search (each shard in turn, merged as one index)
     // over the shards the clip source has already checked and opened.
     outcome = std::move(
-        mocap::search_collection(clips, {mocap::BatchEntry{query.id, query, ""}}).front());
+        mocap::search_collection(clips, {mocap::BatchEntry{query.id, query, ""}}, style_model)
+            .front());
   } else {
     const mocap::SearchEngine engine(clips.index(0));
-    outcome = engine.run(query, mocap::SearchOptions{});
+    mocap::SearchOptions options;
+    options.style_model = style_model;  // a query's "style" needs it
+    outcome = engine.run(query, options);
   }
   if (outcome.error) throw mocap::InputError(query_path, 0, "search failed: " + *outcome.error);
   search_ms =
@@ -331,7 +334,7 @@ int run_synth(SynthArgs& a) {
     if (!a.results_path.empty())
       ranked = mocap::read_search_results(a.results_path, query.id, clips);
     else
-      ranked = search_here(clips, query, a.query_path, search_ms);
+      ranked = search_here(clips, query, a.query_path, a.options.style_model, search_ms);
     std::optional<mocap::SynthSkeleton> skeleton;
     const mocap::SynthResult result = mocap::synthesize(clips, query, ranked, a.options, skeleton);
     mocap::write_motion_file(result, files.bvh);
@@ -413,7 +416,7 @@ int run_batch(SynthArgs& a) {
   if (!a.results_path.empty())
     mocap::synth_batch_results_file(a.results_path, clips, queries);
   else
-    mocap::search_synth_batch(clips, queries);
+    mocap::search_synth_batch(clips, queries, nullptr, a.options.style_model);
   folder.name(queries);
   BatchProgress progress(queries.size(), a.quiet);
   mocap::run_synth_batch(clips, queries, a.options, [&](mocap::SynthBatchDone& done) {

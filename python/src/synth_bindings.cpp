@@ -146,7 +146,9 @@ std::shared_ptr<Synthesis> synthesize_query(const std::shared_ptr<OpenIndex>& se
   } else {
     // As mocap-synth without --results: the default search options.
     const auto ts = std::chrono::steady_clock::now();
-    QueryOutcome outcome = self->engine().run(s->query, SearchOptions{});
+    SearchOptions search_options;
+    search_options.style_model = options.style_model;  // a query's "style" needs it
+    QueryOutcome outcome = self->engine().run(s->query, search_options);
     if (outcome.error) throw InputError("<query>", 0, "search failed: " + *outcome.error);
     s->ranked = std::move(outcome.pairs);
     s->search_ms =
@@ -203,7 +205,7 @@ py::list synthesize_batch(const std::shared_ptr<OpenIndex>& self,
     if (results)
       synth_batch_results_file(*results, clips, queries);
     else
-      search_synth_batch(clips, queries, &self->engine());
+      search_synth_batch(clips, queries, &self->engine(), options.style_model);
     run_synth_batch(clips, queries, options, [&](SynthBatchDone& done) {
       if (done.error)
         errors[done.index] = done.error;

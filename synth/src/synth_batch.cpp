@@ -42,7 +42,8 @@ PendingBatch pending_batch(const std::vector<SynthBatchQuery>& queries) {
 // measured from its start to its answer.
 std::vector<QueryOutcome> search_index(const ClipSource& clips,
                                        const std::vector<BatchEntry>& entries,
-                                       const SearchEngine* engine, std::vector<double>& times_ms) {
+                                       const SearchEngine* engine, const SearchOptions& options,
+                                       std::vector<double>& times_ms) {
   std::optional<SearchEngine> own;
   if (!engine) engine = &own.emplace(clips.index(0));
   std::vector<Clock::time_point> started(entries.size());
@@ -55,20 +56,23 @@ std::vector<QueryOutcome> search_index(const ClipSource& clips,
   control.answered = [&](std::size_t i, const QueryOutcome&) {
     times_ms[i] = ms_between(started[i], Clock::now());
   };
-  return run_query_batch(*engine, entries, SearchOptions{}, control, {});
+  return run_query_batch(*engine, entries, options, control, {});
 }
 
 }  // namespace
 
 std::vector<QueryOutcome> search_collection(const ClipSource& clips,
-                                            const std::vector<BatchEntry>& entries) {
+                                            const std::vector<BatchEntry>& entries,
+                                            const std::shared_ptr<const StyleModel>& style_model) {
   std::vector<ShardSource> shards;
   std::size_t offset = 0;
   for (std::size_t k = 0; k < clips.index_count(); ++k) {
     shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
     offset += clips.index(k).clips().size();
   }
-  return search_shards(shards, entries, SearchOptions{});
+  SearchOptions options;
+  options.style_model = style_model;
+  return search_shards(shards, entries, options);
 }
 
 std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& entries,
@@ -93,14 +97,17 @@ std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& 
 }
 
 void search_synth_batch(const ClipSource& clips, std::vector<SynthBatchQuery>& queries,
-                        const SearchEngine* engine) {
+                        const SearchEngine* engine,
+                        const std::shared_ptr<const StyleModel>& style_model) {
   const PendingBatch pending = pending_batch(queries);
   if (pending.entries.empty()) return;
   const auto t0 = Clock::now();
   std::vector<double> times_ms;
-  std::vector<QueryOutcome> outcomes = clips.is_collection()
-                                           ? search_collection(clips, pending.entries)
-                                           : search_index(clips, pending.entries, engine, times_ms);
+  SearchOptions options;
+  options.style_model = style_model;
+  std::vector<QueryOutcome> outcomes =
+      clips.is_collection() ? search_collection(clips, pending.entries, style_model)
+                            : search_index(clips, pending.entries, engine, options, times_ms);
   const double mean_ms = ms_between(t0, Clock::now()) / static_cast<double>(outcomes.size());
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     SynthBatchQuery& q = queries[pending.from[k]];

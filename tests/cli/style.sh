@@ -194,4 +194,26 @@ import json, sys
 assert json.load(open(sys.argv[1]))["style_transfer"]["style"] == "old"
 assert json.load(open(sys.argv[2]))["style_transfer"]["style"] == "tired"
 PY
+# A query asking for a style (retrieval, docs/style.md "Asking for a
+# style") in mocap-synth: its search gets the model (single and batch, the
+# batch equal to the single run), and fails naming --style-model without it.
+python3 - "$w" "$tmp/ask.jsonl" <<'PY'
+import json, sys
+q = {"id": "ask-old", "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+     "style": {"label": "old", "weight": 20},
+     "frames": [{"bvh": sys.argv[1], "frame": 20, "time_s": 0},
+                {"bvh": sys.argv[1], "frame": 50, "time_s": 1.0}]}
+open(sys.argv[2], "w").write(json.dumps(q) + "\n")
+PY
+rc=0
+"$synth" --index "$tmp/set1.h5" --query "$tmp/ask.jsonl" --out "$tmp/ask.bvh" \
+  >/dev/null 2>"$tmp/err.txt" || rc=$?
+[ "$rc" = 1 ] && grep -q "style-model" "$tmp/err.txt" ||
+  fail "mocap-synth, a style query without --style-model: exit $rc, $(cat "$tmp/err.txt")"
+"$synth" --index "$tmp/set1.h5" --query "$tmp/ask.jsonl" --out "$tmp/ask.bvh" \
+  --report "$tmp/ask.json" --style-model "$tmp/style.json" >/dev/null 2>"$tmp/err.txt" ||
+  fail "mocap-synth, a style query with --style-model: $(cat "$tmp/err.txt")"
+"$synth" --index "$tmp/set1.h5" --queries "$tmp/ask.jsonl" --out-dir "$tmp/askb" \
+  --style-model "$tmp/style.json" -q >/dev/null 2>&1 || fail "a batch of a style query"
+cmp -s "$tmp/ask.bvh" "$tmp/askb/ask-old.bvh" || fail "the style query's batch motion"
 echo "style: ok"

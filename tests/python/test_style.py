@@ -86,6 +86,22 @@ def test_synthesis_reports_styles_as_mocap_synth_does(index, scratch):
     assert "styles" not in index.synthesize(q).report()
 
 
+def test_synthesis_of_a_query_asking_for_a_style(index):
+    # The query's "style" (retrieval by style) needs the model in the search
+    # that synthesize runs, alone and in a batch.
+    model = index.style_model()
+    walk = set1("dataset-1_walk_old_001")
+    q = {"id": "ask-old", "filter": {"exclude": ["dataset-1_walk_old_001*"]},
+         "style": {"label": "old", "weight": 20},
+         "frames": [{"bvh": walk, "frame": 20, "time_s": 0},
+                    {"bvh": walk, "frame": 50, "time_s": 1.0}]}
+    with pytest.raises(mocap.InputError, match="style"):
+        index.synthesize(q)
+    one = index.synthesize(q, style_model=model)
+    [batch] = index.synthesize_batch([q], style_model=model)
+    assert batch.report()["chosen"] == one.report()["chosen"]
+
+
 
 def test_style_transfer_as_mocap_synth_does_it(index, index_path, scratch):
     model = index.style_model()

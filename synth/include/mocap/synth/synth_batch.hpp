@@ -58,20 +58,25 @@ std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& 
 
 /// The collection search of `entries` over the shards `clips` (a
 /// collection) has already checked and opened, numbered as one index
-/// (search_shards with the default SearchOptions): what mocap-synth runs
-/// for a collection without --results, one query or a batch.
-std::vector<QueryOutcome> search_collection(const ClipSource& clips,
-                                            const std::vector<BatchEntry>& entries);
+/// (search_shards with the default SearchOptions and `style_model`, which
+/// queries asking for a style need): what mocap-synth runs for a collection
+/// without --results, one query or a batch.
+std::vector<QueryOutcome> search_collection(
+    const ClipSource& clips, const std::vector<BatchEntry>& entries,
+    const std::shared_ptr<const StyleModel>& style_model = nullptr);
 
 /// Searches every query that has not failed, in one batch, with the default
-/// SearchOptions (what mocap-synth runs without --results): run_query_batch
+/// SearchOptions and `style_model` (SynthOptions::style_model: a query's
+/// "style" needs it; docs/style.md) (what mocap-synth runs without
+/// --results): run_query_batch
 /// on `engine` (or an engine built here on `clips`' index when null) for an
 /// index file, search_shards over the already opened shards for a
 /// collection. A query the search cannot answer fails with
 /// InputError("<query ID>", 0, "search failed: ..."). Throws InputError as
 /// the search does for a shard it cannot read.
 void search_synth_batch(const ClipSource& clips, std::vector<SynthBatchQuery>& queries,
-                        const SearchEngine* engine = nullptr);
+                        const SearchEngine* engine = nullptr,
+                        const std::shared_ptr<const StyleModel>& style_model = nullptr);
 
 /// The ranked pairs of every query that has not failed, from one
 /// mocap-search results file read once (read_results_file; the first line
