@@ -113,8 +113,6 @@ std::unique_ptr<SkeletonData> make_character_skeleton(const Index& index, std::u
   const float* pos = index.array(k, "frames", "joint_positions_m").f32.data();
   const float* rot = index.array(k, "frames", "world_rotations").f32.data();
   own.joint_positions_m.resize(n * nj * 3);
-  own.segment_com_m.resize(n * nj * 3);
-  own.segment_com_velocity_mps.resize(n * nj * 3);
   own.kd_features.resize(n * s * 3);
   // The scan table field-major while the clips are computed in parallel,
   // then moved into the tiles (the only copy kept).
@@ -160,9 +158,6 @@ std::unique_ptr<SkeletonData> make_character_skeleton(const Index& index, std::u
           const auto e = static_cast<Eigen::Index>(a);
           own.joint_positions_m[(g * nj + j) * 3 + a] =
               static_cast<float>(dyn.joint_positions_m[f * nj + j][e]);
-          own.segment_com_m[(g * nj + j) * 3 + a] = static_cast<float>(dyn.coms_m[f * nj + j][e]);
-          own.segment_com_velocity_mps[(g * nj + j) * 3 + a] =
-              static_cast<float>(dyn.com_velocities_mps[f * nj + j][e]);
         }
       kd_feature(tables.model, dyn.state(f), t_index, own.kd_features.data() + g * s * 3);
     }

@@ -71,7 +71,8 @@ void init_skeleton_data(const Index& index, std::uint32_t k, DynamicsModel model
   std::size_t blocks = 0;
   for (std::size_t row = 0; row < tables.sk->clips.size(); ++row) {
     const IndexClip& c = index.clips()[tables.sk->clips[row]];
-    tables.clips.push_back({tables.sk->clips[row], c.frame_start, c.frame_count, blocks, c.row});
+    tables.clips.push_back(
+        {tables.sk->clips[row], c.frame_start, c.frame_count, blocks, c.row, c.frame_time_s});
     blocks += (c.frame_count + kBlock - 1) / kBlock;
   }
   tables.frame_row.assign(n, 0);
@@ -106,21 +107,15 @@ const FrameArrays& frame_arrays(const Index& index, const SkeletonData& skeleton
   SkeletonCaches& caches = skeleton.caches;
   std::call_once(caches.frames_once, [&] {
     tbb::this_task_arena::isolate([&] {
-      // One call: the fields a schema-2 index derives are derived in one pass.
-      static constexpr std::array<std::string_view, 6> kFields{"joint_positions_m",
-                                                               "world_rotations",
-                                                               "segment_com_m",
-                                                               "segment_com_velocity_mps",
-                                                               "segment_angular_velocity_radps",
-                                                               "local_rotations"};
+      // One call (a schema-2 index derives the rotations and rates in one
+      // pass): the COMs and their velocities are made per evaluated frame
+      // (frame_ref), not kept.
+      static constexpr std::array<std::string_view, 4> kFields{
+          "joint_positions_m", "world_rotations", "segment_angular_velocity_radps",
+          "local_rotations"};
       const std::vector<const IndexArray*> a = index.arrays(skeleton.tables.k, "frames", kFields);
-      caches.frames = {a[0]->f32.data(), a[1]->f32.data(), a[2]->f32.data(),
-                       a[3]->f32.data(), a[4]->f32.data(), a[5]->f32.data()};
-      if (skeleton.character) {
-        caches.frames.pos = skeleton.character->joint_positions_m.data();
-        caches.frames.com = skeleton.character->segment_com_m.data();
-        caches.frames.vel = skeleton.character->segment_com_velocity_mps.data();
-      }
+      caches.frames = {a[0]->f32.data(), a[1]->f32.data(), a[2]->f32.data(), a[3]->f32.data()};
+      if (skeleton.character) caches.frames.pos = skeleton.character->joint_positions_m.data();
     });
   });
   return caches.frames;

@@ -57,13 +57,17 @@ struct ClipInfo {
   std::size_t frame_count = 0;
   std::size_t block_start = 0;  // row of block 0 in the block tables (16-frame blocks)
   std::size_t row = 0;          // the clip's row in the index's clip table
+  double frame_time_s = 0.0;    // the clip's frame time (frame_ref's rates)
 };
 
 // The per-frame arrays partial_approximate_energy reads (frame_ref), row
-// major [N][J][3 or 4]: joint positions, world rotations, segment COMs, COM
-// velocities, angular velocities, local rotations.
+// major [N][J][3 or 4]: joint positions, world rotations, angular
+// velocities, local rotations. Segment COMs and their velocities are not
+// kept: frame_ref makes them for the frames it evaluates from the positions
+// and rotations of the frame and its clip neighbours (sequence_state's
+// differences).
 struct FrameArrays {
-  const float *pos, *rot, *com, *vel, *angvel, *lrot;
+  const float *pos, *rot, *angvel, *lrot;
 };
 
 // The immutable tables of one skeleton for one character.
@@ -197,7 +201,7 @@ struct SkeletonTables {
 struct CharacterFrames {
   IndexSkeleton skeleton;
   std::vector<double> joint_ratio;  // bone length ratio per joint (1 = the index's)
-  std::vector<float> joint_positions_m, segment_com_m, segment_com_velocity_mps;
+  std::vector<float> joint_positions_m;
   std::vector<float> kd_features;  // [N][S*3]
 };
 

@@ -35,14 +35,31 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
   }
   auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
   auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
+  // The COMs and their velocities as sequence_state makes them: central
+  // differences over the frame's clip neighbours, one-sided at its ends,
+  // zero for a clip of one frame.
+  const ClipInfo& clip = tables.clips[tables.frame_row[g]];
+  const double dt = clip.frame_time_s;
+  const bool has_prev = g > clip.frame_start && dt > 0.0;
+  const bool has_next = g + 1 < clip.frame_start + clip.frame_count && dt > 0.0;
+  const double inv_dt = dt > 0.0 ? 1.0 / dt : 0.0;
   auto convert = [&](std::size_t j) {
     const std::size_t i = g * nj + j;
+    const Eigen::Vector3d& com_local = tables.model.coms_local_m[j];
     scratch.pos[j] = v3(fa.pos + i * 3);
-    scratch.com[j] = v3(fa.com + i * 3);
-    scratch.vel[j] = v3(fa.vel + i * 3);
-    scratch.angvel[j] = v3(fa.angvel + i * 3);
     scratch.rot[j] = q4(fa.rot + i * 4);
     scratch.lrot[j] = q4(fa.lrot + i * 4);
+    const Eigen::Vector3d c = scratch.pos[j] + scratch.rot[j] * com_local;
+    scratch.com[j] = c;
+    scratch.angvel[j] = v3(fa.angvel + i * 3);
+    Eigen::Vector3d v_lo = Eigen::Vector3d::Zero(), v_hi = Eigen::Vector3d::Zero();
+    if (has_prev)
+      v_lo = (c - (v3(fa.pos + (i - nj) * 3) + q4(fa.rot + (i - nj) * 4) * com_local)) * inv_dt;
+    if (has_next)
+      v_hi = ((v3(fa.pos + (i + nj) * 3) + q4(fa.rot + (i + nj) * 4) * com_local) - c) * inv_dt;
+    scratch.vel[j] = has_prev && has_next ? Eigen::Vector3d(0.5 * (v_lo + v_hi))
+                     : has_prev           ? v_lo
+                                          : v_hi;
   };
   auto local_translation = [&](std::size_t j) {
     const int p = tables.model.parents[j];
