@@ -35,6 +35,11 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
   }
   auto v3 = [](const float* p) { return Eigen::Vector3d(p[0], p[1], p[2]); };
   auto q4 = [](const float* p) { return Eigen::Quaterniond(p[0], p[1], p[2], p[3]).normalized(); };
+  // A neighbour's COM offset R c: the stored rotation as it is (unit to
+  // float precision: not normalised, which would cost a square root).
+  auto turned = [](const float* p, const Eigen::Vector3d& v) {
+    return Eigen::Quaterniond(p[0], p[1], p[2], p[3])._transformVector(v);
+  };
   // The COMs and their velocities as sequence_state makes them: central
   // differences over the frame's clip neighbours, one-sided at its ends,
   // zero for a clip of one frame.
@@ -54,9 +59,9 @@ FrameRef frame_ref(const SkeletonTables& tables, const FrameArrays& fa, std::siz
     scratch.angvel[j] = v3(fa.angvel + i * 3);
     Eigen::Vector3d v_lo = Eigen::Vector3d::Zero(), v_hi = Eigen::Vector3d::Zero();
     if (has_prev)
-      v_lo = (c - (v3(fa.pos + (i - nj) * 3) + q4(fa.rot + (i - nj) * 4) * com_local)) * inv_dt;
+      v_lo = (c - (v3(fa.pos + (i - nj) * 3) + turned(fa.rot + (i - nj) * 4, com_local))) * inv_dt;
     if (has_next)
-      v_hi = ((v3(fa.pos + (i + nj) * 3) + q4(fa.rot + (i + nj) * 4) * com_local) - c) * inv_dt;
+      v_hi = ((v3(fa.pos + (i + nj) * 3) + turned(fa.rot + (i + nj) * 4, com_local)) - c) * inv_dt;
     scratch.vel[j] = has_prev && has_next ? Eigen::Vector3d(0.5 * (v_lo + v_hi))
                      : has_prev           ? v_lo
                                           : v_hi;
