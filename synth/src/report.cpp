@@ -296,6 +296,10 @@ std::string synth_report_html(const ClipSource& clips, const Query& query,
     << " query frames, " << result.frames.size() << " output frames at "
     << fmt(1, 1.0 / result.frame_time_s) << " fps, transitions by "
     << transition_method_name(options.method) << ".</p>\n";
+  if (const std::string styles = synth_detail::style_summary_note(result); !styles.empty())
+    o << "<p data-figure=\"styles\"><b>Style</b> (recognised by the style model; "
+         "docs/style.md): "
+      << esc(styles) << "</p>\n";
   if (player)
     o << player_html({synth_player_scene(clips, query, ranked, result)}, *player);
   else

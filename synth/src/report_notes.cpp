@@ -128,6 +128,29 @@ std::string foot_contacts_text(const EnergyParams& ep, const std::vector<FootCon
   return o.str();
 }
 
+std::string style_summary_note(const SynthResult& result) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(2);
+  const char* sep = "";
+  for (const auto& s : result.styles) {
+    if (s.of == "motion before transfer") continue;
+    o << sep << (s.of == "motion" ? std::string("output") : s.of) << ": " << s.label
+      << " (p = " << s.p << ")";
+    sep = "; ";
+  }
+  if (result.style_transfer) {
+    const StyleTransferReport& t = *result.style_transfer;
+    o << sep << "turned toward " << t.style << " (strength " << t.strength;
+    for (const auto& s : result.styles)
+      if (s.of == "motion before transfer")
+        o << "; before the transfer: " << s.label << ", p = " << s.p;
+    o << "); " << t.held_foot_frames
+      << " (leg, frame) pairs held where the untransferred feet are, the root moved at most "
+      << std::setprecision(3) << t.max_root_drop_m << " m";
+  }
+  return o.str();
+}
+
 }  // namespace synth_detail
 
 namespace {

@@ -42,6 +42,14 @@ std::vector<RangeViolationGroup> group_range_violations(const std::vector<RangeV
 std::string range_violation_summary(const std::vector<RangeViolation>& list,
                                     std::size_t max_groups = 4);
 
+/// The motion's styles for the HTML report (SynthResult::styles and
+/// style_transfer): "output: old (p = 0.37); partial 1: angry (p = 0.50)",
+/// then, with a style transfer, "turned toward tired (strength 1.00; before
+/// the transfer: childish, p = 0.26); 41 (leg, frame) pairs held where the
+/// untransferred feet are, the root moved at most 0.001 m". "" when the
+/// result has neither (no style model).
+std::string style_summary_note(const SynthResult& result);
+
 /// REPORT.json's "about_measures": per measure what it counts and its
 /// thresholds, and the sliding / skating note of this motion.
 nlohmann::json about_measures_json(const SynthResult& result);

@@ -161,9 +161,13 @@ rc=0
   { cat "$tmp/err.txt" >&2; fail "--style with a model of another rig: exit $rc"; }
 [ ! -e "$tmp/t.bvh" ] || fail "a motion was written by a refused transfer"
 "$synth" --index "$tmp/set1.h5" --query "$tmp/synth-q.json" --out "$tmp/t.bvh" --style old \
-  --report "$tmp/t.json" --style-model "$tmp/style.json" >"$tmp/out.txt" 2>&1 || fail "--style old"
+  --report "$tmp/t.json" --html "$tmp/t.html" --style-model "$tmp/style.json" >"$tmp/out.txt" 2>&1 ||
+  fail "--style old"
 grep -q "^style:  toward old (recognised before: .*; after: .*held where the untransferred feet are" \
   "$tmp/out.txt" || { cat "$tmp/out.txt"; fail "the printed style line"; }
+# The HTML report says it too: the output's style, its partial motion's, the transfer.
+grep -q '<p data-figure="styles"><b>Style</b>.*output: .*partial 1: .*turned toward old (strength 1.00; before the transfer: ' \
+  "$tmp/t.html" || fail "the HTML report's style paragraph"
 python3 - "$tmp/t.json" "$tmp/report.json" <<'PY' || fail "the transfer's report"
 import json, sys
 t, plain = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))

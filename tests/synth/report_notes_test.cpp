@@ -158,3 +158,21 @@ TEST(ReportNotes, TheContactTimelineHasARowPerFootSegmentWithContacts) {
   EXPECT_NE(svg.find("data-state=\"c\""), std::string::npos);
   EXPECT_NE(svg.find("data-note=\"never-in-reach\""), std::string::npos) << "the ankles' rows";
 }
+
+TEST(ReportNotes, StyleSummaryNamesEachStyleAndTheTransfer) {
+  SynthResult r;
+  EXPECT_EQ(style_summary_note(r), "") << "no style model: no paragraph";
+  r.styles = {{"motion", "old", 0.372}, {"partial 1", "angry", 0.5}};
+  EXPECT_EQ(style_summary_note(r), "output: old (p = 0.37); partial 1: angry (p = 0.50)");
+  StyleTransferReport t;
+  t.style = "tired";
+  t.strength = 1.5;
+  t.held_foot_frames = 41;
+  t.max_root_drop_m = 0.0123;
+  r.style_transfer = t;
+  r.styles.insert(r.styles.begin() + 1, {"motion before transfer", "childish", 0.26});
+  EXPECT_EQ(style_summary_note(r),
+            "output: old (p = 0.37); partial 1: angry (p = 0.50); turned toward tired (strength "
+            "1.50; before the transfer: childish, p = 0.26); 41 (leg, frame) pairs held where the "
+            "untransferred feet are, the root moved at most 0.012 m");
+}
