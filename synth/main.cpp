@@ -167,8 +167,9 @@ void add_synth_options(CLI::App& app, SynthArgs& a) {
   app.add_flag("--no-step-feet", a.no_step, "no stepping pass after the A* search (the default)")
       ->excludes(step);
   app.add_option("--style-model", a.style_model,
-                 "a style model (mocap-index style-model): the report gives the recognised style "
-                 "of the output and of every partial motion (\"styles\"; docs/style.md)");
+                 "a style model (mocap-index style-model): the search of a query asking for a "
+                 "style (\"style\") uses it, and the report gives the recognised style of the "
+                 "output and of every partial motion (\"styles\"; docs/style.md)");
   app.add_option("--style", a.options.style_transfer.style,
                  "turn the output toward this style of the --style-model model (style transfer, "
                  "docs/style.md \"Style transfer\"); a query's \"synth_style\" replaces it");
