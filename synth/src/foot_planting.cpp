@@ -31,6 +31,19 @@ std::vector<LegChain> leg_chains(const SynthSkeleton& sk) {
   return legs;
 }
 
+void aim_leg(const SynthSkeleton& sk, const LegChain& leg, const Eigen::Vector3d& target,
+             const Eigen::Quaterniond& target_rotation, SynthFrame& f, WorldPose& w) {
+  const auto hip = static_cast<std::size_t>(leg.hip), knee = static_cast<std::size_t>(leg.knee),
+             ankle = static_cast<std::size_t>(leg.ankle);
+  const Eigen::Quaterniond rh = Eigen::Quaterniond::FromTwoVectors(
+      w.positions_m[ankle] - w.positions_m[hip], target - w.positions_m[hip]);
+  f.local_rotations[hip] =
+      (f.local_rotations[hip] * (w.rotations[hip].conjugate() * rh * w.rotations[hip]))
+          .normalized();
+  synth_world_pose(sk, f, w);
+  f.local_rotations[ankle] = (w.rotations[knee].conjugate() * target_rotation).normalized();
+}
+
 bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegChain& leg,
                const Eigen::Vector3d& target, const Eigen::Quaterniond& target_rotation,
                SynthFrame& f, WorldPose& w) {
@@ -52,13 +65,7 @@ bool plant_leg(const SynthSkeleton& sk, const RangeOfMotion* range, const LegCha
       (f.local_rotations[knee] * (w.rotations[knee].conjugate() * rk * w.rotations[knee]))
           .normalized();
   synth_world_pose(sk, f, w);
-  const Eigen::Quaterniond rh = Eigen::Quaterniond::FromTwoVectors(
-      w.positions_m[ankle] - w.positions_m[hip], target - w.positions_m[hip]);
-  f.local_rotations[hip] =
-      (f.local_rotations[hip] * (w.rotations[hip].conjugate() * rh * w.rotations[hip]))
-          .normalized();
-  synth_world_pose(sk, f, w);
-  f.local_rotations[ankle] = (w.rotations[knee].conjugate() * target_rotation).normalized();
+  aim_leg(sk, leg, target, target_rotation, f, w);
   if (range)
     for (std::size_t j : {hip, knee, ankle})
       f.local_rotations[j] = clamp_to_range(sk, *range, static_cast<int>(j), f.local_rotations[j]);

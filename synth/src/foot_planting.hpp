@@ -21,6 +21,13 @@ struct LegChain {
 /// The skeleton's legs, in the order of SynthSkeleton::foot_joints.
 std::vector<LegChain> leg_chains(const SynthSkeleton& sk);
 
+/// The last steps of plant_leg, once the knee is bent: the hip turns the
+/// hip-ankle line onto `target` (world, metres), then the ankle takes the
+/// world rotation `target_rotation`. `w` must be `f`'s world pose on entry
+/// (it is scratch after).
+void aim_leg(const SynthSkeleton& sk, const LegChain& leg, const Eigen::Vector3d& target,
+             const Eigen::Quaterniond& target_rotation, SynthFrame& f, WorldPose& w);
+
 /// Turns the leg so that its ankle lies at `target` (world, metres) with the
 /// world rotation `target_rotation` (two-bone inverse kinematics: the knee
 /// angle gives the hip-ankle distance, clamped to the reachable range; the

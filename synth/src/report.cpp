@@ -145,16 +145,17 @@ nlohmann::json segments_json(const SynthResult& result) {
 
 // The report's "style_transfer" (docs/style.md "Style transfer").
 nlohmann::json style_transfer_json(const StyleTransferReport& t) {
-  return {{"style", t.style},
+  const StyleTransferParams& p = t.params;
+  return {{"style", p.style},
           {"from_style", t.from_style},
           {"from_p", t.from_p},
           {"content", t.content},
           {"content_recognised", t.content_recognised},
-          {"strength", t.strength},
-          {"sd_ratio_limits", {t.min_sd_ratio, t.max_sd_ratio}},
-          {"key_ease_s", t.key_ease_s},
-          {"plant_height_m", t.plant_height_m},
-          {"plant_ease_s", t.plant_ease_s},
+          {"strength", p.strength},
+          {"sd_ratio_limits", {p.min_sd_ratio, p.max_sd_ratio}},
+          {"key_ease_s", p.key_ease_s},
+          {"plant_height_m", p.plant_height_m},
+          {"plant_ease_s", p.plant_ease_s},
           {"joints", t.joints},
           {"kept_joints", t.kept_joints},
           {"key_frames", t.key_frames},

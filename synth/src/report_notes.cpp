@@ -140,7 +140,7 @@ std::string style_summary_note(const SynthResult& result) {
   }
   if (result.style_transfer) {
     const StyleTransferReport& t = *result.style_transfer;
-    o << sep << "turned toward " << t.style << " (strength " << t.strength;
+    o << sep << "turned toward " << t.params.style << " (strength " << t.params.strength;
     for (const auto& s : result.styles)
       if (s.of == "motion before transfer")
         o << "; before the transfer: " << s.label << ", p = " << s.p;
@@ -161,7 +161,7 @@ namespace {
 std::string style_transfer_note(const SynthResult& result) {
   const StyleTransferReport& t = *result.style_transfer;
   std::ostringstream o;
-  o << std::fixed << std::setprecision(2) << "style:  toward " << t.style << " (recognised";
+  o << std::fixed << std::setprecision(2) << "style:  toward " << t.params.style << " (recognised";
   for (const char* of : {"motion before transfer", "motion"})
     for (const auto& s : result.styles)
       if (s.of == of)

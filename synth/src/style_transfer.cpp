@@ -369,13 +369,7 @@ bool plant_leg_on_hinge(const SynthSkeleton& sk, const LegChain& leg, const Eige
     f.local_rotations[knee] = chosen;
     synth_world_pose(sk, f, w);
   }
-  const Eigen::Quaterniond rh = Eigen::Quaterniond::FromTwoVectors(
-      w.positions_m[ankle] - w.positions_m[hip], target - w.positions_m[hip]);
-  f.local_rotations[hip] =
-      (f.local_rotations[hip] * (w.rotations[hip].conjugate() * rh * w.rotations[hip]))
-          .normalized();
-  synth_world_pose(sk, f, w);
-  f.local_rotations[ankle] = (w.rotations[knee].conjugate() * target_rotation).normalized();
+  aim_leg(sk, leg, target, target_rotation, f, w);
   return true;
 }
 
@@ -447,13 +441,7 @@ StyleTransferReport transfer_style(const SynthSkeleton& sk, const RangeOfMotion*
                                    double frame_time_s) {
   const std::vector<int> joints = checked_joints(sk, model, params, frames.size());
   StyleTransferReport report;
-  report.style = params.style;
-  report.strength = params.strength;
-  report.min_sd_ratio = params.min_sd_ratio;
-  report.max_sd_ratio = params.max_sd_ratio;
-  report.key_ease_s = params.key_ease_s;
-  report.plant_height_m = params.plant_height_m;
-  report.plant_ease_s = params.plant_ease_s;
+  report.params = params;
   std::vector<double> features;
   try {
     features = style_features(synth_style_motion(sk, frames, frame_time_s), model.joints);

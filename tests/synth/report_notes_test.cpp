@@ -165,8 +165,8 @@ TEST(ReportNotes, StyleSummaryNamesEachStyleAndTheTransfer) {
   r.styles = {{"motion", "old", 0.372}, {"partial 1", "angry", 0.5}};
   EXPECT_EQ(style_summary_note(r), "output: old (p = 0.37); partial 1: angry (p = 0.50)");
   StyleTransferReport t;
-  t.style = "tired";
-  t.strength = 1.5;
+  t.params.style = "tired";
+  t.params.strength = 1.5;
   t.held_foot_frames = 41;
   t.max_root_drop_m = 0.0123;
   r.style_transfer = t;

@@ -183,7 +183,7 @@ TEST(StyleTransfer, TurnsAWalkTowardOldWithKeyPosesAndFeetKept) {
   const SynthResult& b = before->result;
   ASSERT_EQ(a.frames.size(), b.frames.size());
   ASSERT_TRUE(a.style_transfer);
-  EXPECT_EQ(a.style_transfer->style, "old");
+  EXPECT_EQ(a.style_transfer->params.style, "old");
   EXPECT_EQ(a.style_transfer->content, "walk");
   EXPECT_FALSE(a.style_transfer->content_recognised);
   EXPECT_GT(a.style_transfer->held_foot_frames, 0u);

@@ -73,7 +73,8 @@ struct StyleTransferParams {
 
 /// What the transfer did (the report's "style_transfer").
 struct StyleTransferReport {
-  std::string style;
+  /// The parameters it ran with (params.style: the style asked for).
+  StyleTransferParams params;
   /// The style the untransferred motion is recognised as and its
   /// probability (the offset's origin weighs every style by its
   /// probability).
@@ -83,8 +84,6 @@ struct StyleTransferReport {
   /// was recognised (false: the chosen partial motions' label).
   std::string content;
   bool content_recognised = false;
-  double strength = 1.0, min_sd_ratio = 0.5, max_sd_ratio = 2.0;
-  double key_ease_s = 0.0, plant_height_m = 0.0, plant_ease_s = 0.0;
   /// The model's joints the transfer moved, and those it left as they
   /// were: a joint turning past 2.6 rad from its parent in a frame (the
   /// features' rotation vector wraps at half a turn) or whose mean rotation
