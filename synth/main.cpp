@@ -269,9 +269,7 @@ std::vector<mocap::PairResults> search_here(
             .front());
   } else {
     const mocap::SearchEngine engine(clips.index(0));
-    mocap::SearchOptions options;
-    options.style_model = style_model;  // a query's "style" needs it
-    outcome = engine.run(query, options);
+    outcome = engine.run(query, mocap::synth_search_options(style_model));
   }
   if (outcome.error) throw mocap::InputError(query_path, 0, "search failed: " + *outcome.error);
   search_ms =

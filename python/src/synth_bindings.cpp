@@ -146,9 +146,7 @@ std::shared_ptr<Synthesis> synthesize_query(const std::shared_ptr<OpenIndex>& se
   } else {
     // As mocap-synth without --results: the default search options.
     const auto ts = std::chrono::steady_clock::now();
-    SearchOptions search_options;
-    search_options.style_model = options.style_model;  // a query's "style" needs it
-    QueryOutcome outcome = self->engine().run(s->query, search_options);
+    QueryOutcome outcome = self->engine().run(s->query, synth_search_options(options.style_model));
     if (outcome.error) throw InputError("<query>", 0, "search failed: " + *outcome.error);
     s->ranked = std::move(outcome.pairs);
     s->search_ms =

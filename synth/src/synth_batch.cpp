@@ -61,6 +61,12 @@ std::vector<QueryOutcome> search_index(const ClipSource& clips,
 
 }  // namespace
 
+SearchOptions synth_search_options(const std::shared_ptr<const StyleModel>& style_model) {
+  SearchOptions options;
+  options.style_model = style_model;
+  return options;
+}
+
 std::vector<QueryOutcome> search_collection(const ClipSource& clips,
                                             const std::vector<BatchEntry>& entries,
                                             const std::shared_ptr<const StyleModel>& style_model) {
@@ -70,9 +76,7 @@ std::vector<QueryOutcome> search_collection(const ClipSource& clips,
     shards.push_back({"", "", std::nullopt, offset, &clips.index(k)});
     offset += clips.index(k).clips().size();
   }
-  SearchOptions options;
-  options.style_model = style_model;
-  return search_shards(shards, entries, options);
+  return search_shards(shards, entries, synth_search_options(style_model));
 }
 
 std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& entries,
@@ -103,11 +107,10 @@ void search_synth_batch(const ClipSource& clips, std::vector<SynthBatchQuery>& q
   if (pending.entries.empty()) return;
   const auto t0 = Clock::now();
   std::vector<double> times_ms;
-  SearchOptions options;
-  options.style_model = style_model;
   std::vector<QueryOutcome> outcomes =
       clips.is_collection() ? search_collection(clips, pending.entries, style_model)
-                            : search_index(clips, pending.entries, engine, options, times_ms);
+                            : search_index(clips, pending.entries, engine,
+                                           synth_search_options(style_model), times_ms);
   const double mean_ms = ms_between(t0, Clock::now()) / static_cast<double>(outcomes.size());
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     SynthBatchQuery& q = queries[pending.from[k]];

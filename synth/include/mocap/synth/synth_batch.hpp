@@ -56,6 +56,11 @@ struct SynthBatchQuery {
 std::vector<SynthBatchQuery> synth_batch_queries(const std::vector<BatchEntry>& entries,
                                                  const SynthOptions& options);
 
+/// The search options mocap-synth runs its own search with (no --results):
+/// the defaults, and `style_model` (SynthOptions::style_model), which a
+/// query asking for a style ("style"; docs/style.md) needs.
+SearchOptions synth_search_options(const std::shared_ptr<const StyleModel>& style_model);
+
 /// The collection search of `entries` over the shards `clips` (a
 /// collection) has already checked and opened, numbered as one index
 /// (search_shards with the default SearchOptions and `style_model`, which
