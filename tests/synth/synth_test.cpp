@@ -581,6 +581,9 @@ TEST(SynthRefine, LowersGNeverSlidesOrViolatesMoreAndIsDeterministic) {
 
 TEST(SynthRefine, SmoothedStagesKeepTheGuaranteesAndSteer) {
   REQUIRE_INDEX();
+  // Hundreds of full-path measures: minutes under the sanitizers, which run
+  // the same polishing code in PolishPassAloneNeverRaisesGAndKeepsTheLimits.
+  if (mocap::test::kSanitizerBuild) GTEST_SKIP() << "Release only (CI's time budget)";
   auto g0 =
       make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   std::vector<SynthFrame> fs = mocap::slerp_transition(g0->gap, 6);
@@ -612,6 +615,9 @@ TEST(SynthRefine, SmoothedStagesKeepTheGuaranteesAndSteer) {
 
 TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
   REQUIRE_INDEX();
+  // Hundreds of full-path measures: minutes under the sanitizers, which run
+  // the same polishing code in PolishPassAloneNeverRaisesGAndKeepsTheLimits.
+  if (mocap::test::kSanitizerBuild) GTEST_SKIP() << "Release only (CI's time budget)";
   // Coordinate polishing after the quasi-Newton iterations (or alone): every
   // kept move is local, so the result is checked against the whole-path
   // measure; never above the iterations' result, within the limits,
@@ -645,6 +651,9 @@ TEST(SynthRefine, PolishingKeepsTheGuaranteesAndGoesLower) {
 
 TEST(SynthRefine, PolishingRunsSegmentsAndASmoothedPassKeepTheGuarantees) {
   REQUIRE_INDEX();
+  // Hundreds of full-path measures: minutes under the sanitizers, which run
+  // the same polishing code in PolishPassAloneNeverRaisesGAndKeepsTheLimits.
+  if (mocap::test::kSanitizerBuild) GTEST_SKIP() << "Release only (CI's time budget)";
   auto g = make_gap(index, "dataset-1_walk_normal_001.bvh", 20, "dataset-1_walk_angry_001.bvh", 30);
   std::vector<SynthFrame> fs = mocap::slerp_transition(g->gap, 6);
   mocap::RefineOptions no_window{0, 0.0, true, 0.0, 5};
