@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <stdexcept>
 
 #include "mocap/common/dynamics/energy.hpp"
@@ -24,16 +25,6 @@ std::size_t field_index(std::span<const IndexFieldSpec> table, const char* name)
   return static_cast<std::size_t>(i);
 }
 
-/// Quaternion as (w, x, y, z) with w >= 0 (q and -q are the same rotation;
-/// one hemisphere makes per-component bounds meaningful).
-inline void put_quaternion(const Eigen::Quaterniond& q, float* out) {
-  const double s = q.w() < 0.0 ? -1.0 : 1.0;
-  out[0] = static_cast<float>(s * q.w());
-  out[1] = static_cast<float>(s * q.x());
-  out[2] = static_cast<float>(s * q.y());
-  out[3] = static_cast<float>(s * q.z());
-}
-
 inline void put_vec3(const Eigen::Vector3d& v, float* out) {
   out[0] = static_cast<float>(v.x());
   out[1] = static_cast<float>(v.y());
@@ -41,7 +32,7 @@ inline void put_vec3(const Eigen::Vector3d& v, float* out) {
 }
 
 /// Per-element min and max of rows [first, first + count) of a row-major array.
-void min_max_rows(const std::vector<float>& values, std::size_t row_elements, std::size_t first,
+void min_max_rows(std::span<const float> values, std::size_t row_elements, std::size_t first,
                   std::size_t count, float* lo, float* hi) {
   std::fill(lo, lo + row_elements, std::numeric_limits<float>::infinity());
   std::fill(hi, hi + row_elements, -std::numeric_limits<float>::infinity());
@@ -96,7 +87,7 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   // Forward kinematics, parallel over frames (each frame is independent, so
   // the result does not depend on the split).
   std::vector<Eigen::Vector3d> positions(K * J);
-  std::vector<Eigen::Quaterniond> world(K * J), local(K * J);
+  std::vector<Eigen::Quaterniond> local(K * J);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, K, 256),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       LocalPose lp;
@@ -106,15 +97,10 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
                         forward_kinematics(sk, lp, wp);
                         std::copy(wp.positions_m.begin(), wp.positions_m.end(),
                                   positions.begin() + static_cast<std::ptrdiff_t>(f * J));
-                        std::copy(wp.rotations.begin(), wp.rotations.end(),
-                                  world.begin() + static_cast<std::ptrdiff_t>(f * J));
                         std::copy(lp.rotations.begin(), lp.rotations.end(),
                                   local.begin() + static_cast<std::ptrdiff_t>(f * J));
                       }
                     });
-
-  ClipDynamics dyn;
-  compute_clip_dynamics(model, K, clip.frame_time_s, positions.data(), world.data(), dyn);
 
   ClipFrameData d;
   d.frame_count = K;
@@ -137,16 +123,16 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
   std::vector<float>& jpos = frame("joint_positions_m");
 
   const auto rj = static_cast<std::size_t>(skel.root_joint);
-  for (std::size_t f = 0; f < K; ++f) {
-    put_vec3(dyn.joint_positions_m[f * J + rj], &root[f * 3]);
-    for (std::size_t j = 0; j < J; ++j) {
-      const std::size_t i = f * J + j;
-      put_quaternion(local[i], &lrot[i * 4]);
-      put_vec3(dyn.joint_positions_m[i], &jpos[i * 3]);
-    }
-  }
-  for (const char* name : {"kd_features", "h_scan"})
-    derived_frame_rows(model, dyn, name, transition_time_s, frame(name).data());
+  for (std::size_t f = 0; f < K; ++f) put_vec3(positions[f * J + rj], &root[f * 3]);
+  stored_rows(local, positions, lrot.data(), jpos.data());
+  // The dynamics from the stored float rows, as a reader derives them
+  // (index_frames.hpp): the kd features, their bounds and the h scan a
+  // reader derives are then bit for bit these.
+  const ClipDynamics dyn = clip_dynamics_from_rows(model, {lrot, jpos, K, clip.frame_time_s});
+  std::vector<float> kd(K * 3 * S);
+  derived_frame_rows(model, dyn, "kd_features", transition_time_s, kd.data());
+  if (frame_field_stored("h_scan", kIndexSchemaVersion))
+    derived_frame_rows(model, dyn, "h_scan", transition_time_s, frame("h_scan").data());
 
   // The clip's own energy: g per step, as prefix sums from 0.
   std::vector<double> prefix = energy_prefix_sums(clip_step_energies(model, dyn));
@@ -154,14 +140,17 @@ ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton
     throw std::logic_error("energy_prefix_sums: expected one value per frame");
   d.frames_f64[field_index(kFrameFields, "energy_prefix_J")] = std::move(prefix);
 
-  compute_clip_bounds(clip, skel, d);
+  compute_clip_bounds(clip, skel, kd, d);
+  if (frame_field_stored("kd_features", kIndexSchemaVersion)) frame("kd_features") = std::move(kd);
   return d;
 }
 
-void compute_clip_bounds(const RawClip& clip, const IndexedSkeleton& skel, ClipFrameData& d) {
+void compute_clip_bounds(const RawClip& clip, const IndexedSkeleton& skel,
+                         std::span<const float> kd, ClipFrameData& d) {
   const std::size_t K = d.frame_count, J = d.joint_count, S = d.segment_count;
+  if (kd.size() != K * 3 * S)
+    throw std::invalid_argument("compute_clip_bounds: kd features do not match the clip");
   const auto& root = d.frames[field_index(kFrameFields, "root_position_m")];
-  const auto& kd = d.frames[field_index(kFrameFields, "kd_features")];
   const auto& lrot = d.frames[field_index(kFrameFields, "local_rotations")];
 
   for (std::size_t i = 0; i < kClipBoundFieldCount; ++i)

@@ -162,6 +162,8 @@ struct WriteStage {
   std::vector<ClipLabels> clip_labels;
   std::vector<IndexSkippedFile> skipped;
   IndexBuildProgress progress;
+  /// The temporary index's early writeback (null: none).
+  EarlyWriteback* writeback = nullptr;
 
   /// Writes one file's outcome (caller holds the HDF5 library lock). Throws
   /// under --strict for a bad file, and on HDF5 errors.
@@ -201,6 +203,7 @@ struct WriteStage {
     progress.elapsed_s = clock.elapsed();
     progress.current = f.path;
     if (opt.progress) opt.progress(progress);
+    if (writeback != nullptr) writeback->kick();
   }
 
   void add_clip(IndexClip clip, const ClipLabels& labels) {
@@ -367,7 +370,10 @@ IndexBuildSummary build_index(const IndexBuildOptions& opt) {
     std::lock_guard lib(h5::library_mutex());
     writer = std::make_unique<IndexWriter>(target.temporary_path(), opt.deflate_level);
   }
-  WriteStage stage{*writer, prev.get(), opt, clock, sum, {}, {}, {}, {}};
+  // The disk writes the index while the pipeline computes: the final fsync
+  // then finds little left (docs/performance.md "Storing less").
+  EarlyWriteback writeback(target.temporary_path());
+  WriteStage stage{*writer, prev.get(), opt, clock, sum, {}, {}, {}, {}, &writeback};
   for (const auto& p : col.problems) stage.skipped.push_back({p.input, p.reason, 0, 0});
   stage.progress.files_total = files.size();
   if (opt.progress) opt.progress(stage.progress);

@@ -296,15 +296,17 @@ std::uint32_t IndexWriter::slot_for(const IndexSkeleton& s) {
   for (std::size_t i = 0; i < kFrameFieldCount; ++i)
     if (frame_field_stored(kFrameFields[i].name, kIndexSchemaVersion))
       make(frames, slot->frames[i], kFrameFields[i], deflate_);
-  // Bounds are small and compress well: always deflated.
+  // Bounds as the frame arrays (--compress): deflated, they were 16 % smaller
+  // and their compression in the one writer thread took a sixth of a 2-job
+  // build of set 2 (docs/performance.md "Storing less").
   for (std::size_t b = 0; b < kIndexBlockSizes.size(); ++b) {
     h5::Group g = slot->group.create_group("blocks" + std::to_string(kIndexBlockSizes[b]));
     for (std::size_t i = 0; i < kBlockFieldCount; ++i)
-      make(g, slot->blocks[b][i], kBlockFields[i], 4);
+      make(g, slot->blocks[b][i], kBlockFields[i], deflate_);
   }
   h5::Group cb = slot->group.create_group("clip_bounds");
   for (std::size_t i = 0; i < kClipBoundFieldCount; ++i)
-    make(cb, slot->bounds[i], kClipBoundFields[i], 4);
+    make(cb, slot->bounds[i], kClipBoundFields[i], deflate_);
   slots_.push_back(std::move(slot));
   by_id_.emplace(s.id, k);
   return k;

@@ -22,7 +22,7 @@ b = json.load(open(os.path.join(tmp, "build.json")))
 assert b["clips"] == 177 and b["new"] == 177 and b["reused"] == 0 and b["skipped"] == [], b
 assert b["frames"] > 30000 and b["index_bytes"] > 0 and b["frames_per_s"] > 0, b
 i = json.load(open(os.path.join(tmp, "info.json")))
-assert i["format"] == "mocap-index" and i["schema_version"] == 2, i
+assert i["format"] == "mocap-index" and i["schema_version"] == 3, i
 assert i["clips"] == 177 and i["frames"] == b["frames"], i
 assert sum(s["clips"] for s in i["skeletons"]) == 177
 assert sum(s["frames"] for s in i["skeletons"]) == i["frames"]

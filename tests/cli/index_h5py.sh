@@ -29,7 +29,7 @@ import numpy as np
 f = h5py.File(sys.argv[1], "r")
 a = f.attrs
 assert a["format"] == "mocap-index", a["format"]
-assert int(a["schema_version"]) == 2
+assert int(a["schema_version"]) == 3
 for k, v in (("length_unit", "m"), ("time_unit", "s"), ("mass_unit", "kg"), ("energy_unit", "J"), ("up_axis", "Y")):
     assert a[k] == v, (k, a[k])
 for k in ("build_tool", "build_time_utc", "character", "transition_time_s", "clip_count", "frame_count"):
@@ -80,10 +80,10 @@ for k in f["skeletons"]:
     assert fr["local_rotations"].shape == (N, J, 4)
     # derived on load by the reader (docs/index-format.md "Versions"), not stored
     for name in ("world_rotations", "segment_com_m", "segment_com_velocity_mps",
-                 "segment_angular_velocity_radps"):
+                 "segment_angular_velocity_radps", "h_scan", "kd_features"):
         assert name not in fr, name
-    assert fr["kd_features"].shape == (N, S, 3)
-    assert fr["h_scan"].shape == (N, S, 9)
+    assert fr["joint_positions_m"].shape == (N, J, 3)
+    assert g["blocks16"]["kd_min"].shape[1:] == (S, 3)
     assert fr["energy_prefix_J"].shape == (N,)
     q = fr["local_rotations"][()]
     assert np.allclose(np.linalg.norm(q, axis=2), 1.0, atol=1e-5)

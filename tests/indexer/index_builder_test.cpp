@@ -150,7 +150,7 @@ TEST(IndexBuilder, MatchesTheGoldenFileOfTheCurrentVersion) {
   const TempDir dir("index-golden");
   build({golden_dir() / kWalk, golden_dir() / kJump}, dir / "i.h5", 1, false, 9);
   const Index fresh = Index::open(dir / "i.h5");
-  const Index golden = Index::open(golden_dir() / "index-v2.h5");
+  const Index golden = Index::open(golden_dir() / "index-v3.h5");
   ASSERT_EQ(fresh.clips().size(), golden.clips().size());
   for (std::size_t c = 0; c < fresh.clips().size(); ++c) {
     EXPECT_EQ(fs::path(fresh.clips()[c].path).filename(),
@@ -178,26 +178,29 @@ TEST(IndexBuilder, MatchesTheGoldenFileOfTheCurrentVersion) {
 }
 
 // An index of an older schema is not reused: its clips are parsed again
-// (nothing of a schema-1 file, which stores the derived arrays, is copied
-// into a schema-2 one), and the note says why.
+// (nothing of a schema-1 or schema-2 file, which store arrays a newer one
+// derives, is copied into a schema-3 one), and the note says why.
 TEST(IndexBuilder, AnIndexOfAnOlderSchemaIsRebuiltNotReused) {
   const TempDir dir("index-old-schema");
   const fs::path out = dir / "i.h5";
-  build({golden_dir() / kWalk, golden_dir() / kJump}, out);
-  {
-    h5::File f = h5::File::open(out, true);
-    f.root().set_attribute("schema_version", std::int64_t{1});
-    f.close();
+  for (std::int64_t old = kIndexOldestSchemaVersion; old < kIndexSchemaVersion; ++old) {
+    build({golden_dir() / kWalk, golden_dir() / kJump}, out);
+    {
+      h5::File f = h5::File::open(out, true);
+      f.root().set_attribute("schema_version", old);
+      f.close();
+    }
+    seal_index_file(out);
+    const IndexBuildSummary s = build({golden_dir() / kWalk, golden_dir() / kJump}, out);
+    EXPECT_EQ(s.reused, 0u) << old;
+    EXPECT_EQ(s.parsed_new + s.parsed_changed, 2u) << old;
+    EXPECT_NE(s.previous_index_note.find("index schema version " + std::to_string(old) +
+                                         " (this build writes " +
+                                         std::to_string(kIndexSchemaVersion) + ")"),
+              std::string::npos)
+        << s.previous_index_note;
+    EXPECT_EQ(Index::open(out).info().schema_version, kIndexSchemaVersion);
   }
-  seal_index_file(out);
-  const IndexBuildSummary s = build({golden_dir() / kWalk, golden_dir() / kJump}, out);
-  EXPECT_EQ(s.reused, 0u);
-  EXPECT_EQ(s.parsed_new + s.parsed_changed, 2u);
-  EXPECT_NE(s.previous_index_note.find("index schema version 1 (this build writes " +
-                                       std::to_string(kIndexSchemaVersion) + ")"),
-            std::string::npos)
-      << s.previous_index_note;
-  EXPECT_EQ(Index::open(out).info().schema_version, kIndexSchemaVersion);
 }
 
 TEST(IndexBuilder, OutputDoesNotDependOnTheThreadCount) {

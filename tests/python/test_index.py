@@ -185,4 +185,4 @@ def test_fields_are_documented():
     assert all(f["unit"] and f["description"] for f in mocap.Index.fields("clip_bounds"))
     derived = [f["name"] for f in mocap.Index.fields() if not f["stored"]]
     assert derived == ["world_rotations", "segment_com_m", "segment_com_velocity_mps",
-                       "segment_angular_velocity_radps"]
+                       "segment_angular_velocity_radps", "h_scan", "kd_features"]

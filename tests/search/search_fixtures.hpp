@@ -16,7 +16,7 @@
 namespace mocap::test {
 
 inline std::filesystem::path golden_index() {
-  return std::filesystem::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v1.h5";
+  return std::filesystem::path(MOCAP_SOURCE_DIR) / "tests/data/index/index-v3.h5";
 }
 
 // A query from JSON text; relative paths resolve against the golden data folder.

@@ -331,14 +331,16 @@ void init_h_scan_table(const DynamicsModel& model, std::size_t frame_count, HSca
   table.root_positions.assign(3 * table.stride, 0.0f);
 }
 
+namespace {
+
 // Per segment: COM, 1/2 m|v|^2, q = R P (principal-axes orientation, w >= 0),
-// 1/2 w^T I_world w.
-void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::size_t f,
-                      HScanTable& table) {
-  const std::size_t st = table.stride;
-  for (std::size_t s = 0; s < table.segment_count; ++s) {
+// 1/2 w^T I_world w; value k of segment s at out[s * segment_stride + k * field_stride].
+void put_h_scan_values(const DynamicsModel& model, const StateView& state, std::size_t segments,
+                       float* out, std::size_t segment_stride, std::size_t field_stride) {
+  const std::size_t st = field_stride;
+  for (std::size_t s = 0; s < segments; ++s) {
     const auto j = static_cast<std::size_t>(model.segments[s]);
-    float* base = table.values.data() + s * HScanTable::kFields * st + f;
+    float* base = out + s * segment_stride;
     const Eigen::Vector3d& c = state.coms_m[j];
     using F = HScanField;
     base[F::com_x * st] = static_cast<float>(c.x());
@@ -355,11 +357,24 @@ void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::s
     base[F::kinetic_rot * st] = static_cast<float>(rotational_ke(
         model.inertias_local_kgm2[j], state.rotations[j], state.angular_velocities_radps[j]));
   }
+}
+
+}  // namespace
+
+void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::size_t f,
+                      HScanTable& table) {
+  const std::size_t st = table.stride;
+  put_h_scan_values(model, state, table.segment_count, table.values.data() + f,
+                    HScanTable::kFields * st, st);
   const int root = model.root();
   if (root >= 0)
     for (std::size_t k = 0; k < 3; ++k)
       table.root_positions[k * st + f] =
           static_cast<float>(state.joint_positions_m[root][static_cast<int>(k)]);
+}
+
+void h_scan_row(const DynamicsModel& model, const StateView& state, float* out) {
+  put_h_scan_values(model, state, model.segments.size(), out, HScanTable::kFields, 1);
 }
 
 HScanQuery make_h_scan_query(const DynamicsModel& model, const StateView& state,

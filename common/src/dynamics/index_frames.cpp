@@ -50,6 +50,29 @@ ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredCli
   return dyn;
 }
 
+void stored_rows(std::span<const Eigen::Quaterniond> local,
+                 std::span<const Eigen::Vector3d> positions, float* local_out,
+                 float* positions_out) {
+  if (local.size() != positions.size())
+    throw std::invalid_argument("stored_rows: as many rotations as positions");
+  for (std::size_t i = 0; i < local.size(); ++i) {
+    put_quaternion(local[i], local_out + i * 4);
+    for (int a = 0; a < 3; ++a)
+      positions_out[i * 3 + static_cast<std::size_t>(a)] = static_cast<float>(positions[i][a]);
+  }
+}
+
+ClipDynamics clip_dynamics_as_stored(const DynamicsModel& model, std::size_t frame_count,
+                                     double frame_time_s, std::span<const Eigen::Quaterniond> local,
+                                     std::span<const Eigen::Vector3d> positions) {
+  const std::size_t J = model.parents.size();
+  if (local.size() != frame_count * J || positions.size() != frame_count * J)
+    throw std::invalid_argument("clip_dynamics_as_stored: rows do not match the skeleton");
+  std::vector<float> lrot(local.size() * 4), jpos(positions.size() * 3);
+  stored_rows(local, positions, lrot.data(), jpos.data());
+  return clip_dynamics_from_rows(model, {lrot, jpos, frame_count, frame_time_s});
+}
+
 void derived_frame_rows(const DynamicsModel& model, const ClipDynamics& dyn, std::string_view field,
                         double transition_time_s, float* out) {
   const std::size_t K = dyn.frame_count, S = model.segments.size();
@@ -66,17 +89,10 @@ void derived_frame_rows(const DynamicsModel& model, const ClipDynamics& dyn, std
     for (std::size_t f = 0; f < K; ++f)
       kd_feature(model, dyn.state(f), transition_time_s, out + f * 3 * S);
   } else if (field == "h_scan") {
-    // The h scan values, transposed from energy.hpp's field-major table.
-    HScanTable table;
-    init_h_scan_table(model, K, table);
-    for (std::size_t f = 0; f < K; ++f) set_h_scan_frame(model, dyn.state(f), f, table);
+    // energy.hpp's h scan values, one row per frame.
     constexpr std::size_t kF = HScanTable::kFields;
     static_assert(kF == 9, "index schema h_scan has 9 values per segment");
-    for (std::size_t s = 0; s < S; ++s)
-      for (std::size_t k = 0; k < kF; ++k) {
-        const float* src = table.field(s, k);
-        for (std::size_t f = 0; f < K; ++f) out[(f * S + s) * kF + k] = src[f];
-      }
+    for (std::size_t f = 0; f < K; ++f) h_scan_row(model, dyn.state(f), out + f * S * kF);
   } else {
     throw std::invalid_argument("derived_frame_rows: '" + std::string(field) +
                                 "' is not a derived frame field");

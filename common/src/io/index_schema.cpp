@@ -33,9 +33,8 @@ std::vector<std::size_t> row_dims(RowShape s, std::size_t joints, std::size_t se
 }
 
 bool frame_field_stored(std::string_view name, std::int64_t schema_version) {
-  if (schema_version < 2) return true;
-  for (std::string_view d : kIndexDerivedFrameFields)
-    if (d == name) return false;
+  for (const DerivedFrameField& d : kIndexDerivedFrameFields)
+    if (d.name == name) return schema_version < d.since;
   return true;
 }
 

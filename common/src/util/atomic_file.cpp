@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -79,6 +80,29 @@ void AtomicFile::commit() {
   committed_ = true;
   const fs::path dir = target_.parent_path();
   sync_to_disk(dir.empty() ? fs::path(".") : dir, true);
+}
+
+EarlyWriteback::EarlyWriteback(const fs::path& path, std::uint64_t every_bytes)
+    : fd_(::open(path.c_str(), O_RDONLY | O_CLOEXEC)),
+      every_(std::max<std::uint64_t>(every_bytes, 1)) {}
+
+EarlyWriteback::~EarlyWriteback() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void EarlyWriteback::kick() {
+  if (fd_ < 0) return;
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) return;
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  if (size < started_ + every_) return;
+  if (::sync_file_range(fd_, static_cast<off64_t>(started_), static_cast<off64_t>(size - started_),
+                        SYNC_FILE_RANGE_WRITE) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    return;
+  }
+  started_ = size;
 }
 
 OutputLock::OutputLock(const fs::path& target) {

@@ -8,6 +8,7 @@
 
 #include "mocap/common/body/body.hpp"
 #include "mocap/common/body/retarget.hpp"
+#include "mocap/common/dynamics/index_frames.hpp"
 #include "mocap/common/io/asf_amc.hpp"
 #include "mocap/common/io/bvh.hpp"
 #include "mocap/common/io/units.hpp"
@@ -469,6 +470,7 @@ std::shared_ptr<const QueryBvhFile> query_frame_file(const Query& q, std::size_t
 struct WindowBuffers {
   std::vector<Eigen::Vector3d> positions;
   std::vector<Eigen::Quaterniond> rotations;
+  std::vector<Eigen::Quaterniond> locals;  // local rotations, frame by frame
   LocalPose local;
   WorldPose world;
   ClipDynamics dyn;
@@ -501,8 +503,9 @@ void copy_file_frame(const Skeleton& skel, const ClipMotion& m, const std::vecto
 }
 
 // World poses of the file's frames f0..f1 on the index skeleton into
-// `b.positions` and `b.rotations` (frame by frame); across rigs the
-// retargeted pose. Returns the local rotations at frame `at`.
+// `b.positions` and `b.rotations`, local rotations into `b.locals` (frame by
+// frame); across rigs the retargeted pose. Returns the local rotations at
+// frame `at`.
 std::vector<Eigen::Quaterniond> pose_file_window(const Skeleton& skel, const QueryBvhFile& bvh,
                                                  const RetargetMap* rig,
                                                  const std::vector<int>& map, std::size_t f0,
@@ -514,6 +517,7 @@ std::vector<Eigen::Quaterniond> pose_file_window(const Skeleton& skel, const Que
   const std::size_t n = f1 - f0 + 1;
   b.positions.resize(n * nj);
   b.rotations.resize(n * nj);
+  b.locals.resize(n * nj);
   std::vector<Eigen::Quaterniond> locals_at_frame(nj);
   b.local.translations_m.resize(nj);
   b.local.rotations.resize(nj);
@@ -529,6 +533,8 @@ std::vector<Eigen::Quaterniond> pose_file_window(const Skeleton& skel, const Que
               b.positions.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
     std::copy(b.world.rotations.begin(), b.world.rotations.end(),
               b.rotations.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
+    std::copy(b.local.rotations.begin(), b.local.rotations.end(),
+              b.locals.begin() + static_cast<std::ptrdiff_t>((f - f0) * nj));
   }
   return locals_at_frame;
 }
@@ -653,15 +659,16 @@ bool resolve_file_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
   const std::vector<int> map = rig ? rig->source_joint : map_joints(skel, m.skeleton);
   // Pose of the file's frames around bvh_frame on the index skeleton. The
   // +-2 frame window gives exactly the clip's finite-difference rates at the
-  // frame (dynamics.hpp).
+  // frame (dynamics.hpp), and as the index stores and derives them
+  // (index_frames.hpp): the frame's own index row has h = 0.
   const std::size_t f0 = spec.bvh_frame >= 2 ? spec.bvh_frame - 2 : 0;
   const std::size_t f1 = std::min(bvh->file_frame_count - 1, spec.bvh_frame + 2);
   WindowBuffers& buffers = window_buffers();
   const std::vector<Eigen::Quaterniond> locals_at_frame =
       pose_file_window(skel, *bvh, rig.get(), map, f0, f1, spec.bvh_frame, buffers);
   ClipDynamics& dyn = buffers.dyn;
-  compute_clip_dynamics(model, f1 - f0 + 1, m.frame_time_s, buffers.positions.data(),
-                        buffers.rotations.data(), dyn);
+  dyn = clip_dynamics_as_stored(model, f1 - f0 + 1, m.frame_time_s, buffers.locals,
+                                buffers.positions);
   const StateView v = dyn.state(spec.bvh_frame - f0);
   const std::size_t r = static_cast<std::size_t>(model.root());
   out.local_rotations = locals_at_frame;

@@ -393,6 +393,27 @@ TEST(HScan, AgreesWithReferenceForStaticAndMovingQueries) {
   EXPECT_THROW(scan_approximate_energy(table, self, 10, frames + 1, out.data()), std::out_of_range);
 }
 
+// An index's h_scan row (h_scan_row, row-major) holds bit for bit the
+// values set_h_scan_frame writes into the field-major table's column.
+TEST(HScan, RowEqualsTheTablesColumn) {
+  const auto t = make_test_body();
+  std::mt19937 rng(31);
+  const std::size_t frames = 19;
+  HScanTable table;
+  init_h_scan_table(t.model, frames, table);
+  const std::size_t S = t.model.segments.size(), F = HScanTable::kFields;
+  std::vector<float> rows(frames * S * F, -1.0f);
+  for (std::size_t f = 0; f < frames; ++f) {
+    const BodyState state = random_state(t, rng, 1.5, 2.0);
+    set_h_scan_frame(t.model, state.view(), f, table);
+    h_scan_row(t.model, state.view(), rows.data() + f * S * F);
+  }
+  for (std::size_t f = 0; f < frames; ++f)
+    for (std::size_t s = 0; s < S; ++s)
+      for (std::size_t k = 0; k < F; ++k)
+        ASSERT_EQ(rows[(f * S + s) * F + k], table.field(s, k)[f]) << f << " " << s << " " << k;
+}
+
 // A view of blocks copied out of a table (the search engine's tiles: stride
 // 16, rows elsewhere) scans to the very values of the table.
 TEST(HScan, ViewOfCopiedBlocksEqualsTheTable) {

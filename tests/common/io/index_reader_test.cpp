@@ -1,14 +1,16 @@
 // The index reader against the golden files of the current schema version
-// (tests/data/index/index-v2.h5) and of version 1 (index-v1.h5), each built
-// by `mocap-index build --compress 9` from the two hand-written clips next to
-// them: the same contents from both (version 2 derives the frame arrays
-// version 1 stored), its refusal of other versions, and damaged copies.
+// (tests/data/index/index-v3.h5) and of versions 2 and 1 (index-v2.h5,
+// index-v1.h5), each built by `mocap-index build --compress 9` from the two
+// hand-written clips next to them: the same contents from all three (the
+// newer versions derive frame arrays the older ones stored), its refusal of
+// other versions, and damaged copies.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <string>
 
 #include "mocap/common/dynamics/kinematics.hpp"
@@ -29,6 +31,9 @@ fs::path golden_dir() {
   return fs::path(MOCAP_SOURCE_DIR) / "tests" / "data" / "index";
 }
 fs::path golden() {
+  return golden_dir() / "index-v3.h5";
+}
+fs::path golden_v2() {
   return golden_dir() / "index-v2.h5";
 }
 fs::path golden_v1() {
@@ -171,9 +176,35 @@ TEST(IndexReader, GoldenFileOfTheCurrentVersion) {
   expect_golden_contents(golden(), kIndexSchemaVersion);
 }
 
+TEST(IndexReader, GoldenFileOfVersion2IsStillRead) {
+  expect_golden_contents(golden_v2(), 2);
+}
+
 TEST(IndexReader, GoldenFileOfVersion1IsStillRead) {
   expect_golden_contents(golden_v1(), 1);
 }
+
+namespace {
+
+/// The frame fields schema version `since` stopped storing.
+std::vector<std::string_view> derived_since(std::int64_t since) {
+  std::vector<std::string_view> out;
+  for (const DerivedFrameField& d : kIndexDerivedFrameFields)
+    if (d.since == since) out.push_back(d.name);
+  return out;
+}
+
+/// The frame fields of `file`'s skeleton 0 that are not datasets in it.
+std::vector<std::string_view> not_in_file(const fs::path& file) {
+  h5::File f = h5::File::open(file);
+  const h5::Group frames = f.root().open_group("skeletons").open_group("0").open_group("frames");
+  std::vector<std::string_view> out;
+  for (const IndexFieldSpec& spec : kFrameFields)
+    if (!frames.exists(spec.name)) out.push_back(spec.name);
+  return out;
+}
+
+}  // namespace
 
 // Version 2 stores no world rotations, COMs or rates: what it derives
 // equals what version 1 stored, to float precision (kinematics) and 1e-4
@@ -181,9 +212,9 @@ TEST(IndexReader, GoldenFileOfVersion1IsStillRead) {
 // world rotations and COMs are the source file's forward kinematics (the
 // slow reference).
 TEST(IndexReader, Version2DerivesTheFrameArraysVersion1Stored) {
-  const Index v2 = Index::open(golden());
+  const Index v2 = Index::open(golden_v2());
   const Index v1 = Index::open(golden_v1());
-  for (std::string_view field : kIndexDerivedFrameFields) {
+  for (std::string_view field : derived_since(2)) {
     EXPECT_FALSE(frame_field_stored(field, 2)) << field;
     EXPECT_TRUE(frame_field_stored(field, 1)) << field;
     const IndexArray& x = v2.array(0, "frames", field);
@@ -212,14 +243,57 @@ TEST(IndexReader, Version2DerivesTheFrameArraysVersion1Stored) {
             << f << " " << j;
     }
   // Not in the file: only derived.
-  h5::File f = h5::File::open(golden());
-  for (std::string_view field : kIndexDerivedFrameFields)
-    EXPECT_FALSE(f.root()
-                     .open_group("skeletons")
-                     .open_group("0")
-                     .open_group("frames")
-                     .exists(std::string(field)))
-        << field;
+  EXPECT_EQ(not_in_file(golden_v2()), derived_since(2));
+}
+
+// Version 3 stores no h scan or kd features either: what it derives equals
+// what version 2 stored (which the build made from its double-precision
+// dynamics) to float precision for positions and orientations, 1e-4
+// relative for kinetic energies; the file holds exactly the stored fields.
+TEST(IndexReader, Version3DerivesTheScanAndKdFeaturesVersion2Stored) {
+  const Index v3 = Index::open(golden());
+  const Index v2 = Index::open(golden_v2());
+  ASSERT_EQ(derived_since(3), (std::vector<std::string_view>{"h_scan", "kd_features"}));
+  for (std::string_view field : derived_since(3)) {
+    EXPECT_FALSE(frame_field_stored(field, 3)) << field;
+    EXPECT_TRUE(frame_field_stored(field, 2)) << field;
+    const IndexArray& x = v3.array(0, "frames", field);
+    const IndexArray& y = v2.array(0, "frames", field);
+    ASSERT_EQ(x.rows, y.rows) << field;
+    ASSERT_EQ(x.f32.size(), y.f32.size()) << field;
+    for (std::size_t e = 0; e < x.f32.size(); ++e)
+      ASSERT_NEAR(x.f32[e], y.f32[e], 1e-4 * (1.0 + std::abs(static_cast<double>(y.f32[e]))))
+          << field << " element " << e;
+  }
+  std::vector<std::string_view> all = derived_since(2), three = derived_since(3);
+  all.insert(all.end(), three.begin(), three.end());
+  std::vector<std::string_view> missing = not_in_file(golden());
+  std::sort(all.begin(), all.end());
+  std::sort(missing.begin(), missing.end());
+  EXPECT_EQ(missing, all);
+}
+
+// The build made the kd bounds from the same derivation a reader runs: every
+// derived kd feature lies inside its clip's and its blocks' stored bounds
+// (bit for bit, no tolerance).
+TEST(IndexReader, Version3KdFeaturesLieInTheirStoredBounds) {
+  const Index index = Index::open(golden());
+  const IndexArray& kd = index.array(0, "frames", "kd_features");
+  for (const IndexClip& clip : index.clips())
+    for (std::uint64_t f = clip.frame_start; f < clip.frame_start + clip.frame_count; ++f) {
+      const auto row = kd.rows_f32(f, 1);
+      const auto lo = index.array(0, "clip_bounds", "kd_min").rows_f32(clip.row, 1);
+      const auto hi = index.array(0, "clip_bounds", "kd_max").rows_f32(clip.row, 1);
+      const std::uint64_t b = clip.block16_start + (f - clip.frame_start) / 16;
+      const auto blo = index.array(0, "blocks16", "kd_min").rows_f32(b, 1);
+      const auto bhi = index.array(0, "blocks16", "kd_max").rows_f32(b, 1);
+      for (std::size_t e = 0; e < row.size(); ++e) {
+        EXPECT_GE(row[e], lo[e]) << f << " " << e;
+        EXPECT_LE(row[e], hi[e]) << f << " " << e;
+        EXPECT_GE(row[e], blo[e]) << f << " " << e;
+        EXPECT_LE(row[e], bhi[e]) << f << " " << e;
+      }
+    }
 }
 
 TEST(IndexReader, RefusesAnotherSchemaVersion) {
@@ -325,13 +399,14 @@ TEST(IndexReader, DatasetChecksumsCatchDamageBehindAValidUserBlock) {
 
 TEST(IndexReader, DerivedArraysCheckTheStoredArraysTheyComeFrom) {
   // Joint positions changed behind a valid user block: an array derived
-  // from them (schema 2 stores no world rotations or COMs) is refused with
+  // from them (schema 3 stores no world rotations, COMs or h scan) is refused with
   // the stored array's checksum, not made from damaged data.
   const GoldenCopy copy("derived");
   const fs::path& p = copy.file;
   damage_frame_value(p, "joint_positions_m", 0.25f);
   const Index index = Index::open(p);
-  for (std::string_view field : kIndexDerivedFrameFields) {
+  for (const DerivedFrameField& d : kIndexDerivedFrameFields) {
+    const std::string_view field = d.name;
     const std::string msg =
         test::input_error_message([&] { (void)index.array(0, "frames", field); });
     EXPECT_NE(msg.find("/skeletons/0/frames/joint_positions_m: checksum mismatch"),
@@ -398,11 +473,11 @@ TEST(IndexReader, ArraysEqualArrayFieldByField) {
   // Every frame field, derived and stored, twice (a repeated name), in one
   // call on one index and one array() at a time on another: the same values,
   // and the same shared arrays as array() then gives.
-  std::vector<std::string_view> fields(std::begin(kIndexDerivedFrameFields),
-                                       std::end(kIndexDerivedFrameFields));
+  std::vector<std::string_view> fields;
+  for (const DerivedFrameField& d : kIndexDerivedFrameFields) fields.push_back(d.name);
   fields.push_back("local_rotations");
-  fields.push_back("h_scan");
-  fields.push_back(kIndexDerivedFrameFields[0]);
+  fields.push_back("joint_positions_m");
+  fields.push_back(kIndexDerivedFrameFields[0].name);
   const Index together = Index::open(golden());
   const Index alone = Index::open(golden());
   for (std::uint32_t k = 0; k < together.skeletons().size(); ++k) {
@@ -442,6 +517,12 @@ TEST(IndexReader, StreamedRowsEqualTheArray) {
     for (const char* field : {"h_scan", "joint_positions_m", "root_position_m"}) {
       const IndexArray& a = index.array(k, "frames", field);
       ASSERT_GT(a.rows, 1u);
+      // Stored arrays stream in blocks of at most `block` rows; derived ones
+      // in whole clips (at least `block` rows, or the last clips).
+      const bool stored = frame_field_stored(field, index.info().schema_version);
+      std::set<std::uint64_t> clip_ends;
+      for (std::size_t c : index.skeletons()[k].clips)
+        clip_ends.insert(index.clips()[c].frame_start + index.clips()[c].frame_count);
       for (std::uint64_t block :
            {std::uint64_t{1}, std::uint64_t{7}, a.rows - 1, a.rows, a.rows + 5}) {
         std::vector<float> got;
@@ -449,7 +530,10 @@ TEST(IndexReader, StreamedRowsEqualTheArray) {
         index.stream_rows(k, "frames", field, block,
                           [&](std::uint64_t first, std::uint64_t count, const float* v) {
                             EXPECT_EQ(first, next);
-                            EXPECT_LE(count, block);
+                            if (stored)
+                              EXPECT_LE(count, block);
+                            else
+                              EXPECT_TRUE(clip_ends.contains(first + count));
                             next = first + count;
                             got.insert(got.end(), v, v + count * a.row_elements);
                           });
@@ -477,17 +561,18 @@ TEST(IndexReader, StreamedRowsEqualTheArray) {
 TEST(IndexReader, StreamedRowsCatchDamage) {
   const GoldenCopy copy("stream");
   const fs::path& p = copy.file;
-  damage_frame_value(p, "h_scan", 1.0f);
+  damage_frame_value(p, "root_position_m", 1.0f);
   const Index index = Index::open(p);
   std::uint64_t rows = 0;
   const std::string e = test::input_error_message([&] {
-    index.stream_rows(0, "frames", "h_scan", 5,
+    index.stream_rows(0, "frames", "root_position_m", 5,
                       [&](std::uint64_t, std::uint64_t count, const float*) { rows += count; });
   });
   EXPECT_EQ(rows, index.skeletons()[0].frame_count);  // every block was read first
-  EXPECT_NE(e.find("/skeletons/0/frames/h_scan: checksum mismatch"), std::string::npos) << e;
+  EXPECT_NE(e.find("/skeletons/0/frames/root_position_m: checksum mismatch"), std::string::npos)
+      << e;
   EXPECT_NE(test::input_error_message([&] {
-              index.array(0, "frames", "h_scan");
+              index.array(0, "frames", "root_position_m");
             }).find("checksum mismatch"),
             std::string::npos);
 }

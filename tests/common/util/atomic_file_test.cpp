@@ -1,6 +1,6 @@
 // AtomicFile (common/src/util/atomic_file.cpp): commit replaces the target, an
 // abandoned replacement leaves it alone, stale temporaries of dead processes
-// go, sync errors are reported.
+// go, sync errors are reported; EarlyWriteback's steps.
 #include "mocap/common/util/atomic_file.hpp"
 
 #include <gtest/gtest.h>
@@ -107,6 +107,31 @@ TEST(AtomicFile, SyncErrorsNameThePath) {
   AtomicFile file(dir / "index.h5");
   EXPECT_THROW(file.commit(), InputError);
   EXPECT_EQ(read(dir / "index.h5"), "old");
+}
+
+// Early writeback: nothing for a file it cannot open; on a growing file it
+// starts writing once every `every_bytes` more bytes are in it, and the
+// file's content is what was written.
+TEST(EarlyWriteback, StartsOnceEveryStepAndOnlyOnFilesItCanOpen) {
+  const fs::path dir = test::temp_dir("early-writeback");
+  EarlyWriteback none(dir / "missing.h5", 10);
+  none.kick();
+  EXPECT_EQ(none.started_bytes(), 0u);
+  const fs::path path = dir / "growing.h5";
+  std::ofstream out(path, std::ios::binary);
+  EarlyWriteback writeback(path, 1000);
+  std::string all;
+  for (int step = 0; step < 5; ++step) {
+    const std::string chunk(600, static_cast<char>('a' + step));
+    out << chunk << std::flush;
+    all += chunk;
+    writeback.kick();
+    // 600, 1200 (>= 1000: started), 1800, 2400 (>= 2200: started), 3000.
+    const std::uint64_t expected = step < 1 ? 0 : step < 3 ? 1200 : 2400;
+    EXPECT_EQ(writeback.started_bytes(), expected) << step;
+  }
+  out.close();
+  EXPECT_EQ(read(path), all);
 }
 
 TEST(OutputLock, ASecondLockOnOneTargetFailsUntilTheFirstIsGone) {

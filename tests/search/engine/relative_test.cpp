@@ -133,12 +133,15 @@ TEST(RelativeQuery, TurnedAndMovedQueryClipGivesTheSameResults) {
     const fs::path turned = dir / ("turned_" + std::to_string(static_cast<int>(yaw)) + ".bvh");
     write_bvh_file(turned_clip(clip, yaw, 312.0, -871.0), turned);
     const std::string what = "turned by " + std::to_string(yaw) + " deg";
-    test::expect_same_results(base, engine.run(query(turned, "true"), opt), what, 1e-5);
+    // Scores to 5e-5 relative: the query is posed through float32 rows as the
+    // index stores them, and 900 m from the origin a float32 position is
+    // rounded to 6e-5 m, which the velocities' differences amplify.
+    test::expect_same_results(base, engine.run(query(turned, "true"), opt), what, 5e-5);
     if (!test::kSanitizerBuild) {
       SearchOptions brute = opt;
       brute.mode = SearchMode::brute;
       test::expect_same_results(base, engine.run(query(turned, "true"), brute), what + " brute",
-                                1e-5);
+                                5e-5);
     }
     // "position" keeps headings absolute: a turned query scores otherwise.
     const QueryOutcome pos = engine.run(query(turned, "\"position\""), opt);

@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -71,19 +72,24 @@ struct ClipFrameData {
 IndexedSkeleton index_skeleton(const RawClip& clip, double scale_m, const Character& character,
                                const EnergyParams& params);
 
-/// "Compute per-clip frame data": forward kinematics, dynamics (dynamics.hpp:
-/// COM positions, velocities, angular velocities), the h scan values and kd
-/// features (energy.hpp, transition time `transition_time_s` > 0), the clip's
-/// own per-step energy g as prefix sums (newton_euler.hpp), then the clip and
-/// block bounds. This is the
+/// "Compute per-clip frame data": forward kinematics (stored as float32 local
+/// rotations and joint positions), the dynamics of those stored rows
+/// (index_frames.hpp clip_dynamics_from_rows, as a reader derives them), the
+/// kd features (energy.hpp, transition time `transition_time_s` > 0) and,
+/// where the schema stores them, the h scan values, the clip's own per-step
+/// energy g as prefix sums (newton_euler.hpp), then the clip and block
+/// bounds. This is the
 /// one place that decides what a clip's rows contain: add a schema field in
 /// index.hpp and fill it here. Requires clip.frame_count >= 1.
 ClipFrameData compute_clip_frame_data(const RawClip& clip, const IndexedSkeleton& skel,
                                       double transition_time_s);
 
-/// Clip and block bounds from the frame arrays (and the raw rotation channels
-/// for the range of motion); called by compute_clip_frame_data.
-void compute_clip_bounds(const RawClip& clip, const IndexedSkeleton& skel, ClipFrameData& data);
+/// Clip and block bounds from the frame arrays, the clip's kd features `kd`
+/// (frame_count x 3 S; schema 3 does not store them) and the raw rotation
+/// channels (range of motion); called by compute_clip_frame_data.
+/// std::invalid_argument when `kd` does not hold the clip's rows.
+void compute_clip_bounds(const RawClip& clip, const IndexedSkeleton& skel,
+                         std::span<const float> kd, ClipFrameData& data);
 
 /// A character as canonical JSON (sorted keys): stored in the index and
 /// compared to decide whether clips of a previous index can be reused.

@@ -215,6 +215,10 @@ void init_h_scan_table(const DynamicsModel& model, std::size_t frame_count, HSca
 /// Writes frame f of the table from a state (with velocities).
 void set_h_scan_frame(const DynamicsModel& model, const StateView& state, std::size_t f,
                       HScanTable& table);
+/// The same values for one frame, row-major (an index's h_scan row: per
+/// segment its kFields values; S x kFields floats at `out`), bit for bit
+/// what set_h_scan_frame writes into the table's column f.
+void h_scan_row(const DynamicsModel& model, const StateView& state, float* out);
 
 /// theta^2 / sin^2(theta / 2) as a function of t = 1 - |w| = 1 - cos(theta / 2)
 /// in [0, 1], for a unit quaternion (w, v) of angle theta: 4 acos(1 - t)^2 /

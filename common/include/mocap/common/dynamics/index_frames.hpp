@@ -1,12 +1,14 @@
 #pragma once
 // The per-frame arrays of an index (docs/index-format.md
 // "/skeletons/<k>/frames", "Versions") from a clip's dynamics. The build
-// writes h_scan and kd_features from its double-precision dynamics of the
-// file (derived_frame_rows); a reader of a schema-2 index derives the arrays
-// the file does not store (kIndexDerivedFrameFields: world rotations,
-// segment COMs and their velocities, angular velocities) from the stored
-// float32 local rotations and joint positions (clip_dynamics_from_rows, then
-// derived_frame_rows): within float precision of what schema 1 stored.
+// stores float32 local rotations and joint positions, computes the clip's
+// dynamics from those stored rows (clip_dynamics_from_rows) and from them
+// its kd features, bounds, energy prefix sums and (schema 2) h scan values
+// (derived_frame_rows). A reader derives the arrays the file does not store
+// (kIndexDerivedFrameFields: world rotations, segment COMs and their
+// velocities, angular velocities; from schema 3 also h_scan and kd_features)
+// the same way, so a schema-3 reader's h scan and kd features are bit for
+// bit those the build made its bounds from.
 #include <cstddef>
 #include <span>
 #include <string_view>
@@ -33,6 +35,23 @@ struct StoredClipRows {
 /// the rates of compute_clip_dynamics. std::invalid_argument when the spans
 /// do not hold frame_count rows or frame_count is 0.
 ClipDynamics clip_dynamics_from_rows(const DynamicsModel& model, const StoredClipRows& rows);
+
+/// Frames as an index stores them: each local rotation (w, x, y, z) with
+/// w >= 0 and each joint position, rounded to float32, into `local_out`
+/// (count x 4) and `positions_out` (count x 3), count = local.size() =
+/// positions.size() (std::invalid_argument otherwise).
+void stored_rows(std::span<const Eigen::Quaterniond> local,
+                 std::span<const Eigen::Vector3d> positions, float* local_out,
+                 float* positions_out);
+
+/// The dynamics of frames given in double precision as an index holds them:
+/// stored_rows, then clip_dynamics_from_rows. A query frame taken from a
+/// file (with its neighbours) then has bit for bit the state of that frame
+/// in an index built from the file, so self-retrieval scores 0. `local` and
+/// `positions` hold frame_count x J values (J = model.parents.size()).
+ClipDynamics clip_dynamics_as_stored(const DynamicsModel& model, std::size_t frame_count,
+                                     double frame_time_s, std::span<const Eigen::Quaterniond> local,
+                                     std::span<const Eigen::Vector3d> positions);
 
 /// A frame field computed from a clip's dynamics (index.hpp kFrameFields),
 /// in the schema's units and layout:

@@ -52,8 +52,9 @@ namespace mocap {
 
 inline constexpr const char* kIndexFormat = "mocap-index";
 /// Bumped on any change a reader of the previous version would misread.
-/// 2: the frame arrays kIndexDerivedFrameFields are no longer stored.
-inline constexpr std::int64_t kIndexSchemaVersion = 2;
+/// 2: world rotations, segment COMs and rates are no longer stored;
+/// 3: nor h_scan and kd_features (kIndexDerivedFrameFields).
+inline constexpr std::int64_t kIndexSchemaVersion = 3;
 /// The oldest schema this build reads (docs/index-format.md "Versions").
 inline constexpr std::int64_t kIndexOldestSchemaVersion = 1;
 /// Size of the user block in front of the HDF5 data.
@@ -158,13 +159,23 @@ inline constexpr IndexFieldSpec kClipBoundFields[] = {
 inline constexpr std::size_t kClipBoundFieldCount =
     sizeof(kClipBoundFields) / sizeof(kClipBoundFields[0]);
 
-/// Frame fields a schema-2 index does not store: Index::array derives them
-/// on first use from local_rotations and joint_positions_m
-/// (dynamics/index_frames.hpp), bit for bit what the build derived its
-/// h_scan, kd_features and bounds from. Schema 1 stores them.
-inline constexpr std::string_view kIndexDerivedFrameFields[] = {"world_rotations", "segment_com_m",
-                                                                "segment_com_velocity_mps",
-                                                                "segment_angular_velocity_radps"};
+/// A frame field an index no longer stores from schema version `since` on:
+/// Index::array derives it on first use from local_rotations and
+/// joint_positions_m (dynamics/index_frames.hpp). From schema 3 the build
+/// derives its h_scan, kd_features, bounds and energy prefix sums from the
+/// same stored rows with the same code, so what a reader derives is bit for
+/// bit what the bounds were made from. Older schemas store the field.
+struct DerivedFrameField {
+  std::string_view name;
+  std::int64_t since = 0;
+};
+inline constexpr DerivedFrameField kIndexDerivedFrameFields[] = {
+    {"world_rotations", 2},
+    {"segment_com_m", 2},
+    {"segment_com_velocity_mps", 2},
+    {"segment_angular_velocity_radps", 2},
+    {"h_scan", 3},
+    {"kd_features", 3}};
 /// Whether an index of `schema_version` stores frame field `name`.
 bool frame_field_stored(std::string_view name, std::int64_t schema_version);
 

@@ -4,6 +4,7 @@
 // renamed over the target, and the folder made durable. A process killed at
 // any moment leaves the target as it was, and at worst a stale temporary file
 // that the next replacement of the same target removes.
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -36,6 +37,30 @@ class AtomicFile {
   std::filesystem::path target_;
   std::filesystem::path temporary_;
   bool committed_ = false;
+};
+
+/// Starts the kernel writing a file's dirty pages to disk while the file is
+/// still being written (sync_file_range(2), SYNC_FILE_RANGE_WRITE: no wait),
+/// so that the fsync of AtomicFile::commit finds little left to write and
+/// the disk works while the writer computes. Call kick() after each append;
+/// it starts writeback once every `every_bytes` more bytes are in the file.
+/// Best effort: a file that cannot be opened, or a failed call, only turns
+/// it off (the fsync that follows reports real write errors).
+class EarlyWriteback {
+ public:
+  explicit EarlyWriteback(const std::filesystem::path& path,
+                          std::uint64_t every_bytes = std::uint64_t{32} << 20);
+  EarlyWriteback(const EarlyWriteback&) = delete;
+  EarlyWriteback& operator=(const EarlyWriteback&) = delete;
+  ~EarlyWriteback();
+  void kick();
+  /// Bytes handed to writeback so far.
+  std::uint64_t started_bytes() const { return started_; }
+
+ private:
+  int fd_ = -1;
+  std::uint64_t every_ = 0;
+  std::uint64_t started_ = 0;
 };
 
 /// An exclusive lock on the output `target` between processes: flock(2) on
