@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -18,6 +19,72 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 bool is_nan_half(std::uint16_t h) {
   return (h & 0x7c00u) == 0x7c00u && (h & 0x3ffu) != 0;
+}
+
+// The slow reference: the conversions as first written, with std::ldexp and
+// the library's classification.
+float reference_half_to_float(std::uint16_t h) {
+  const std::uint32_t sign = static_cast<std::uint32_t>(h & 0x8000u) << 16;
+  const std::uint32_t exp = (h >> 10) & 0x1fu, man = h & 0x3ffu;
+  if (exp == 0) {
+    const float v = std::ldexp(static_cast<float>(man), -24);
+    return sign != 0 ? -v : v;
+  }
+  const std::uint32_t bits =
+      exp == 31 ? (sign | 0x7f800000u | (man << 13)) : (sign | ((exp + 112) << 23) | (man << 13));
+  return std::bit_cast<float>(bits);
+}
+
+std::uint16_t reference_float_to_half(float x, bool up) {
+  if (std::isnan(x)) return 0x7e00u;
+  const auto bits = std::bit_cast<std::uint32_t>(x);
+  const std::uint16_t sign = (bits >> 31) != 0 ? 0x8000u : 0u;
+  const float a = std::fabs(x);
+  std::uint16_t mag = 0;
+  if (std::isinf(a)) {
+    mag = 0x7c00u;
+  } else if (a >= 65504.0f) {
+    mag = 0x7bffu;
+  } else if (a < std::ldexp(1.0f, -14)) {
+    mag = static_cast<std::uint16_t>(std::ldexp(a, 24));
+  } else {
+    const std::uint32_t ab = bits & 0x7fffffffu;
+    const std::uint32_t e = (ab >> 23) - 127 + 15;
+    mag = static_cast<std::uint16_t>((e << 10) | ((ab >> 13) & 0x3ffu));
+  }
+  const auto h = static_cast<std::uint16_t>(sign | mag);
+  if (reference_half_to_float(h) == x) return h;
+  const bool away = sign == 0 ? up : !up;
+  return away ? static_cast<std::uint16_t>(h + 1) : h;
+}
+
+std::uint16_t reference_float_to_half_nearest(float x) {
+  if (std::isnan(x)) return 0x7e00u;
+  if (x >= 65504.0f) return 0x7bffu;
+  if (x <= -65504.0f) return 0xfbffu;
+  const std::uint16_t down = reference_float_to_half(x, false),
+                      up = reference_float_to_half(x, true);
+  return x - reference_half_to_float(down) <= reference_half_to_float(up) - x ? down : up;
+}
+
+// The inline conversions equal the reference bit for bit: every half, every
+// float next to a half (and the halves' midpoints), and 4 M random bit
+// patterns (NaNs, infinities, subnormals, both signs).
+TEST(Half, ConversionsEqualTheReferenceBitForBit) {
+  auto same = [](float x) {
+    ASSERT_EQ(float_to_half(x, false), reference_float_to_half(x, false)) << x;
+    ASSERT_EQ(float_to_half(x, true), reference_float_to_half(x, true)) << x;
+    ASSERT_EQ(float_to_half_nearest(x), reference_float_to_half_nearest(x)) << x;
+  };
+  for (std::uint32_t h = 0; h < 65536; ++h) {
+    const auto hh = static_cast<std::uint16_t>(h);
+    const float f = half_to_float(hh), r = reference_half_to_float(hh);
+    ASSERT_EQ(std::bit_cast<std::uint32_t>(f), std::bit_cast<std::uint32_t>(r)) << h;
+    const auto b = std::bit_cast<std::uint32_t>(f);
+    for (const std::uint32_t n : {b - 1, b, b + 1, b + 0x1000u}) same(std::bit_cast<float>(n));
+  }
+  std::mt19937 rng(11);
+  for (int i = 0; i < 4000000; ++i) same(std::bit_cast<float>(static_cast<std::uint32_t>(rng())));
 }
 
 TEST(Half, NanAndInfinities) {
