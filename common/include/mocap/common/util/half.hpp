@@ -36,6 +36,13 @@ inline std::uint16_t float_to_half(float x, bool up) {
   const std::uint32_t ab = bits & 0x7fffffffu;
   if (ab > 0x7f800000u) return 0x7e00u;  // NaN
   const std::uint16_t sign = (bits >> 31) != 0 ? 0x8000u : 0u;
+  if (ab >= 0x38800000u && ab < 0x477fe000u) {  // 2^-14 <= |x| < 65504: a normal half
+    // |x| rounded toward zero: the float's bits with the exponent rebased;
+    // exact when the 13 bits dropped are zero.
+    const auto mag = static_cast<std::uint16_t>((ab >> 13) - (112u << 10));
+    const bool away = (ab & 0x1fffu) != 0 && (sign == 0 ? up : !up);
+    return static_cast<std::uint16_t>(sign | (away ? mag + 1 : mag));
+  }
   const float a = std::bit_cast<float>(ab);
   std::uint16_t mag = 0;  // |x| rounded toward zero
   if (ab == 0x7f800000u) {
@@ -60,6 +67,17 @@ inline std::uint16_t float_to_half(float x, bool up) {
 /// a NaN half. With half_nearest_radius, [h - r, h + r] holds x: a table of
 /// such halves gives bounds that stay sound when evaluated on the intervals.
 inline std::uint16_t float_to_half_nearest(float x) {
+  const auto bits = std::bit_cast<std::uint32_t>(x);
+  const std::uint32_t ab = bits & 0x7fffffffu;
+  if (ab >= 0x38800000u && ab < 0x477fe000u) {  // a normal half
+    // Of |x|'s two neighbours the one toward zero when the dropped 13 bits
+    // are below half a step; at exactly half, the lower (below x) of the
+    // two, as the comparison below chooses.
+    const auto mag = static_cast<std::uint16_t>((ab >> 13) - (112u << 10));
+    const std::uint32_t rest = ab & 0x1fffu;
+    if ((bits >> 31) == 0) return rest <= 0x1000u ? mag : static_cast<std::uint16_t>(mag + 1);
+    return static_cast<std::uint16_t>(0x8000u | (rest >= 0x1000u ? mag + 1 : mag));
+  }
   if (x != x) return 0x7e00u;  // NaN
   if (x >= 65504.0f) return 0x7bffu;
   if (x <= -65504.0f) return 0xfbffu;
