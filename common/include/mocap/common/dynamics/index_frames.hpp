@@ -8,7 +8,10 @@
 // (kIndexDerivedFrameFields: world rotations, segment COMs and their
 // velocities, angular velocities; from schema 3 also h_scan and kd_features)
 // the same way, so a schema-3 reader's h scan and kd features are bit for
-// bit those the build made its bounds from.
+// bit those the build made its bounds from. Changing the arithmetic of this
+// derivation (clip_dynamics_from_rows, compute_clip_dynamics, kd_feature,
+// h_scan_row) changes what readers derive from schema-3 files already
+// built: keep it bit for bit, or bump the schema version.
 #include <cstddef>
 #include <span>
 #include <string_view>
