@@ -473,7 +473,6 @@ struct WindowBuffers {
   std::vector<Eigen::Quaterniond> locals;  // local rotations, frame by frame
   LocalPose local;
   WorldPose world;
-  ClipDynamics dyn;
 };
 
 WindowBuffers& window_buffers() {
@@ -666,9 +665,8 @@ bool resolve_file_frame(const Query& q, std::size_t i, const IndexSkeleton& sk,
   WindowBuffers& buffers = window_buffers();
   const std::vector<Eigen::Quaterniond> locals_at_frame =
       pose_file_window(skel, *bvh, rig.get(), map, f0, f1, spec.bvh_frame, buffers);
-  ClipDynamics& dyn = buffers.dyn;
-  dyn = clip_dynamics_as_stored(model, f1 - f0 + 1, m.frame_time_s, buffers.locals,
-                                buffers.positions);
+  const ClipDynamics dyn = clip_dynamics_as_stored(model, f1 - f0 + 1, m.frame_time_s,
+                                                   buffers.locals, buffers.positions);
   const StateView v = dyn.state(spec.bvh_frame - f0);
   const std::size_t r = static_cast<std::size_t>(model.root());
   out.local_rotations = locals_at_frame;
