@@ -194,6 +194,19 @@ std::vector<std::string_view> derived_since(std::int64_t since) {
   return out;
 }
 
+/// Skeleton 0's `field` as `derived` derives it against `stored`'s stored
+/// array: the same shape, every element within absolute + relative |stored|.
+void expect_derived_near_stored(const Index& derived, const Index& stored, std::string_view field,
+                                double relative, double absolute) {
+  const IndexArray& x = derived.array(0, "frames", field);
+  const IndexArray& y = stored.array(0, "frames", field);
+  ASSERT_EQ(x.rows, y.rows) << field;
+  ASSERT_EQ(x.f32.size(), y.f32.size()) << field;
+  for (std::size_t e = 0; e < x.f32.size(); ++e)
+    ASSERT_NEAR(x.f32[e], y.f32[e], absolute + relative * std::abs(static_cast<double>(y.f32[e])))
+        << field << " element " << e;
+}
+
 /// The frame fields of `file`'s skeleton 0 that are not datasets in it.
 std::vector<std::string_view> not_in_file(const fs::path& file) {
   h5::File f = h5::File::open(file);
@@ -217,15 +230,8 @@ TEST(IndexReader, Version2DerivesTheFrameArraysVersion1Stored) {
   for (std::string_view field : derived_since(2)) {
     EXPECT_FALSE(frame_field_stored(field, 2)) << field;
     EXPECT_TRUE(frame_field_stored(field, 1)) << field;
-    const IndexArray& x = v2.array(0, "frames", field);
-    const IndexArray& y = v1.array(0, "frames", field);
-    ASSERT_EQ(x.rows, y.rows) << field;
-    ASSERT_EQ(x.f32.size(), y.f32.size()) << field;
     const bool rate = field.find("velocity") != std::string_view::npos;
-    for (std::size_t e = 0; e < x.f32.size(); ++e)
-      ASSERT_NEAR(x.f32[e], y.f32[e],
-                  rate ? 1e-4 * (1.0 + std::abs(static_cast<double>(y.f32[e]))) : 1e-6)
-          << field << " element " << e;
+    expect_derived_near_stored(v2, v1, field, rate ? 1e-4 : 0.0, rate ? 1e-4 : 1e-6);
   }
   const RawClip raw = read_bvh_file(golden_dir() / "golden_walk_normal_001.bvh");
   const ClipMotion m = clip_motion_from_raw(raw, 0.01);
@@ -257,13 +263,7 @@ TEST(IndexReader, Version3DerivesTheScanAndKdFeaturesVersion2Stored) {
   for (std::string_view field : derived_since(3)) {
     EXPECT_FALSE(frame_field_stored(field, 3)) << field;
     EXPECT_TRUE(frame_field_stored(field, 2)) << field;
-    const IndexArray& x = v3.array(0, "frames", field);
-    const IndexArray& y = v2.array(0, "frames", field);
-    ASSERT_EQ(x.rows, y.rows) << field;
-    ASSERT_EQ(x.f32.size(), y.f32.size()) << field;
-    for (std::size_t e = 0; e < x.f32.size(); ++e)
-      ASSERT_NEAR(x.f32[e], y.f32[e], 1e-4 * (1.0 + std::abs(static_cast<double>(y.f32[e]))))
-          << field << " element " << e;
+    expect_derived_near_stored(v3, v2, field, 1e-4, 1e-4);
   }
   std::vector<std::string_view> all = derived_since(2), three = derived_since(3);
   all.insert(all.end(), three.begin(), three.end());
